@@ -1,0 +1,25 @@
+// The one exception type for bad input: it always names where the problem is.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace magnetometer_insitu_calibration {
+
+/// Bad input data or settings. what() reads "<where>: <problem>", where <where> is
+/// "file:line", "file", "--option" or "parameter ~name".
+class InputError : public std::runtime_error {
+ public:
+  InputError(const std::string& where, const std::string& problem)
+      : std::runtime_error(where + ": " + problem), where_(where), problem_(problem) {}
+  InputError(const std::string& file, std::size_t line, const std::string& problem)
+      : InputError(file + ":" + std::to_string(line), problem) {}
+  const std::string& where() const { return where_; }
+  const std::string& problem() const { return problem_; }
+
+ private:
+  std::string where_;
+  std::string problem_;
+};
+
+}  // namespace magnetometer_insitu_calibration
