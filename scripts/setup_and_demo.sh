@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# README command 1: installs what is missing (Debian packages only), builds, and runs the main
+# job: the in-situ calibration of the real WIC pair of 2025-05-14 (LEMI-036 reference, DTU FGE
+# test) in the paper's layout, four 6-hour intervals and the whole day.
+set -eo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install_deps.sh
+bash scripts/build.sh
+source build/devel/setup.bash
+rosrun magnetometer_insitu_calibration calibrate_records \
+  --reference data/wic20250514_lemi036.sec.gz --test data/wic20250514_fge.sec.gz \
+  --intervals 4 --json build/wic20250514_calibration.json
+echo "JSON report: build/wic20250514_calibration.json"
