@@ -1,0 +1,66 @@
+// Line-by-line text input and output, plain or gzip-compressed, through zlib.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+namespace magnetometer_insitu_calibration {
+
+/// Streams the lines of a plain or gzip text file (zlib detects which from the content).
+/// Lines are returned without the line end: "\n" and the "\r" of "\r\n" are removed.
+/// A last line without a line end is still returned. Not copyable.
+class TextLineReader {
+ public:
+  /// Throws InputError(path, "cannot open: <strerror>") when the file cannot be opened.
+  explicit TextLineReader(const std::string& path);
+  ~TextLineReader();
+  TextLineReader(const TextLineReader&) = delete;
+  TextLineReader& operator=(const TextLineReader&) = delete;
+
+  /// Reads the next line into `line`; false at the end of the file (line then empty).
+  /// Throws InputError(path:line, ...) on a read or decompression error.
+  bool next(std::string& line);
+  /// 1-based number of the line last returned by next(); 0 before the first.
+  std::size_t line_number() const { return line_number_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  void* file_ = nullptr;  // gzFile, kept opaque so that users need not include zlib.h
+  std::size_t line_number_ = 0;
+  bool at_end_ = false;
+};
+
+/// Writes text to a file, gzip-compressed when the path ends in ".gz", plain otherwise.
+/// The destructor closes the file but cannot report errors: call close().
+class TextFileWriter {
+ public:
+  /// Throws InputError(path, "cannot create: <strerror>").
+  explicit TextFileWriter(const std::string& path);
+  ~TextFileWriter();
+  TextFileWriter(const TextFileWriter&) = delete;
+  TextFileWriter& operator=(const TextFileWriter&) = delete;
+
+  /// Appends text exactly as given (the caller writes its own line ends).
+  /// Throws InputError(path, "write failed: ...").
+  void write(const std::string& text);
+  /// Flushes and closes; throws InputError(path, "write failed: ...") if anything was lost.
+  void close();
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  void* file_ = nullptr;  // gzFile
+};
+
+/// True when `path` ends in ".gz" (ASCII case-insensitive).
+bool has_gz_suffix(const std::string& path);
+
+/// `text` without leading and trailing spaces, tabs, CR and LF.
+std::string trim_blanks(const std::string& text);
+
+/// Parses the whole of `text` (no surrounding blanks) as a decimal floating-point number,
+/// locale-independently ("1.5", "-2e3", "+7", "nan", "inf"). False if anything is left over.
+bool parse_number(const std::string& text, double& value);
+
+}  // namespace magnetometer_insitu_calibration
