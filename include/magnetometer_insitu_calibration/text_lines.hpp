@@ -8,7 +8,8 @@ namespace magnetometer_insitu_calibration {
 
 /// Streams the lines of a plain or gzip text file (zlib detects which from the content).
 /// Lines are returned without the line end: "\n" and the "\r" of "\r\n" are removed.
-/// A last line without a line end is still returned. Not copyable.
+/// A last line without a line end is still returned; a UTF-8 byte-order mark at the start of
+/// the first line is removed. Not copyable.
 class TextLineReader {
  public:
   /// Throws InputError(path, "cannot open: <strerror>") when the file cannot be opened.

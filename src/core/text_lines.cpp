@@ -100,6 +100,7 @@ bool TextLineReader::next(std::string& line) {
   if (!got_any) return false;
   if (!line.empty() && line.back() == '\n') line.pop_back();
   if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (line_number_ == 0 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 BOM
   ++line_number_;
   return true;
 }
