@@ -35,6 +35,10 @@ bool FileByteSource::reopen() {
 
 std::size_t FileByteSource::read(std::uint8_t* buffer, std::size_t capacity, double timeout_s) {
   if (finished() || capacity == 0) return 0;
+  if (!options_.loop && in_.peek() == std::char_traits<char>::eof()) {
+    at_end_ = true;  // known now rather than after the pacing wait
+    return 0;
+  }
   std::size_t want = std::min(capacity, options_.max_chunk);
   if (options_.bytes_per_second > 0.0) {
     const Clock::time_point now = Clock::now();
