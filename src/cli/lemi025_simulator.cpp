@@ -1,0 +1,227 @@
+// lemi025_simulator: a LEMI-025 on a pseudo-terminal, so a whole station runs without hardware.
+//
+// Creates a pty, points --link (a symlink, replaced atomically) at its slave, and writes one
+// 153-byte packet per second (times --speed) with ten 10 Hz readings of simulate_pair()'s
+// reference or test record (--role). Two simulators with the same --seed, --start and settings
+// play the two instruments of one consistent pair (the test = reference through n_true).
+//
+// Time: the packet's GPS second is the data's; reading k of packet i is the record's sample
+// 10 i + k, taken at gps - 0.3 s + 0.1 k as the vendor specifies. Without --start the record
+// begins at the current UTC hour and the first packet is the one of the current second, so
+// GPS times follow the wall clock like a real instrument (and two roles started in the same
+// hour agree). Gap samples (NaN) are not sendable: their packet is skipped.
+//
+// The simulator keeps the slave open in raw mode: bytes wait in its input queue (a few kB)
+// while no driver is connected; when it is full, packets are dropped and counted. Stopping
+// the simulator (SIGINT/SIGTERM) closes the master: a connected driver sees a hang-up.
+#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/time_format.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <fcntl.h>
+#include <iostream>
+#include <random>
+#include <stdlib.h>
+#include <termios.h>
+#include <thread>
+#include <unistd.h>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop = true; }
+
+struct Pty {
+  int master = -1;
+  int slave = -1;
+  std::string slave_name;
+};
+
+Pty open_pty() {
+  Pty pty;
+  pty.master = posix_openpt(O_RDWR | O_NOCTTY);
+  if (pty.master < 0 || grantpt(pty.master) != 0 || unlockpt(pty.master) != 0)
+    throw std::runtime_error(std::string("cannot create a pseudo-terminal: ") + std::strerror(errno));
+  pty.slave_name = ptsname(pty.master);
+  pty.slave = ::open(pty.slave_name.c_str(), O_RDWR | O_NOCTTY);
+  if (pty.slave < 0) throw std::runtime_error("cannot open " + pty.slave_name);
+  termios tio{};
+  tcgetattr(pty.slave, &tio);
+  cfmakeraw(&tio);
+  cfsetispeed(&tio, B57600);
+  cfsetospeed(&tio, B57600);
+  tcsetattr(pty.slave, TCSANOW, &tio);
+  const int flags = fcntl(pty.master, F_GETFL);
+  fcntl(pty.master, F_SETFL, flags | O_NONBLOCK);  // a full queue drops packets, never blocks
+  return pty;
+}
+
+void point_link(const std::string& link, const std::string& target) {
+  const std::string tmp = link + ".tmp" + std::to_string(::getpid());
+  ::unlink(tmp.c_str());
+  if (::symlink(target.c_str(), tmp.c_str()) != 0 || ::rename(tmp.c_str(), link.c_str()) != 0)
+    throw mic::InputError("--link", "cannot create symlink " + link + ": " + std::strerror(errno));
+}
+
+// Bias field as the LEMI sets it: the record's mean, in 2.5 nT steps.
+Eigen::Vector3d bias_of(const mic::Readings& values) {
+  Eigen::Vector3d bias = Eigen::Vector3d::Zero();
+  for (int c = 0; c < 3; ++c) {
+    double sum = 0.0;
+    std::size_t n = 0;
+    for (Eigen::Index i = 0; i < values.rows(); ++i)
+      if (std::isfinite(values(i, c))) {
+        sum += values(i, c);
+        ++n;
+      }
+    bias[c] = n > 0 ? std::round(sum / n / mic::kLemi025BiasStep_nT) * mic::kLemi025BiasStep_nT : 0.0;
+  }
+  return bias;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"LEMI-025 simulator on a pseudo-terminal: packets of a simulated 10 Hz record."};
+  std::string link, role = "reference", start_text, checksum_text = "sum8";
+  double rate = 1.0, speed = 1.0;
+  double duration_s = 6 * 3600.0;
+  int station = 1;
+  std::string gps_status = "A";
+  bool loop = false;
+  long corrupt_every = 0;
+  double variation_rms = 5.0;
+  mic::SimulationSettings s;
+  app.add_option("--link", link, "symlink to create, pointing at the pty slave (e.g. /tmp/lemi_ref)")->required();
+  app.add_option("--role", role, "reference|test: which instrument of the simulated pair")->capture_default_str();
+  app.add_option("--seed", s.seed, "random seed (same seed = same pair)")->capture_default_str();
+  app.add_option("--rate", rate, "packets per second of wall-clock time")->capture_default_str();
+  app.add_option("--speed", speed, "time-lapse factor applied to --rate")->capture_default_str();
+  app.add_option("--start", start_text, "UTC start of the record, ISO 8601 (default: current hour, live)");
+  app.add_option("--duration", duration_s, "record length, s (10 Hz samples are simulated up front)")
+      ->capture_default_str();
+  app.add_flag("--loop", loop, "start the record again at its end (else exit)");
+  app.add_option("--checksum", checksum_text, "checksum byte: none|sum8|xor8")->capture_default_str();
+  app.add_option("--station", station, "station number byte, 1-255")->capture_default_str();
+  app.add_option("--gps-status", gps_status, "GPS status char: A P O S")->capture_default_str();
+  app.add_option("--variation-rms-nT", variation_rms, "rms of x,y variations, nT")->capture_default_str();
+  app.add_option("--delay-s", s.delay_s, "delay of the test instrument, s")->capture_default_str();
+  app.add_option("--corrupt-every", corrupt_every, "flip one byte in every N-th packet (0: never)")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (role != "reference" && role != "test") throw mic::InputError("--role", "reference or test");
+    const std::optional<mic::ChecksumMode> checksum = mic::parse_checksum_mode(checksum_text);
+    if (!checksum) throw mic::InputError("--checksum", "none, sum8 or xor8");
+    if (!(rate > 0.0) || !(speed > 0.0)) throw mic::InputError("--rate", "rate and speed must be > 0");
+    if (station < 1 || station > 255) throw mic::InputError("--station", "1-255");
+    if (gps_status.size() != 1 || std::string("APOS").find(gps_status[0]) == std::string::npos)
+      throw mic::InputError("--gps-status", "one of A P O S");
+    if (!(duration_s >= 1.0)) throw mic::InputError("--duration", "at least 1 s");
+
+    const double now = std::floor(std::chrono::duration<double>(
+                                      std::chrono::system_clock::now().time_since_epoch())
+                                      .count());
+    const bool live = start_text.empty();
+    double start_s = live ? std::floor(now / 3600.0) * 3600.0 : 0.0;
+    if (!live) {
+      try {
+        start_s = std::round(mic::parse_iso8601(start_text));
+      } catch (const std::invalid_argument& e) {
+        throw mic::InputError("--start", e.what());
+      }
+    }
+    // Sample 10 i + k is taken at gps_i - 0.3 + 0.1 k: the record starts 0.3 s before second 0.
+    s.start_time_s = start_s + mic::kLemi025TimeShift_s;
+    s.duration_s = std::ceil(duration_s);
+    s.sample_period_s = mic::kLemi025SamplePeriod_s;
+    s.variation_rms_nT = variation_rms;
+    s.keep_clean_field = false;
+    const mic::SimulatedPair pair = mic::simulate_pair(s);
+    const mic::VectorRecord& record = role == "reference" ? pair.reference : pair.test;
+    const Eigen::Vector3d bias = bias_of(record.values_nT);
+    const std::size_t packets = record.size() / mic::kLemi025ReadingsPerPacket;
+
+    Pty pty = open_pty();
+    point_link(link, pty.slave_name);
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    std::signal(SIGPIPE, SIG_IGN);
+    std::cerr << "lemi025_simulator: " << role << " instrument on " << pty.slave_name << " (" << link
+              << "), seed " << s.seed << ", record from " << mic::format_iso8601(start_s, 0) << ", "
+              << packets << " packets, checksum " << checksum_text << "\n";
+
+    std::size_t index = live ? static_cast<std::size_t>(std::max(0.0, now - start_s)) % packets : 0;
+    const double period_s = 1.0 / (rate * speed);
+    auto next_wall = std::chrono::steady_clock::now();
+    std::uint64_t sent = 0, dropped = 0, skipped_gaps = 0, cycle = 0;
+    while (!g_stop) {
+      if (index >= packets) {
+        if (!loop) break;
+        index = 0;
+        ++cycle;
+      }
+      mic::Lemi025Packet p;
+      p.station = static_cast<std::uint8_t>(station);
+      p.gps_time_s = start_s + static_cast<double>(index) + cycle * static_cast<double>(packets);
+      p.sensor_temperature_C = 20.0 + 0.5 * std::sin(2 * M_PI * p.gps_time_s / 86400.0);
+      p.electronics_temperature_C = p.sensor_temperature_C + 3.0;
+      p.bias_nT = bias;
+      p.mode = 2;
+      p.flash_free_percent = 90;
+      p.supply_V = 12.0;
+      p.gps_status = gps_status[0];
+      bool gap = false;
+      for (int k = 0; k < mic::kLemi025ReadingsPerPacket; ++k) {
+        const auto row = static_cast<Eigen::Index>(index * mic::kLemi025ReadingsPerPacket + k);
+        for (int c = 0; c < 3; ++c) {
+          const double v = record.values_nT(row, c);
+          gap = gap || !std::isfinite(v);
+          p.variation_nT(k, c) = v - bias[c];
+        }
+      }
+      if (gap) {
+        ++skipped_gaps;
+      } else {
+        auto bytes = mic::encode_lemi025_packet(p, *checksum);
+        if (corrupt_every > 0 && (sent + dropped + 1) % static_cast<std::uint64_t>(corrupt_every) == 0)
+          bytes[40] ^= 0x5A;
+        const ssize_t n = ::write(pty.master, bytes.data(), bytes.size());
+        if (n == static_cast<ssize_t>(bytes.size())) {
+          ++sent;
+        } else {
+          ++dropped;  // queue full (no reader) or a partial write: a real line loses bytes too
+        }
+      }
+      ++index;
+      next_wall += std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(period_s));
+      std::this_thread::sleep_until(next_wall);
+    }
+    ::unlink(link.c_str());
+    ::close(pty.slave);
+    ::close(pty.master);
+    std::cerr << "lemi025_simulator: " << sent << " packets sent, " << dropped << " dropped, "
+              << skipped_gaps << " skipped (gaps)\n";
+    return 0;
+  } catch (const mic::InputError& e) {
+    std::cerr << "lemi025_simulator: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "lemi025_simulator: " << e.what() << "\n";
+    return 1;
+  }
+}
