@@ -8,16 +8,23 @@
 
 #include <cmath>
 #include <sstream>
+#include <string>
 
 namespace magnetometer_insitu_calibration {
 namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
+std::string text_of(const Eigen::Vector3d& v) {
+  std::ostringstream out;
+  out << v(0) << ", " << v(1) << ", " << v(2);
+  return out.str();
+}
+
 void require_finite(const Eigen::Vector3d& v, const char* name) {
   if (!v.allFinite()) {
     std::ostringstream text;
-    text << "values must be finite, got " << v.transpose();
+    text << "values must be finite, got " << text_of(v);
     throw InputError(name, text.str());
   }
 }
@@ -40,7 +47,7 @@ Eigen::Matrix3d unit_triad_from_nonorthogonality(const Eigen::Vector3d& nonortho
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(gram);
   if (eigen.info() != Eigen::Success || eigen.eigenvalues().minCoeff() <= 1e-12) {
     std::ostringstream text;
-    text << "angles " << nonorthogonality_deg.transpose()
+    text << "angles " << text_of(nonorthogonality_deg)
          << " deg do not describe three independent axes";
     throw InputError("nonorthogonality_deg", text.str());
   }
@@ -67,7 +74,7 @@ Eigen::Matrix3d matrix_from_angles(const Eigen::Vector3d& scale_ratio,
   require_finite(misalignment_deg, "misalignment_deg");
   if ((scale_ratio.array() <= 0.0).any()) {
     std::ostringstream text;
-    text << "scale ratios must be positive, got " << scale_ratio.transpose();
+    text << "scale ratios must be positive, got " << text_of(scale_ratio);
     throw InputError("scale_ratio", text.str());
   }
   const Eigen::Matrix3d triad = unit_triad_from_nonorthogonality(nonorthogonality_deg);

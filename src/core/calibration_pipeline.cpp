@@ -71,6 +71,11 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
   rep.test_samples = test.size();
   rep.reference_period_s = median_sample_period(reference);
   rep.test_period_s = median_sample_period(test);
+  for (const VectorRecord* r : {&reference, &test}) {
+    if (!r->values_nT.array().isFinite().rowwise().all().any()) {
+      throw InputError(r->source, "no sample has three finite components (all missing or NaN)");
+    }
+  }
 
   // 1. Spikes, each instrument at its own rate.
   VectorRecord ref = reference, tst = test;

@@ -49,6 +49,8 @@ std::mutex& fftw_planner_mutex() {
 
 }  // namespace
 
+std::mutex& fftw_planner_lock() { return fftw_planner_mutex(); }
+
 void EstimatorSettings::validate() const {
   auto fail = [](const std::string& field, const std::string& problem) {
     throw InputError(field, problem);
@@ -61,6 +63,7 @@ void EstimatorSettings::validate() const {
   if (min_harmonics < 5) fail("min_harmonics", "must be at least 5");
   if (!(max_condition_number > 1.0)) fail("max_condition_number", "must be above 1");
   if (!(min_coherence >= 0.0 && min_coherence < 1.0)) fail("min_coherence", "must be in [0, 1)");
+  robust.validate();  // defined in robust_estimator.cpp
 }
 
 const char* quality_name(Quality q) {

@@ -28,6 +28,12 @@ StreamPacketSource::StreamPacketSource(std::unique_ptr<ByteSource> source,
     : source_(std::move(source)), options_(options), parser_(options.parser) {
   if (!source_) throw InputError("StreamPacketSource", "no byte source");
   chunk_.resize(std::max<std::size_t>(options_.read_chunk, 1));
+  if (!source_->ok() && !source_->finished()) {
+    // Never connected (device absent at start): retried by next(), not counted as a loss.
+    disconnected_ = true;
+    next_reopen_ = Clock::now();
+    warnings_.push_back("not connected: " + source_->describe());
+  }
 }
 
 std::optional<Lemi025Packet> StreamPacketSource::next(double timeout_s) {

@@ -108,6 +108,7 @@ TEST_F(CalibrateRecordsCli, RecordOfNaNIsRejected) {
   }
   const CliRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/nan.csv");
   EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("nan.csv: no sample has three finite components"), std::string::npos) << r.output;
 }
 
 TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {

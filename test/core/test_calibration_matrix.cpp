@@ -1,5 +1,6 @@
 // Known-truth tests of matrix_from_angles: column norms, pairwise angles, misalignment sense.
 #include "magnetometer_insitu_calibration/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/decomposition.hpp"
 #include "magnetometer_insitu_calibration/input_error.hpp"
 
 #include <Eigen/Geometry>
@@ -129,5 +130,19 @@ TEST(CalibrationMatrix, RejectsImpossibleInput) {
     FAIL() << "NaN accepted";
   } catch (const mic::InputError& e) {
     EXPECT_EQ(e.where(), "misalignment_deg");
+  }
+}
+
+TEST(CalibrationMatrix, DecompositionRecoversTheConstruction) {
+  // decompose() (decomposition.cpp) is the inverse of matrix_from_angles for scale ratios and
+  // non-orthogonality always, and for the misalignment when the axes are orthogonal.
+  for (const Case& c : cases()) {
+    const mic::CalibrationParameters p =
+        mic::decompose(mic::matrix_from_angles(c.scale, c.nonorth_deg, c.misalign_deg));
+    EXPECT_LT((p.scale_ratio - c.scale).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_LT((p.nonorthogonality_deg - c.nonorth_deg).cwiseAbs().maxCoeff(), 1e-10);
+    const mic::CalibrationParameters q =
+        mic::decompose(mic::matrix_from_angles(c.scale, Eigen::Vector3d::Zero(), c.misalign_deg));
+    EXPECT_LT((q.misalignment_deg - c.misalign_deg).cwiseAbs().maxCoeff(), 1e-10);
   }
 }

@@ -296,3 +296,32 @@ TEST(StreamPacketSource, RecordedStreamInSmallChunksToTheEnd) {
   EXPECT_NE(source.describe().find("sum8"), std::string::npos);
   EXPECT_THROW(StreamPacketSource(nullptr), InputError);
 }
+
+TEST(StreamPacketSource, DeviceAbsentAtStartIsRetriedNotCountedAsLoss) {
+  const std::string link = test::make_temp_dir("lemi_late") + "/lemi_late";
+  StreamPacketSourceOptions options;
+  options.reopen_interval_s = 0.05;
+  StreamPacketSource source(std::make_unique<SerialPortSource>(link, 57600), options);
+  EXPECT_FALSE(source.connected());
+  EXPECT_FALSE(source.next(0.2).has_value());
+  EXPECT_FALSE(source.at_end());
+  Pty pty;  // the adapter is plugged in
+  point_link(link, pty.slave());
+  std::optional<Lemi025Packet> p;
+  const auto start = Clock::now();
+  bool written = false;
+  while (!p && seconds_since(start) < 3.0) {
+    p = source.next(0.1);
+    if (source.connected() && !written) {
+      pty.write(packet_bytes(3));
+      written = true;
+    }
+  }
+  ASSERT_TRUE(p.has_value());
+  EXPECT_EQ(p->gps_time_s, kT0 + 3);
+  EXPECT_EQ(source.stats().disconnects, 0u);
+  EXPECT_EQ(source.stats().reconnects, 1u);
+  const auto warnings = source.take_warnings();
+  ASSERT_EQ(warnings.size(), 2u);
+  EXPECT_EQ(warnings[0], "not connected: serial " + link + " 57600 8N1");
+}
