@@ -1,0 +1,226 @@
+// simulate_records: writes a simulated reference record, a simulated test record (IAGA-2002 or
+// CSV) and truth.json (n_true row-major, trends, the settings) for testing the calibration.
+//   simulate_records --out-dir DIR [--format iaga|csv] [--days D] [--rate HZ] [--seed S] ...
+#include "magnetometer_insitu_calibration/csv_record.hpp"
+#include "magnetometer_insitu_calibration/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/time_format.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <vector>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+/// Strict number: the whole text must be one finite number.
+double parse_number(const std::string& text, const std::string& option) {
+  std::size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(value)) {
+    throw mic::InputError(option, "expected a number, got '" + text + "'");
+  }
+  return value;
+}
+
+/// "a,b,c" (or "a,b" for count 2) -> numbers.
+std::vector<double> parse_list(const std::string& text, std::size_t count, const std::string& option) {
+  std::vector<double> values;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) values.push_back(parse_number(item, option));
+  if (!text.empty() && text.back() == ',') values.push_back(NAN);  // "1,2," is malformed
+  if (values.size() != count) {
+    throw mic::InputError(option, "expected " + std::to_string(count) +
+                                      " comma-separated numbers, got '" + text + "'");
+  }
+  return values;
+}
+
+Eigen::Vector3d parse_vector(const std::string& text, const std::string& option) {
+  const std::vector<double> v = parse_list(text, 3, option);
+  return Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+/// Maps SimulationSettings field names (InputError::where() of validate()) to options.
+std::string option_for_field(const std::string& field) {
+  static const std::map<std::string, std::string> options = {
+      {"sample_period_s", "--rate"},
+      {"duration_s", "--days"},
+      {"start_time_s", "--start"},
+      {"scale_ratio", "--scale"},
+      {"nonorthogonality_deg", "--nonorthogonality-deg"},
+      {"misalignment_deg", "--misalignment-deg"},
+      {"reference_white_nT", "--noise-nT"},
+      {"test_white_nT", "--noise-nT"},
+      {"reference_pink_nT_per_sqrt_hz", "--pink-nT"},
+      {"test_pink_nT_per_sqrt_hz", "--pink-nT"},
+      {"drift_nT_per_day", "--drift-nT-per-day"},
+      {"tilt_rate_deg_per_day", "--tilt-deg-per-day"},
+      {"tilt_axis", "--tilt-axis"},
+      {"delay_s", "--delay-s"},
+      {"spikes_per_day", "--spikes-per-day"},
+      {"spike_amplitude_nT", "--spike-nT"},
+      {"gap_count", "--gaps"},
+      {"gap_length_s", "--gap-seconds"},
+      {"variation_rms_nT", "--variation-rms-nT"},
+      {"spectral_index", "--spectral-index"},
+      {"daily_amplitude_nT", "--daily-nT"},
+  };
+  const auto it = options.find(field);
+  return it == options.end() ? field : it->second;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Simulates a reference and a test magnetometer recording the same field, with known truth "
+      "(T = B(t - delay) n(t) + drift + noise, R = B + noise), and writes both records and "
+      "truth.json."};
+  std::string out_dir, format = "iaga", start, scale, nonorth, misalign, noise = "0.01,0.01",
+                       pink = "0.005,0.005", drift = "0,0,0", tilt_axis = "0,1,0",
+                       spike_instrument = "either", gap_instrument = "either", daily;
+  double days = 1.0, rate_hz = 1.0;
+  int decimals = 4;
+  mic::SimulationSettings s;
+  s.keep_clean_field = false;
+  app.add_option("--out-dir", out_dir, "output directory (created if missing)")->required();
+  app.add_option("--format", format, "record format: iaga (IAGA-2002) or csv")->capture_default_str();
+  app.add_option("--days", days, "record length, days")->capture_default_str();
+  app.add_option("--rate", rate_hz, "sample rate, Hz (1 or 10 typically)")->capture_default_str();
+  app.add_option("--seed", s.seed, "random seed")->capture_default_str();
+  app.add_option("--start", start, "UTC start, ISO 8601 (default 2025-05-14T00:00:00Z)");
+  app.add_option("--scale", scale, "scale-factor ratios K_test/K_ref x,y,z (default 0.9996,1.0004,1.0004)");
+  app.add_option("--nonorthogonality-deg", nonorth, "xy,xz,yz: 90 deg minus angle between test axes (default 0.01,0,0.02)");
+  app.add_option("--misalignment-deg", misalign, "rotation vector of reference->test rotation, deg (default 0.05,-0.1,0.3)");
+  app.add_option("--noise-nT", noise, "white noise rms per sample, nT: reference,test")->capture_default_str();
+  app.add_option("--pink-nT", pink, "1/f noise ASD at 1 Hz, nT/sqrt(Hz): reference,test")->capture_default_str();
+  app.add_option("--drift-nT-per-day", drift, "linear drift of the test, nT/day, x,y,z")->capture_default_str();
+  app.add_option("--tilt-deg-per-day", s.tilt_rate_deg_per_day, "tilt drift rate of the test axes, deg/day")->capture_default_str();
+  app.add_option("--tilt-axis", tilt_axis, "tilt rotation axis, reference frame x,y,z")->capture_default_str();
+  app.add_option("--spikes-per-day", s.spikes_per_day, "spikes per day (count rounded)")->capture_default_str();
+  app.add_option("--spike-nT", s.spike_amplitude_nT, "spike size, nT")->capture_default_str();
+  app.add_option("--spike-instrument", spike_instrument, "reference|test|either|both")->capture_default_str();
+  app.add_option("--gaps", s.gap_count, "number of gaps (NaN runs)")->capture_default_str();
+  app.add_option("--gap-seconds", s.gap_length_s, "length of each gap, s")->capture_default_str();
+  app.add_option("--gap-instrument", gap_instrument, "reference|test|either|both")->capture_default_str();
+  app.add_option("--delay-s", s.delay_s, "delay of the test instrument, s (fractional allowed)")->capture_default_str();
+  app.add_option("--variation-rms-nT", s.variation_rms_nT, "rms of x,y power-law variations, nT")->capture_default_str();
+  app.add_option("--spectral-index", s.spectral_index, "variations' PSD ~ f^-index")->capture_default_str();
+  app.add_option("--daily-nT", daily, "24 h harmonic amplitude x,y,z, nT (default 20,10,10)");
+  app.add_option("--decimals", decimals, "CSV value decimals (IAGA-2002 always has 2)")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (format != "iaga" && format != "csv") {
+      throw mic::InputError("--format", "expected iaga or csv, got '" + format + "'");
+    }
+    if (!(days > 0.0) || !std::isfinite(days)) throw mic::InputError("--days", "must be positive");
+    if (!(rate_hz > 0.0) || !std::isfinite(rate_hz)) throw mic::InputError("--rate", "must be positive");
+    if (decimals < 0 || decimals > 17) throw mic::InputError("--decimals", "must be 0..17");
+    s.duration_s = days * 86400.0;
+    s.sample_period_s = 1.0 / rate_hz;
+    if (!start.empty()) {
+      try {
+        s.start_time_s = mic::parse_iso8601(start);
+      } catch (const std::exception& e) {
+        throw mic::InputError("--start", e.what());
+      }
+    }
+    if (!scale.empty()) s.scale_ratio = parse_vector(scale, "--scale");
+    if (!nonorth.empty()) s.nonorthogonality_deg = parse_vector(nonorth, "--nonorthogonality-deg");
+    if (!misalign.empty()) s.misalignment_deg = parse_vector(misalign, "--misalignment-deg");
+    if (!daily.empty()) s.daily_amplitude_nT = parse_vector(daily, "--daily-nT");
+    const std::vector<double> white = parse_list(noise, 2, "--noise-nT");
+    s.reference_white_nT = white[0];
+    s.test_white_nT = white[1];
+    const std::vector<double> pink_levels = parse_list(pink, 2, "--pink-nT");
+    s.reference_pink_nT_per_sqrt_hz = pink_levels[0];
+    s.test_pink_nT_per_sqrt_hz = pink_levels[1];
+    s.drift_nT_per_day = parse_vector(drift, "--drift-nT-per-day");
+    s.tilt_axis = parse_vector(tilt_axis, "--tilt-axis");
+    s.spike_instrument = mic::parse_simulated_instrument(spike_instrument, "--spike-instrument");
+    s.gap_instrument = mic::parse_simulated_instrument(gap_instrument, "--gap-instrument");
+    try {
+      s.validate();
+    } catch (const mic::InputError& e) {
+      throw mic::InputError(option_for_field(e.where()), e.problem());
+    }
+
+    std::error_code error;
+    std::filesystem::create_directories(out_dir, error);
+    if (error || !std::filesystem::is_directory(out_dir)) {
+      throw mic::InputError("--out-dir", "cannot create directory '" + out_dir + "': " + error.message());
+    }
+
+    mic::SimulatedPair pair = mic::simulate_pair(s);
+    pair.reference.station = "SIM";
+    pair.test.station = "SIM";
+    const std::filesystem::path dir(out_dir);
+    const std::string extension = format == "iaga" ? ".iaga" : ".csv";
+    const std::string reference_path = (dir / ("reference" + extension)).string();
+    const std::string test_path = (dir / ("test" + extension)).string();
+    const std::string provenance = "Simulated by magnetometer_insitu_calibration simulate_records, seed " +
+                                   std::to_string(s.seed) + "; truth in truth.json.";
+    if (format == "iaga") {
+      mic::Iaga2002WriteOptions options;
+      options.source_of_data = "magnetometer_insitu_calibration simulator";
+      options.iaga_code = "SIM";
+      options.data_type = "variation";
+      std::ostringstream sampling;
+      sampling << s.sample_period_s << " second";
+      options.digital_sampling = sampling.str();
+      options.station_name = "Simulated reference";
+      options.comments = {provenance, "Reference instrument: R = B + noise (reference frame)."};
+      mic::write_iaga2002(reference_path, pair.reference, options);
+      options.station_name = "Simulated test";
+      options.comments = {provenance,
+                          "Test instrument: T = B(t - delay) n(t) + drift + noise (test frame)."};
+      mic::write_iaga2002(test_path, pair.test, options);
+    } else {
+      pair.reference.header["comments"] = provenance + "\nReference instrument: R = B + noise (reference frame), nT.";
+      pair.test.header["comments"] =
+          provenance + "\nTest instrument: T = B(t - delay) n(t) + drift + noise (test frame), nT.";
+      mic::write_csv_record(reference_path, pair.reference, true, decimals);
+      mic::write_csv_record(test_path, pair.test, true, decimals);
+    }
+
+    nlohmann::json truth = nlohmann::json::parse(mic::simulation_truth_json(s, pair));
+    truth["files"] = {{"format", format == "iaga" ? "IAGA-2002" : "CSV"},
+                      {"reference", reference_path},
+                      {"test", test_path}};
+    truth["start"] = mic::format_iso8601(s.start_time_s, 3);
+    std::string command_line;
+    for (int i = 0; i < argc; ++i) command_line += (i ? " " : "") + std::string(argv[i]);
+    truth["command_line"] = command_line;
+    const std::string truth_path = (dir / "truth.json").string();
+    std::ofstream out(truth_path);
+    out << truth.dump(2) << "\n";
+    out.close();
+    if (!out) throw mic::InputError(truth_path, "write failed");
+    std::cout << "wrote " << reference_path << ", " << test_path << " (" << pair.reference.size()
+              << " samples each) and " << truth_path << "\n";
+  } catch (const mic::InputError& e) {
+    std::cerr << "simulate_records: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "simulate_records: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
