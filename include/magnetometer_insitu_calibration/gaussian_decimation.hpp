@@ -47,14 +47,21 @@ double gaussian_gain(double sigma_s, double frequency_hz);
 /// (naming the sample), and InputError for impossible settings.
 VectorRecord decimate(const VectorRecord& input, const DecimationSettings& settings);
 
-/// The same filter for a live stream: push samples in time order, collect the outputs.
+/// The same filter for a live stream: push samples in time order, collect the outputs; they
+/// equal decimate() of the same samples (to rounding) as long as no step between consecutive
+/// samples exceeds restart_gap_s.
 /// An output t_o is completed (returned by push) by the first sample later than t_o + h, so the
 /// latency is h plus one input period (4.96 s with the defaults at 10 Hz). After a gap push
 /// returns all the (NaN) outputs inside it at once. A sample that is not later than the
-/// previous one, or has a non-finite stamp, is ignored and counted in rejected().
+/// previous one, or has a non-finite stamp, is ignored and counted in rejected(). A step of
+/// more than restart_gap_s, forwards or backwards (a clock jump, or a restart of the
+/// instrument), instead starts a new record at that sample, as reset() would, counted in
+/// restarts(): a bad stamp far in the future can then neither flood the caller with NaN
+/// outputs nor block every later sample.
 class StreamingDecimator {
  public:
-  explicit StreamingDecimator(double input_period_s, const DecimationSettings& settings = {});
+  explicit StreamingDecimator(double input_period_s, const DecimationSettings& settings = {},
+                              double restart_gap_s = 3600.0);
 
   /// Pushes one input sample (UNIX seconds, nT); returns the outputs completed by it, in order.
   std::vector<std::pair<double, Eigen::Vector3d>> push(double time_s, const Eigen::Vector3d& value_nT);
@@ -65,7 +72,9 @@ class StreamingDecimator {
   double input_period_s() const { return input_period_s_; }
   double sigma_s() const { return sigma_s_; }
   double half_width_s() const { return half_width_s_; }
+  double restart_gap_s() const { return restart_gap_s_; }
   std::size_t rejected() const { return rejected_; }
+  std::size_t restarts() const { return restarts_; }
   std::size_t buffered() const { return time_s_.size(); }
 
  private:
@@ -73,10 +82,12 @@ class StreamingDecimator {
   double output_period_s_;
   double sigma_s_;
   double half_width_s_;
+  double restart_gap_s_;
   std::deque<double> time_s_;
   std::deque<Eigen::Vector3d> value_nT_;
   long long next_output_ = 0;  ///< j of the next output epoch j * T_out
   std::size_t rejected_ = 0;
+  std::size_t restarts_ = 0;
 };
 
 }  // namespace magnetometer_insitu_calibration

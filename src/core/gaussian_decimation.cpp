@@ -147,11 +147,15 @@ VectorRecord decimate(const VectorRecord& input, const DecimationSettings& setti
   return out;
 }
 
-StreamingDecimator::StreamingDecimator(double input_period_s, const DecimationSettings& settings)
-    : input_period_s_(input_period_s) {
+StreamingDecimator::StreamingDecimator(double input_period_s, const DecimationSettings& settings,
+                                       double restart_gap_s)
+    : input_period_s_(input_period_s), restart_gap_s_(restart_gap_s) {
   settings.validate();
   if (!(input_period_s > 0.0) || !std::isfinite(input_period_s)) {
     throw InputError("input_period_s", "must be positive and finite");
+  }
+  if (!(restart_gap_s > 2.0 * settings.half_width_s())) {
+    throw InputError("restart_gap_s", "must be longer than the kernel support (2 h)");
   }
   check_kernel_covers_input(settings, input_period_s);
   output_period_s_ = settings.output_period_s;
@@ -168,7 +172,14 @@ void StreamingDecimator::reset() {
 std::vector<std::pair<double, Eigen::Vector3d>> StreamingDecimator::push(double time_s,
                                                                         const Eigen::Vector3d& value_nT) {
   std::vector<std::pair<double, Eigen::Vector3d>> out;
-  if (!std::isfinite(time_s) || (!time_s_.empty() && !(time_s > time_s_.back()))) {
+  if (!std::isfinite(time_s)) {
+    ++rejected_;
+    return out;
+  }
+  if (!time_s_.empty() && std::abs(time_s - time_s_.back()) > restart_gap_s_) {
+    reset();
+    ++restarts_;
+  } else if (!time_s_.empty() && !(time_s > time_s_.back())) {
     ++rejected_;
     return out;
   }

@@ -89,7 +89,9 @@ TEST(GaussianDecimation, KeepsAmplitudeAndPhaseAtTheTopOfTheBandOnWholeSecondEpo
   ASSERT_GT(y.size(), 3500u);
   for (std::size_t k = 0; k < y.size(); ++k) {
     EXPECT_EQ(y.time_s[k], std::round(y.time_s[k]));  // whole UNIX seconds
-    if (k > 0) EXPECT_EQ(y.time_s[k] - y.time_s[k - 1], 1.0);
+    if (k > 0) {
+      EXPECT_EQ(y.time_s[k] - y.time_s[k - 1], 1.0);
+    }
   }
   const double phases[] = {0.0, 1.0, kPi / 2};
   for (int c = 0; c < 3; ++c) {
@@ -220,6 +222,28 @@ TEST(GaussianDecimation, StreamingEqualsBatch) {
   EXPECT_TRUE(stream.push(kStart, Eigen::Vector3d::Zero()).empty());
   EXPECT_TRUE(stream.push(kStart - 1.0, Eigen::Vector3d::Zero()).empty());
   EXPECT_EQ(stream.rejected(), 1u);
+}
+
+TEST(GaussianDecimation, StreamingRestartsOnAClockJumpInsteadOfFloodingOrBlocking) {
+  const mic::DecimationSettings settings;
+  mic::StreamingDecimator stream(0.1, settings, 600.0);
+  const Eigen::Vector3d v(1.0, 2.0, 3.0);
+  std::size_t outputs = 0;
+  for (int k = 0; k < 600; ++k) outputs += stream.push(kStart + 0.1 * k, v).size();
+  EXPECT_EQ(outputs, 53u);  // epochs kStart + 4 .. kStart + 56 (t_o - h > kStart, t_o + h < kStart + 59.9)
+  // One stamp a year ahead: a new record, no year of NaN outputs.
+  EXPECT_TRUE(stream.push(kStart + 3.15e7, v).empty());
+  EXPECT_EQ(stream.restarts(), 1u);
+  // Normal stamps again: a second restart, then normal outputs with the same values.
+  std::vector<std::pair<double, Eigen::Vector3d>> after;
+  for (int k = 600; k < 1200; ++k) {
+    for (auto& o : stream.push(kStart + 0.1 * k, v)) after.push_back(o);
+  }
+  EXPECT_EQ(stream.restarts(), 2u);
+  EXPECT_EQ(stream.rejected(), 0u);
+  ASSERT_EQ(after.size(), 53u);  // kStart + 64 .. kStart + 116
+  EXPECT_EQ(after.front().first, kStart + 64.0);
+  EXPECT_LT((after.back().second - v).cwiseAbs().maxCoeff(), 1e-12);
 }
 
 TEST(GaussianDecimation, RejectsBadInputAndSettings) {
