@@ -25,7 +25,9 @@ struct PairingCounters {
   std::size_t late = 0;
   /// stamp equal to a pending one, or to the newest emitted or dropped one, of the same stream
   std::size_t duplicates = 0;
-  std::size_t invalid = 0;    ///< non-finite stamp
+  /// non-finite stamp, or a stamp from the future: more than max_wait_s ahead of the sample
+  /// that follows it on the same stream (discarded then)
+  std::size_t invalid = 0;
 };
 
 /// Pairs the two streams with the rule of align_by_time applied to the samples still pending
@@ -42,6 +44,9 @@ struct PairingCounters {
 ///    times the sample rate per stream) when one stream is silent.
 /// Pairs come out in increasing time. Samples may arrive slightly out of order within a
 /// stream; one older than that stream's last emitted or dropped stamp is dropped as late.
+/// A stamp far in the future (a clock glitch) ages every pending sample at once, so what is
+/// pending is decided then; when the next sample of that stream comes more than max_wait_s
+/// earlier, the future sample is discarded (counted invalid) and pairing goes on normally.
 class StreamPairer {
  public:
   /// Throws InputError for a negative or non-finite tolerance_s or max_wait_s.

@@ -62,6 +62,19 @@ void StreamPairer::push(Stream& stream, double time_s, const Eigen::Vector3d& va
   stream.pending.insert(position, Sample{time_s, value_nT});
   newest_s_ = seen_any_ ? std::max(newest_s_, time_s) : time_s;
   seen_any_ = true;
+  // Pending samples of this stream more than max_wait_s ahead of this one came from a clock
+  // glitch: discard them and measure waiting against the remaining stamps.
+  if (stream.pending.back().time_s - time_s > max_wait_s_) {
+    while (stream.pending.back().time_s - time_s > max_wait_s_) {
+      stream.pending.pop_back();
+      ++counters_.invalid;
+    }
+    newest_s_ = time_s;
+    for (const Stream* s : {&reference_, &test_}) {
+      if (!s->pending.empty()) newest_s_ = std::max(newest_s_, s->pending.back().time_s);
+      if (s->decided_any) newest_s_ = std::max(newest_s_, s->last_decided_s);
+    }
+  }
   match(false);
 }
 

@@ -71,7 +71,9 @@ TEST(TimeAlignment, JitterWithinAndBeyondToleranceGivesExactCounts) {
     EXPECT_EQ(paired.time_s[k], kStart + id * kPeriod);
     EXPECT_EQ(paired.test_nT(static_cast<Eigen::Index>(k), 0), id + 0.5);
     EXPECT_EQ(paired.test_nT(static_cast<Eigen::Index>(k), 2), 3 * (id + 0.5));
-    if (k > 0) EXPECT_GT(paired.time_s[k], paired.time_s[k - 1]);
+    if (k > 0) {
+      EXPECT_GT(paired.time_s[k], paired.time_s[k - 1]);
+    }
   }
 }
 
