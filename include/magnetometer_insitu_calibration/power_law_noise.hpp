@@ -44,8 +44,8 @@ Eigen::VectorXcd power_law_spectrum(std::size_t n, double sample_period_s, doubl
                                     double corner_hz, double psd_at_1hz, SimulationRng& rng);
 
 /// Real series from one-sided spectra, by FFTW c2r transforms of one size (plan made once).
-/// Not safe to construct concurrently with other FFTW planning in the process (FFTW's planner
-/// is not thread-safe); construction is serialised against other SpectralSynthesizers.
+/// Plan creation and destruction take fftw_planner_lock() (fd_wlse.hpp), like every FFTW plan
+/// in the core, so synthesizers may be made in several threads; one instance per thread.
 class SpectralSynthesizer {
  public:
   explicit SpectralSynthesizer(std::size_t n);

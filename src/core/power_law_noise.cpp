@@ -1,6 +1,7 @@
 // Reproducible random numbers and frequency-domain synthesis: see power_law_noise.hpp.
 #include "magnetometer_insitu_calibration/power_law_noise.hpp"
 
+#include "magnetometer_insitu_calibration/fd_wlse.hpp"  // fftw_planner_lock()
 #include "magnetometer_insitu_calibration/input_error.hpp"
 
 #include <fftw3.h>
@@ -21,11 +22,6 @@ std::uint64_t splitmix64(std::uint64_t x) {
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
   x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
   return x ^ (x >> 31);
-}
-
-std::mutex& planner_mutex() {
-  static std::mutex mutex;
-  return mutex;
 }
 
 }  // namespace
@@ -103,7 +99,7 @@ SpectralSynthesizer::SpectralSynthesizer(std::size_t n) : n_(n) {
     fftw_free(out_);
     throw std::bad_alloc();
   }
-  std::lock_guard<std::mutex> lock(planner_mutex());
+  std::lock_guard<std::mutex> lock(fftw_planner_lock());
   plan_ = fftw_plan_dft_c2r_1d(static_cast<int>(n), reinterpret_cast<fftw_complex*>(in_), out_,
                                FFTW_ESTIMATE);
   if (plan_ == nullptr) {
@@ -115,7 +111,7 @@ SpectralSynthesizer::SpectralSynthesizer(std::size_t n) : n_(n) {
 
 SpectralSynthesizer::~SpectralSynthesizer() {
   {
-    std::lock_guard<std::mutex> lock(planner_mutex());
+    std::lock_guard<std::mutex> lock(fftw_planner_lock());
     fftw_destroy_plan(static_cast<fftw_plan>(plan_));
   }
   fftw_free(in_);
