@@ -42,7 +42,7 @@ struct RobustSettings {
   // Time-domain screening of the residual T - R n0 (n0: Eq. 2 on the window).
   bool screen = true;
   double screen_threshold = 6.0;     ///< multiple of the robust (MAD) sigma of the high-passed residual
-  double screen_baseline_s = 600.0;  ///< s, block length of the running-median baseline removed first
+  double screen_baseline_s = 3600.0; ///< s, running-median baseline removed first (plateaus < half of it are flagged)
   double screen_margin_s = 30.0;     ///< s, flagged spans are widened by this on each side
   // Sectioned M-estimation.
   double section_s = 10800.0;        ///< s, section length (shortened for short windows, >= 2 / band_low)
@@ -59,7 +59,7 @@ struct RobustSettings {
   bool correct_delay = true;         ///< remove a significant delay by a phase shift before fitting
   double delay_max_hz = 0.1;         ///< highest frequency used for the delay, Hz
   // Errors in variables.
-  EivCorrection eiv = EivCorrection::kNone;
+  EivCorrection eiv = EivCorrection::kNoiseRatio;  ///< default: instruments of one class (ratio 1)
   double eiv_noise_ratio = 1.0;      ///< kNoiseRatio: PSD_ref / PSD_test (dimensionless, >= 0)
   Eigen::Vector3d reference_white_nT = Eigen::Vector3d::Zero();  ///< kGiven: rms per sample, nT
   Eigen::Vector3d reference_pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();  ///< kGiven: ASD at 1 Hz

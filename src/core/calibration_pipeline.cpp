@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
 
 #include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/robust_estimator.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -141,7 +142,7 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings) {
   settings.validate();
   const auto& p = prepared.paired;
-  FdWlseEstimator estimator(settings.estimator);
+  WindowEstimator estimator(settings.estimator);  // plain Eq. 2 or robust, from settings.estimator.method
   std::vector<CalibrationWindow> out;
   for (const WindowSpan& span : plan_windows(p.size(), prepared.sample_period_s, settings.windows)) {
     CalibrationWindow w;
