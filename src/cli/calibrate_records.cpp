@@ -62,12 +62,17 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--min-coherence", settings.estimator.min_coherence, "quality rule")->capture_default_str();
   app.add_option("--max-condition", settings.estimator.max_condition_number, "quality rule")->capture_default_str();
+  std::string method = "robust";
+  app.add_option("--method", method, "estimator: robust (default) or plain (Eq. 2 as printed)")->capture_default_str();
+  app.add_flag("--auto-band", settings.estimator.robust.auto_band,
+               "choose the band from the coherence between the instruments (reported per window)");
   CLI11_PARSE(app, argc, argv);
 
   try {
     parse_band(band, settings.estimator);
     settings.estimator.trend = !no_trend;
     settings.preprocess.despike = !no_despike;
+    settings.estimator.method = mic::parse_estimator_method(method, "--method");
     settings.validate();
     const mic::VectorRecord reference = mic::read_record(reference_path);
     const mic::VectorRecord test = mic::read_record(test_path);
