@@ -1,0 +1,142 @@
+// calibration_node: live in-situ calibration of one or several test magnetometers against one
+// reference, over a sliding window (thin ROS layer over the core).
+//
+// Data flow, per test instrument (units nT and UNIX seconds inside, tesla on the topics):
+//   reference + test sensor_msgs/MagneticField (each in its own frame)
+//     -> StreamPairer (pairs by header.stamp within ~pairing_tolerance; counts unpaired, late,
+//        duplicate samples)
+//     -> StreamingDecimator, both instruments on the same epochs (only when ~input_period is
+//        shorter than ~output_period, e.g. LEMI-025 10 Hz -> 1 Hz)
+//     -> SlidingWindowBuffer: windows [k step, k step + window) in UNIX time
+//     -> worker thread (its own FdWlseEstimator): regularize_and_fill on the window copy, the
+//        estimate, gap flags
+//     -> MagnetometerCalibration on the instrument's calibration topic (latched), every window,
+//        accepted=false with the failed quality rule when it is flagged; the latest accepted
+//        one also written atomically to the instrument's YAML file.
+// Callbacks never wait for the estimator: windows are queued (at most ~max_pending_windows,
+// the oldest is dropped and counted when the worker falls behind).
+//
+// Time: windows, pairing, jumps use the message stamps (header.stamp); silence is measured in
+// ROS time (wall clock, or /clock with /use_sim_time) between arrivals.
+#pragma once
+
+#include "magnetometer_insitu_calibration/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/gaussian_decimation.hpp"
+#include "magnetometer_insitu_calibration/ros/live_window.hpp"
+#include "magnetometer_insitu_calibration/stream_pairing.hpp"
+
+#include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+#include <sensor_msgs/MagneticField.h>
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+/// One test instrument of calibration_node.
+struct TestInstrumentSettings {
+  std::string name;               ///< label in messages, diagnostics and logs
+  std::string topic;              ///< its sensor_msgs/MagneticField topic
+  std::string calibration_topic;  ///< MagnetometerCalibration output (latched)
+  std::string calibration_file;   ///< YAML of the latest accepted calibration (atomic writes)
+};
+
+/// Every parameter of calibration_node, read and validated once at start-up
+/// (config/calibration.yaml documents them).
+struct CalibrationNodeSettings {
+  std::string reference_topic;
+  std::vector<TestInstrumentSettings> tests;
+  double input_period_s = 1.0;          ///< nominal sample period of both inputs, s
+  DecimationSettings decimation;        ///< output_period_s (s), sigma_s (s, 0 = default), half_width_sigmas
+  double pairing_tolerance_s = 0.010;   ///< largest |t_test - t_ref| of a pair, s
+  double pairing_max_wait_s = 120.0;    ///< longest wait (stamp time) for a partner, s
+  double window_s = 86400.0;            ///< window length, s
+  double step_s = 3600.0;               ///< step between window starts, s
+  WindowGapRule gap_rule;               ///< max_fill_s (s) and max_filled_fraction
+  EstimatorSettings estimator;          ///< band (Hz), gamma, trend, quality rules
+  double silent_timeout_s = 10.0;       ///< ROS time without a message before a topic is "silent", s
+  double time_jump_threshold_s = 60.0;  ///< stamp step counted as a time jump, s
+  int queue_size = 1000;                ///< subscriber queue length, messages
+  int max_pending_windows = 8;          ///< windows waiting for the worker
+  double diagnostic_period_s = 1.0;     ///< ROS time between diagnostics, s
+
+  /// True when the inputs are low-passed and decimated to decimation.output_period_s.
+  bool decimating() const { return input_period_s < 0.99 * decimation.output_period_s; }
+  /// Sample period of the windows, s.
+  double estimation_period_s() const { return decimating() ? decimation.output_period_s : input_period_s; }
+
+  /// Reads every private parameter; throws ParameterError naming the first impossible one.
+  static CalibrationNodeSettings load(const ros::NodeHandle& private_nh);
+};
+
+/// Arrival and stamp bookkeeping of one input topic, for diagnostics.
+struct StreamMonitor {
+  enum class Jump { kNone, kForward, kBackward };
+  std::string topic;
+  std::string frame_id;                   ///< of the newest message
+  std::size_t messages = 0;
+  std::size_t jumps_forward = 0;          ///< stamp later than the previous one by > threshold
+  std::size_t jumps_backward = 0;         ///< stamp earlier than the previous one by > threshold
+  double last_stamp_s = 0.0;              ///< UNIX s
+  double last_arrival_s = 0.0;            ///< ROS time, s
+
+  Jump observe(double stamp_s, double arrival_s, const std::string& frame, double threshold_s);
+  /// ROS-time seconds since the last message (or since `since_s` when none yet).
+  double silence_s(double now_s, double since_s) const;
+};
+
+class CalibrationNode {
+ public:
+  /// Reads the parameters (throws ParameterError), subscribes, advertises, starts the worker.
+  CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~CalibrationNode();
+  CalibrationNode(const CalibrationNode&) = delete;
+  CalibrationNode& operator=(const CalibrationNode&) = delete;
+
+  const CalibrationNodeSettings& settings() const { return settings_; }
+
+ private:
+  struct Channel;
+  struct Job {
+    std::size_t channel = 0;
+    WindowData window;
+    std::string reference_frame_id, test_frame_id;
+  };
+
+  void on_reference(const sensor_msgs::MagneticField::ConstPtr& message);
+  void on_test(std::size_t channel, const sensor_msgs::MagneticField::ConstPtr& message);
+  void drain_pairs(std::size_t channel);
+  void reset_pipeline(Channel& channel);
+  void enqueue(std::size_t channel, WindowData&& window);
+  void run_worker();
+  void process(Job& job, FdWlseEstimator& estimator);
+  void diagnose_reference(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void diagnose_channel(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle nh_, private_nh_;
+  CalibrationNodeSettings settings_;
+  std::string node_name_;
+  StreamMonitor reference_;
+  ros::Subscriber reference_subscriber_;
+  std::vector<std::unique_ptr<Channel>> channels_;
+  diagnostic_updater::Updater updater_;
+  ros::Timer diagnostic_timer_;
+  double started_s_ = 0.0;  ///< ROS time of the first non-zero clock, s
+
+  std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<Job> queue_;
+  bool stopping_ = false;
+  std::thread worker_;
+};
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,45 @@
+// The calibration file: one MagnetometerCalibration as YAML, written atomically by
+// calibration_node (latest accepted window) and loaded by correction_node.
+//
+// Format (format_version 1): one key per message field with the message's field names and
+// units (header.stamp as "stamp", header.frame_id as "frame_id"; times as {secs, nsecs} so that
+// they load back exactly, plus an ISO 8601 comment; doubles with 17 significant digits, so that
+// every number loads back bit for bit). "accepted" is the last line: a file cut short anywhere
+// lacks it or has it unreadable, and is refused as a whole.
+#pragma once
+
+#include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+
+#include <stdexcept>
+#include <string>
+
+namespace magnetometer_insitu_calibration {
+
+/// A calibration file that cannot be used. what() names the file and the problem.
+class CalibrationFileError : public std::runtime_error {
+ public:
+  explicit CalibrationFileError(const std::string& what) : std::runtime_error(what) {}
+};
+
+/// YAML text of a calibration; `written_by` (e.g. the node name) goes into a comment-like key.
+std::string calibration_to_yaml(const MagnetometerCalibration& calibration, const std::string& written_by);
+
+/// Parses the YAML text; `source` (file name) is used in error messages. header.seq is 0.
+/// Throws CalibrationFileError for malformed YAML, a missing field, a wrong type or length.
+MagnetometerCalibration calibration_from_yaml(const std::string& text, const std::string& source);
+
+/// Reads and parses a file; throws CalibrationFileError (naming the file) when it cannot be
+/// read or parsed.
+MagnetometerCalibration load_calibration_file(const std::string& path);
+
+/// Writes `text` to `path` atomically: a temporary file in the same directory, flushed to disk
+/// (fsync), then renamed over `path`; readers see the old or the new file, never a part.
+/// Throws std::runtime_error naming the file and the system error.
+void write_file_atomically(const std::string& path, const std::string& text);
+
+/// True when every field of a and b is equal (header.seq ignored); `difference` names the
+/// first field that differs.
+bool calibrations_equal(const MagnetometerCalibration& a, const MagnetometerCalibration& b,
+                        std::string* difference = nullptr);
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,115 @@
+// correction_node: publishes the raw test magnetometer stream corrected into the reference
+// frame with the accepted calibration in use.
+//
+// Correction (rows are samples, T = R n): r = n^-T t for each reading t (column vectors), i.e.
+// r^T = t^T n^-1. Output sensor_msgs/MagneticField in tesla, header.stamp = the raw stamp,
+// header.frame_id = reference_frame_id of the calibration. Covariance: n^-T C_t n^-1, plus the
+// calibration's own uncertainty propagated to first order (~include_calibration_covariance);
+// an all-zero (unknown) input covariance stays all zero.
+//
+// Which calibration is in use:
+//  * at start, the YAML file ~calibration_file if it holds a valid accepted calibration; a
+//    missing file is a warning, a malformed or half-written one an error in the diagnostics
+//    (the node then publishes nothing until a valid calibration arrives on the topic);
+//  * then every MagnetometerCalibration on ~calibration_topic with accepted=true, quality OK,
+//    a finite matrix and covariance, and a matrix condition number <= ~max_matrix_condition
+//    replaces it at once (the most recently received valid one wins; no interpolation between
+//    calibrations). Others are rejected, counted and reported in the diagnostics, and the
+//    calibration in use is kept;
+//  * with ~reload_period > 0 the file is re-read when it changes (same rules; an unusable file
+//    keeps the calibration in use).
+//
+// Policy:
+//  * no calibration yet: nothing is published on the corrected topic (never uncorrected data);
+//    the samples are counted ("dropped, no calibration");
+//  * a sample whose frame_id differs from the calibration's test_frame_id is not corrected (it
+//    is another instrument or frame) and counted, when ~check_frame_id;
+//  * samples older than the calibration in use (stamp before its window_start): the calibration
+//    is a slowly varying instrument property, so by default (~correct_samples_before_window =
+//    true) they are corrected with it like any other sample and counted
+//    ("corrected, before window"); with false they are dropped and counted. Samples are never
+//    held back or re-corrected when a later calibration arrives: each is corrected once, on
+//    arrival, with the calibration in use at that moment.
+//  * queues (~queue_size in, ~publisher_queue_size out) are sized so that no sample is dropped
+//    at the rates of a replay; every sample is accounted for in the diagnostics:
+//    received = published + dropped (no calibration, frame, before window).
+#pragma once
+
+#include "magnetometer_insitu_calibration/ros/correction_model.hpp"
+
+#include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+#include <sensor_msgs/MagneticField.h>
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+namespace magnetometer_insitu_calibration {
+
+/// Every parameter of correction_node (config/correction.yaml documents them).
+struct CorrectionNodeSettings {
+  std::string test_topic;                       ///< raw test sensor_msgs/MagneticField (required)
+  std::string corrected_topic = "corrected";    ///< output sensor_msgs/MagneticField
+  std::string calibration_topic = "calibration";
+  std::string calibration_file;                 ///< YAML loaded at start ("" = none)
+  double reload_period_s = 0.0;                 ///< wall s between file checks, 0 = only at start
+  int queue_size = 1000;                        ///< subscriber queue, messages
+  int publisher_queue_size = 1000;              ///< publisher queue, messages
+  bool correct_samples_before_window = true;
+  bool check_frame_id = true;
+  bool include_calibration_covariance = true;
+  double max_matrix_condition = 100.0;          ///< largest accepted condition number of n
+  double diagnostic_period_s = 1.0;             ///< ROS time between diagnostics, s
+
+  /// Reads every private parameter; throws ParameterError naming the first impossible one.
+  static CorrectionNodeSettings load(const ros::NodeHandle& private_nh);
+};
+
+class CorrectionNode {
+ public:
+  CorrectionNode(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+  const CorrectionNodeSettings& settings() const { return settings_; }
+
+ private:
+  struct Active {
+    MagnetometerCalibration calibration;
+    std::unique_ptr<CorrectionModel> model;
+    std::string source;      ///< "file <path>" or "topic <name>"
+    double adopted_s = 0.0;  ///< ROS time, s
+  };
+
+  /// Adopts a calibration or returns why not (empty = adopted).
+  std::string adopt(const MagnetometerCalibration& calibration, const std::string& source);
+  void load_file(bool at_start);
+  void on_calibration(const MagnetometerCalibration::ConstPtr& calibration);
+  void on_test(const sensor_msgs::MagneticField::ConstPtr& message);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle nh_, private_nh_;
+  CorrectionNodeSettings settings_;
+  std::string node_name_;
+  ros::Publisher corrected_publisher_;
+  ros::Subscriber calibration_subscriber_, test_subscriber_;
+  diagnostic_updater::Updater updater_;
+  ros::Timer diagnostic_timer_;
+  ros::WallTimer reload_timer_;
+
+  std::unique_ptr<Active> active_;
+  std::size_t received_ = 0, published_ = 0, dropped_no_calibration_ = 0, dropped_frame_ = 0,
+              dropped_before_window_ = 0, corrected_before_window_ = 0, reported_frame_ = 0;
+  std::string last_frame_seen_;
+  std::size_t adopted_ = 0, rejected_ = 0, calibration_messages_ = 0;
+  std::string last_rejection_;
+  bool rejected_since_adoption_ = false;
+  std::string file_state_ = "not loaded";  ///< "loaded", "missing", or the error
+  bool file_error_ = false;
+  bool file_missing_ = false;
+  long long file_mtime_ns_ = -1;
+  long long file_size_ = -1;
+};
+
+}  // namespace magnetometer_insitu_calibration

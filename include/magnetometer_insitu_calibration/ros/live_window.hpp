@@ -1,0 +1,97 @@
+// ROS-free helpers of calibration_node: the sliding window over the live paired stream, and the
+// preparation + estimate of one window (regularize_and_fill on the window copy, gap flags).
+#pragma once
+
+#include "magnetometer_insitu_calibration/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/stream_pairing.hpp"
+#include "magnetometer_insitu_calibration/time_alignment.hpp"
+
+#include <cstddef>
+#include <deque>
+#include <string>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+/// One window of the live stream, copied out of the buffer for the estimator.
+struct WindowData {
+  double start_s = 0.0;               ///< nominal first epoch, UNIX s (a whole multiple of step)
+  double period_s = 1.0;              ///< sample period of the estimation grid, s
+  std::size_t expected_samples = 0;   ///< round(window / period)
+  PairedRecord paired;                ///< samples in the window, reference frame / test frame, nT (NaN = missing)
+
+  /// Nominal last epoch, UNIX s.
+  double end_s() const { return start_s + (static_cast<double>(expected_samples) - 1.0) * period_s; }
+};
+
+/// Sliding windows [start, start + window) over a time-ordered stream of paired samples on the
+/// estimation grid (after decimation). Window starts are whole multiples of step_s in UNIX time,
+/// so that nodes on several machines use the same windows. A window is complete (returned by
+/// push) when the first sample at or after its end arrives. Boundaries are shifted by half a
+/// period (a sample at start - period / 2 <= t < end - period / 2 belongs to the window), so stamps
+/// with rounding noise fall into the right window. Windows without any sample (inside a long
+/// silence or a forward time jump) are skipped and counted.
+class SlidingWindowBuffer {
+ public:
+  /// window_s, step_s, period_s > 0 and step_s <= window_s (checked by the node's settings).
+  SlidingWindowBuffer(double window_s, double step_s, double period_s);
+
+  /// Adds one sample (reference stamp, reference frame nT, test frame nT; NaN allowed).
+  /// A sample not later than the previous one is ignored and counted in out_of_order().
+  /// Returns the windows completed by it, oldest first.
+  std::vector<WindowData> push(double time_s, const Eigen::Vector3d& reference_nT, const Eigen::Vector3d& test_nT);
+
+  /// Forgets everything but the counters (after a backward time jump).
+  void reset();
+
+  std::size_t buffered() const { return buffer_.size(); }
+  std::size_t windows_emitted() const { return emitted_; }
+  std::size_t windows_skipped_empty() const { return skipped_empty_; }
+  std::size_t out_of_order() const { return out_of_order_; }
+  double window_s() const { return window_s_; }
+  double step_s() const { return step_s_; }
+  double period_s() const { return period_s_; }
+
+ private:
+  WindowData copy_window(double start_s) const;
+
+  double window_s_, step_s_, period_s_;
+  std::size_t expected_samples_;
+  std::deque<PairedSample> buffer_;
+  bool started_ = false;
+  double next_start_ = 0.0;  ///< start of the next window to complete
+  double last_time_s_ = 0.0;
+  std::size_t emitted_ = 0, skipped_empty_ = 0, out_of_order_ = 0;
+};
+
+/// Gap rule of a window (as calibrate_prepared applies it offline, extended to the edges).
+struct WindowGapRule {
+  GapSettings gaps;                   ///< max_fill_s: longest gap filled without flagging, s
+  double max_filled_fraction = 0.05;  ///< of the window's expected samples, [0, 1]
+};
+
+struct WindowResult {
+  double start_s = 0.0, end_s = 0.0;  ///< nominal first and last epoch, UNIX s
+  std::size_t expected_samples = 0;
+  std::size_t leading_missing = 0;    ///< epochs of the window before the first complete one
+  std::size_t trailing_missing = 0;   ///< epochs after the last complete one
+  std::size_t interpolated = 0;       ///< epochs filled inside (regularize_and_fill)
+  bool long_gap = false;              ///< a gap (inside or at an edge) longer than max_fill_s
+  WindowEstimate estimate;            ///< quality kGaps when the gap rule fails
+
+  /// Epochs without data: interpolated inside or missing at the edges.
+  std::size_t missing() const { return leading_missing + trailing_missing + interpolated; }
+};
+
+/// Puts the window copy on its regular grid and fills gaps (regularize_and_fill: the same rule
+/// as offline, on both instruments at the same epochs), estimates n with `estimator`, and flags
+/// the window Quality::kGaps when more than max_filled_fraction of its expected epochs are
+/// interpolated or missing at its edges, or when a gap longer than max_fill_s lies inside or at
+/// an edge. Unlike the offline rule this takes precedence over the estimator's own flags (a
+/// window shortened by missing data also fails min_harmonics, but the cause is the gap; the
+/// estimator's text is appended). Throws InputError when the window cannot be put on a grid
+/// (e.g. no complete epoch; stamps off the grid).
+WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, const WindowGapRule& rule);
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,51 @@
+// Applying a calibration matrix: r = n^-T t, covariance propagation.
+#include "magnetometer_insitu_calibration/ros/correction_model.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <cmath>
+
+#include <sstream>
+#include <stdexcept>
+
+namespace magnetometer_insitu_calibration {
+
+CorrectionModel::CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covariance, double max_condition)
+    : n_(n), covariance_(covariance) {
+  if (!n.allFinite()) throw std::invalid_argument("matrix has non-finite entries");
+  if (!covariance.allFinite()) throw std::invalid_argument("matrix_covariance has non-finite entries");
+  if ((covariance.diagonal().array() < 0.0).any()) throw std::invalid_argument("matrix_covariance has a negative variance");
+  // Singular values of n: square roots of the eigenvalues of n^T n (ascending).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(n.transpose() * n, Eigen::EigenvaluesOnly);
+  const double smallest = std::sqrt(std::max(0.0, eigen.eigenvalues()(0)));
+  const double largest = std::sqrt(std::max(0.0, eigen.eigenvalues()(2)));
+  if (!(smallest > 0.0) || !(std::abs(n.determinant()) > 0.0)) throw std::invalid_argument("matrix is singular");
+  condition_number_ = largest / smallest;
+  if (!(condition_number_ <= max_condition)) {
+    std::ostringstream text;
+    text << "matrix condition number " << condition_number_ << " exceeds " << max_condition;
+    throw std::invalid_argument(text.str());
+  }
+  n_inverse_ = n.inverse();
+  n_inverse_transpose_ = n_inverse_.transpose();
+}
+
+Eigen::Matrix3d CorrectionModel::corrected_covariance(const Eigen::Matrix3d& test_covariance,
+                                                      const Eigen::Vector3d& corrected,
+                                                      bool include_calibration) const {
+  Eigen::Matrix3d c = n_inverse_transpose_ * test_covariance * n_inverse_;
+  if (include_calibration) {
+    Eigen::Matrix<double, 3, 9> jacobian;
+    for (int j = 0; j < 3; ++j) {
+      for (int a = 0; a < 3; ++a) {
+        for (int b = 0; b < 3; ++b) jacobian(j, vec_index(a, b)) = -corrected(a) * n_inverse_(b, j);
+      }
+    }
+    c += jacobian * covariance_ * jacobian.transpose();
+  }
+  return 0.5 * (c + c.transpose());
+}
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,283 @@
+// correction_node: the raw test stream corrected into the reference frame (see correction_node.hpp).
+#include "magnetometer_insitu_calibration/ros/correction_node.hpp"
+
+#include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
+#include "magnetometer_insitu_calibration/ros/parameters.hpp"
+#include "magnetometer_insitu_calibration/time_format.hpp"
+
+#include <ros/names.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+using diagnostic_msgs::DiagnosticStatus;
+using diagnostic_updater::DiagnosticStatusWrapper;
+
+const std::vector<std::string> kKnownParameters = {
+    "test_topic", "corrected_topic", "calibration_topic", "calibration_file", "reload_period", "queue_size",
+    "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
+    "max_matrix_condition", "diagnostic_period"};
+
+void check_topic(const std::string& parameter, const std::string& topic) {
+  if (topic.empty()) throw ParameterError(parameter, "must not be empty");
+  std::string error;
+  if (!ros::names::validate(topic, error)) throw ParameterError(parameter, "'" + topic + "' is not a valid topic name: " + error);
+}
+
+std::string iso(const ros::Time& t) {
+  try {
+    return format_iso8601(t.toSec(), 3);
+  } catch (const std::exception&) {
+    return std::to_string(t.toSec());
+  }
+}
+
+std::string window_text(const MagnetometerCalibration& c) { return iso(c.window_start) + " .. " + iso(c.window_end); }
+
+}  // namespace
+
+CorrectionNodeSettings CorrectionNodeSettings::load(const ros::NodeHandle& p) {
+  CorrectionNodeSettings s;
+  s.test_topic = required_string(p, "test_topic");
+  check_topic("test_topic", s.test_topic);
+  s.corrected_topic = param_string(p, "corrected_topic", s.corrected_topic);
+  check_topic("corrected_topic", s.corrected_topic);
+  s.calibration_topic = param_string(p, "calibration_topic", s.calibration_topic);
+  check_topic("calibration_topic", s.calibration_topic);
+  if (s.corrected_topic == s.test_topic) throw ParameterError("corrected_topic", "must differ from ~test_topic");
+  s.calibration_file = param_string(p, "calibration_file", s.calibration_file);
+  s.reload_period_s = param_double(p, "reload_period", s.reload_period_s);
+  require_non_negative("reload_period", s.reload_period_s, "s (0 = load only at start)");
+  if (s.reload_period_s > 0.0 && s.calibration_file.empty()) {
+    throw ParameterError("reload_period", "is set but ~calibration_file is empty");
+  }
+  s.queue_size = param_int(p, "queue_size", s.queue_size);
+  if (s.queue_size < 1) throw ParameterError("queue_size", "must be >= 1 message");
+  s.publisher_queue_size = param_int(p, "publisher_queue_size", s.publisher_queue_size);
+  if (s.publisher_queue_size < 1) throw ParameterError("publisher_queue_size", "must be >= 1 message");
+  s.correct_samples_before_window = param_bool(p, "correct_samples_before_window", s.correct_samples_before_window);
+  s.check_frame_id = param_bool(p, "check_frame_id", s.check_frame_id);
+  s.include_calibration_covariance = param_bool(p, "include_calibration_covariance", s.include_calibration_covariance);
+  s.max_matrix_condition = param_double(p, "max_matrix_condition", s.max_matrix_condition);
+  if (!(s.max_matrix_condition >= 1.0)) throw ParameterError("max_matrix_condition", "must be >= 1");
+  s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
+  require_positive("diagnostic_period", s.diagnostic_period_s, "s");
+  return s;
+}
+
+CorrectionNode::CorrectionNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : nh_(nh),
+      private_nh_(private_nh),
+      settings_(CorrectionNodeSettings::load(private_nh)),
+      node_name_(ros::this_node::getName()),
+      updater_(nh, private_nh) {
+  for (const std::string& name : unknown_private_parameters(private_nh_, kKnownParameters)) {
+    ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
+  }
+  updater_.setHardwareID("test " + nh_.resolveName(settings_.test_topic));
+  updater_.add("correction", [this](DiagnosticStatusWrapper& status) { diagnose(status); });
+  if (!settings_.calibration_file.empty()) load_file(true);
+
+  corrected_publisher_ =
+      nh_.advertise<sensor_msgs::MagneticField>(settings_.corrected_topic, static_cast<std::uint32_t>(settings_.publisher_queue_size));
+  const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
+  calibration_subscriber_ = nh_.subscribe(settings_.calibration_topic, 10, &CorrectionNode::on_calibration, this, hints);
+  test_subscriber_ = nh_.subscribe(settings_.test_topic, static_cast<std::uint32_t>(settings_.queue_size),
+                                   &CorrectionNode::on_test, this, hints);
+  diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
+                                      [this](const ros::TimerEvent&) { updater_.force_update(); });
+  if (settings_.reload_period_s > 0.0) {
+    reload_timer_ = nh_.createWallTimer(ros::WallDuration(settings_.reload_period_s),
+                                        [this](const ros::WallTimerEvent&) { load_file(false); });
+  }
+  ROS_INFO("%s: %s -> %s with calibrations from %s%s", node_name_.c_str(), nh_.resolveName(settings_.test_topic).c_str(),
+           nh_.resolveName(settings_.corrected_topic).c_str(), nh_.resolveName(settings_.calibration_topic).c_str(),
+           settings_.calibration_file.empty() ? "" : (" and " + settings_.calibration_file).c_str());
+}
+
+std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::string& source) {
+  std::string reason;
+  if (!c.accepted) {
+    reason = "not accepted (" + c.quality_text + ")";
+  } else if (c.quality != MagnetometerCalibration::QUALITY_OK) {
+    reason = "accepted=true but quality " + std::to_string(c.quality) + " is not OK";
+  }
+  std::unique_ptr<CorrectionModel> model;
+  if (reason.empty()) {
+    Eigen::Matrix3d n;
+    Matrix9d covariance;
+    for (int k = 0; k < 9; ++k) n(k / 3, k % 3) = c.matrix[k];
+    for (int k = 0; k < 81; ++k) covariance(k / 9, k % 9) = c.matrix_covariance[k];
+    try {
+      model = std::make_unique<CorrectionModel>(n, covariance, settings_.max_matrix_condition);
+    } catch (const std::invalid_argument& e) {
+      reason = e.what();
+    }
+  }
+  if (!reason.empty()) {
+    ++rejected_;
+    rejected_since_adoption_ = true;
+    last_rejection_ = source + ", window " + window_text(c) + ": " + reason;
+    if (c.accepted) {
+      ROS_WARN("%s: calibration rejected: %s", node_name_.c_str(), last_rejection_.c_str());
+    } else {
+      ROS_INFO("%s: calibration rejected: %s", node_name_.c_str(), last_rejection_.c_str());
+    }
+    return reason;
+  }
+  auto next = std::make_unique<Active>();
+  next->calibration = c;
+  next->model = std::move(model);
+  next->source = source;
+  next->adopted_s = ros::Time::now().toSec();
+  active_ = std::move(next);
+  ++adopted_;
+  rejected_since_adoption_ = false;
+  ROS_INFO("%s: calibration of window %s (%s) in use, from %s", node_name_.c_str(), window_text(c).c_str(),
+           c.test_name.c_str(), source.c_str());
+  return "";
+}
+
+void CorrectionNode::load_file(bool at_start) {
+  const std::string& path = settings_.calibration_file;
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) {
+    if (errno == ENOENT) {
+      file_missing_ = true;
+      file_error_ = false;
+      file_state_ = "missing (no calibration written yet)";
+      if (at_start) ROS_WARN("%s: no calibration file %s yet", node_name_.c_str(), path.c_str());
+    } else {
+      file_error_ = true;
+      file_state_ = path + ": " + std::strerror(errno);
+    }
+    return;
+  }
+  const long long mtime_ns = static_cast<long long>(info.st_mtim.tv_sec) * 1000000000LL + info.st_mtim.tv_nsec;
+  if (!at_start && mtime_ns == file_mtime_ns_ && static_cast<long long>(info.st_size) == file_size_) return;
+  file_mtime_ns_ = mtime_ns;
+  file_size_ = static_cast<long long>(info.st_size);
+  file_missing_ = false;
+  try {
+    const MagnetometerCalibration c = load_calibration_file(path);
+    if (active_ && calibrations_equal(active_->calibration, c)) {
+      file_error_ = false;
+      file_state_ = "loaded (same as in use)";
+      return;
+    }
+    const std::string reason = adopt(c, "file " + path);
+    file_error_ = !reason.empty();
+    file_state_ = reason.empty() ? "loaded" : path + ": calibration not usable: " + reason;
+  } catch (const CalibrationFileError& e) {
+    file_error_ = true;
+    file_state_ = e.what();
+    ROS_ERROR("%s: calibration file unusable, %s: %s", node_name_.c_str(),
+              active_ ? "keeping the calibration in use" : "nothing will be published until a calibration arrives",
+              e.what());
+  }
+}
+
+void CorrectionNode::on_calibration(const MagnetometerCalibration::ConstPtr& calibration) {
+  ++calibration_messages_;
+  adopt(*calibration, "topic " + nh_.resolveName(settings_.calibration_topic));
+}
+
+void CorrectionNode::on_test(const sensor_msgs::MagneticField::ConstPtr& message) {
+  ++received_;
+  if (!active_) {
+    ++dropped_no_calibration_;
+    return;
+  }
+  const MagnetometerCalibration& c = active_->calibration;
+  if (settings_.check_frame_id && message->header.frame_id != c.test_frame_id) {
+    ++dropped_frame_;
+    last_frame_seen_ = message->header.frame_id;
+    return;
+  }
+  if (message->header.stamp < c.window_start) {
+    if (!settings_.correct_samples_before_window) {
+      ++dropped_before_window_;
+      return;
+    }
+    ++corrected_before_window_;
+  }
+  const CorrectionModel& model = *active_->model;
+  const Eigen::Vector3d test(message->magnetic_field.x, message->magnetic_field.y, message->magnetic_field.z);  // T
+  const Eigen::Vector3d reference = model.correct(test);  // T, reference frame
+  Eigen::Matrix3d test_covariance;  // T^2, test frame
+  for (int k = 0; k < 9; ++k) test_covariance(k / 3, k % 3) = message->magnetic_field_covariance[k];
+
+  sensor_msgs::MagneticField out;
+  out.header.stamp = message->header.stamp;
+  out.header.frame_id = c.reference_frame_id;
+  out.magnetic_field.x = reference(0);
+  out.magnetic_field.y = reference(1);
+  out.magnetic_field.z = reference(2);
+  if (!test_covariance.isZero(0.0)) {  // all zero = unknown, and stays unknown
+    const Eigen::Matrix3d covariance =
+        model.corrected_covariance(test_covariance, reference, settings_.include_calibration_covariance);
+    for (int k = 0; k < 9; ++k) out.magnetic_field_covariance[k] = covariance(k / 3, k % 3);
+  }
+  corrected_publisher_.publish(out);
+  ++published_;
+}
+
+void CorrectionNode::diagnose(DiagnosticStatusWrapper& status) {
+  status.summary(DiagnosticStatus::OK, "correcting");
+  status.add("test topic", nh_.resolveName(settings_.test_topic));
+  status.add("corrected topic", nh_.resolveName(settings_.corrected_topic));
+  status.add("calibration topic", nh_.resolveName(settings_.calibration_topic));
+  status.add("calibration file", settings_.calibration_file);
+  status.add("calibration file state", file_state_);
+  status.add("received", received_);
+  status.add("published", published_);
+  status.add("dropped, no calibration", dropped_no_calibration_);
+  status.add("dropped, frame_id mismatch", dropped_frame_);
+  status.add("dropped, before window", dropped_before_window_);
+  status.add("corrected, before window", corrected_before_window_);
+  status.add("calibration messages", calibration_messages_);
+  status.add("calibrations adopted", adopted_);
+  status.add("calibrations rejected", rejected_);
+  status.add("last rejection", last_rejection_);
+  if (active_) {
+    const MagnetometerCalibration& c = active_->calibration;
+    status.add("calibration source", active_->source);
+    status.add("calibration window", window_text(c));
+    status.add("calibration stamp", iso(c.header.stamp));
+    status.add("calibration test name", c.test_name);
+    status.add("calibration frames", c.test_frame_id + " -> " + c.reference_frame_id);
+    std::ostringstream matrix;
+    matrix.precision(9);
+    for (int k = 0; k < 9; ++k) matrix << (k ? " " : "") << c.matrix[k];
+    status.add("calibration matrix n (row-major)", matrix.str());
+    status.add("calibration condition number", active_->model->condition_number());
+  } else {
+    status.add("calibration source", "none");
+  }
+  if (file_error_) {
+    status.mergeSummary(active_ ? DiagnosticStatus::WARN : DiagnosticStatus::ERROR,
+                        "calibration file unusable: " + file_state_);
+  }
+  if (!active_) {
+    status.mergeSummary(DiagnosticStatus::WARN, "no calibration yet: " + std::to_string(dropped_no_calibration_) +
+                                                    " samples not published");
+  } else if (rejected_since_adoption_) {
+    status.mergeSummary(DiagnosticStatus::WARN, "latest calibration rejected (" + last_rejection_ + "), still using " +
+                                                    window_text(active_->calibration));
+  }
+  if (dropped_frame_ > reported_frame_) {
+    status.mergeSummary(DiagnosticStatus::WARN, std::to_string(dropped_frame_ - reported_frame_) +
+                                                    " samples with frame_id '" + last_frame_seen_ +
+                                                    "' instead of '" + active_->calibration.test_frame_id + "'");
+  }
+  reported_frame_ = dropped_frame_;
+}
+
+}  // namespace magnetometer_insitu_calibration

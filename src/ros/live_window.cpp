@@ -1,0 +1,114 @@
+// Sliding window over the live paired stream, and the estimate of one window.
+#include "magnetometer_insitu_calibration/ros/live_window.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace magnetometer_insitu_calibration {
+
+SlidingWindowBuffer::SlidingWindowBuffer(double window_s, double step_s, double period_s)
+    : window_s_(window_s),
+      step_s_(step_s),
+      period_s_(period_s),
+      expected_samples_(static_cast<std::size_t>(std::max(1LL, std::llround(window_s / period_s)))) {}
+
+void SlidingWindowBuffer::reset() {
+  buffer_.clear();
+  started_ = false;
+}
+
+std::vector<WindowData> SlidingWindowBuffer::push(double time_s, const Eigen::Vector3d& reference_nT,
+                                                  const Eigen::Vector3d& test_nT) {
+  std::vector<WindowData> done;
+  if (!std::isfinite(time_s) || (started_ && time_s <= last_time_s_)) {
+    ++out_of_order_;
+    return done;
+  }
+  const double half = 0.5 * period_s_;
+  if (!started_) {
+    next_start_ = std::ceil((time_s - half) / step_s_) * step_s_;
+    started_ = true;
+  }
+  last_time_s_ = time_s;
+  // Complete every window whose end this sample has reached.
+  while (time_s >= next_start_ + window_s_ - half) {
+    WindowData w = copy_window(next_start_);
+    if (w.paired.size() == 0) {
+      ++skipped_empty_;
+    } else {
+      ++emitted_;
+      done.push_back(std::move(w));
+    }
+    next_start_ += step_s_;
+    // After a long silence or jump, go straight to the first window that can hold data.
+    const double first_data = buffer_.empty() ? time_s : std::min(time_s, buffer_.front().time_s);
+    if (next_start_ + window_s_ - half <= first_data) {
+      const double skip_to = std::ceil((first_data - window_s_ + half) / step_s_) * step_s_;
+      if (skip_to > next_start_) {
+        skipped_empty_ += static_cast<std::size_t>(std::llround((skip_to - next_start_) / step_s_));
+        next_start_ = skip_to;
+      }
+    }
+    while (!buffer_.empty() && buffer_.front().time_s < next_start_ - half) buffer_.pop_front();
+  }
+  buffer_.push_back(PairedSample{time_s, reference_nT, test_nT});
+  return done;
+}
+
+WindowData SlidingWindowBuffer::copy_window(double start_s) const {
+  const double half = 0.5 * period_s_;
+  const double low = start_s - half, high = start_s + window_s_ - half;
+  auto first = std::lower_bound(buffer_.begin(), buffer_.end(), low,
+                                [](const PairedSample& s, double t) { return s.time_s < t; });
+  auto last = std::lower_bound(first, buffer_.end(), high,
+                               [](const PairedSample& s, double t) { return s.time_s < t; });
+  WindowData w;
+  w.start_s = start_s;
+  w.period_s = period_s_;
+  w.expected_samples = expected_samples_;
+  const auto n = static_cast<Eigen::Index>(std::distance(first, last));
+  w.paired.time_s.reserve(static_cast<std::size_t>(n));
+  w.paired.reference_nT.resize(n, 3);
+  w.paired.test_nT.resize(n, 3);
+  Eigen::Index row = 0;
+  for (auto it = first; it != last; ++it, ++row) {
+    w.paired.time_s.push_back(it->time_s);
+    w.paired.reference_nT.row(row) = it->reference_nT.transpose();
+    w.paired.test_nT.row(row) = it->test_nT.transpose();
+  }
+  return w;
+}
+
+WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, const WindowGapRule& rule) {
+  WindowResult r;
+  r.start_s = window.start_s;
+  r.end_s = window.end_s();
+  r.expected_samples = window.expected_samples;
+  const GapReport gaps = regularize_and_fill(window.paired, window.period_s, rule.gaps);
+  const double period = window.period_s;
+  const auto epoch = [&](double t) { return std::llround((t - window.start_s) / period); };
+  const long long first = std::max(0LL, epoch(window.paired.time_s.front()));
+  const long long last = std::min<long long>(static_cast<long long>(window.expected_samples) - 1,
+                                             epoch(window.paired.time_s.back()));
+  r.leading_missing = static_cast<std::size_t>(first);
+  r.trailing_missing = static_cast<std::size_t>(std::max(0LL, static_cast<long long>(window.expected_samples) - 1 - last));
+  r.interpolated = gaps.filled_samples;
+  const double edge_gap_s = static_cast<double>(std::max(r.leading_missing, r.trailing_missing)) * period;
+  r.long_gap = !gaps.long_gaps.empty() || edge_gap_s > rule.gaps.max_fill_s;
+  r.estimate = estimator.estimate(window.paired.reference_nT, window.paired.test_nT, period);
+  const double fraction = static_cast<double>(r.missing()) / static_cast<double>(window.expected_samples);
+  if (r.long_gap || fraction > rule.max_filled_fraction) {
+    // Missing data is the cause to report, even when the shortened window also failed one of
+    // the estimator's rules (whose text is kept).
+    std::ostringstream text;
+    text << r.missing() << " of " << window.expected_samples << " samples interpolated or missing";
+    if (r.long_gap) text << ", a gap longer than " << rule.gaps.max_fill_s << " s";
+    if (r.estimate.quality != Quality::kOk) text << "; also " << r.estimate.quality_text;
+    r.estimate.quality = Quality::kGaps;
+    r.estimate.quality_text = text.str();
+  }
+  return r;
+}
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,85 @@
+// Private parameter reading with errors that name the parameter.
+#include "magnetometer_insitu_calibration/ros/parameters.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+template <typename T>
+T read(const ros::NodeHandle& nh, const std::string& name, const T& fallback, const char* expected) {
+  if (!nh.hasParam(name)) return fallback;
+  T value{};
+  if (!nh.getParam(name, value)) throw ParameterError(name, std::string("must be ") + expected);
+  return value;
+}
+
+std::string number_text(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+}  // namespace
+
+double param_double(const ros::NodeHandle& nh, const std::string& name, double fallback) {
+  const double value = read<double>(nh, name, fallback, "a number");
+  if (!std::isfinite(value)) throw ParameterError(name, "must be a finite number, not " + number_text(value));
+  return value;
+}
+
+int param_int(const ros::NodeHandle& nh, const std::string& name, int fallback) {
+  return read<int>(nh, name, fallback, "an integer");
+}
+
+bool param_bool(const ros::NodeHandle& nh, const std::string& name, bool fallback) {
+  return read<bool>(nh, name, fallback, "true or false");
+}
+
+std::string param_string(const ros::NodeHandle& nh, const std::string& name, const std::string& fallback) {
+  return read<std::string>(nh, name, fallback, "a string");
+}
+
+std::string required_string(const ros::NodeHandle& nh, const std::string& name) {
+  if (!nh.hasParam(name)) throw ParameterError(name, "is required and not set");
+  const std::string value = param_string(nh, name, "");
+  if (value.empty()) throw ParameterError(name, "must not be empty");
+  return value;
+}
+
+void require_positive(const std::string& name, double value, const std::string& unit) {
+  if (!(value > 0.0)) throw ParameterError(name, "must be > 0 " + unit + ", not " + number_text(value));
+}
+
+void require_non_negative(const std::string& name, double value, const std::string& unit) {
+  if (!(value >= 0.0)) throw ParameterError(name, "must be >= 0 " + unit + ", not " + number_text(value));
+}
+
+void require_in_range(const std::string& name, double value, double low, double high) {
+  if (!(value >= low && value <= high)) {
+    throw ParameterError(name, "must be in [" + number_text(low) + ", " + number_text(high) + "], not " +
+                                   number_text(value));
+  }
+}
+
+std::vector<std::string> unknown_private_parameters(const ros::NodeHandle& nh,
+                                                    const std::vector<std::string>& known) {
+  std::vector<std::string> names, unknown;
+  if (!nh.getParamNames(names)) return unknown;
+  const std::string prefix = nh.getNamespace() + "/";
+  for (const std::string& full : names) {
+    if (full.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rest = full.substr(prefix.size());
+    const std::string first = rest.substr(0, rest.find('/'));
+    if (std::find(known.begin(), known.end(), first) == known.end() &&
+        std::find(unknown.begin(), unknown.end(), first) == unknown.end()) {
+      unknown.push_back(first);
+    }
+  }
+  return unknown;
+}
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,27 @@
+# Tests of the ROS layer, included by CMakeLists.txt when CATKIN_ENABLE_TESTING.
+#  - test_ros_layer: gtest without a master (calibration YAML, sliding window, window
+#    estimate and gap flags, correction model);
+#  - rostests with a real master (rostest starts one per .test file): simulated streams with a
+#    fast /clock into calibration_node + correction_node (launch/calibration.launch).
+# Test binaries are EXCLUDE_FROM_ALL: build the `tests` target before ctest.
+find_package(rostest REQUIRED)
+
+catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR} TIMEOUT 120)
+if(TARGET test_ros_layer)
+  target_link_libraries(test_ros_layer ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
+  target_compile_options(test_ros_layer PRIVATE -Wall -Wextra)
+endif()
+
+# One gtest binary; each .test file runs one of its TESTs (--gtest_filter in the .test).
+add_rostest_gtest(rostest_calibration test/ros/nominal.test test/ros/rostest_calibration.cpp)
+target_link_libraries(rostest_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})
+target_compile_options(rostest_calibration PRIVATE -Wall -Wextra)
+target_compile_definitions(rostest_calibration PRIVATE
+  CALIBRATION_NODE_PATH="$<TARGET_FILE:calibration_node>"
+  CORRECTION_NODE_PATH="$<TARGET_FILE:correction_node>")
+# add_rostest_gtest does not make the test depend on the nodes it launches.
+add_dependencies(rostest_calibration calibration_node correction_node)
+foreach(rostest_file silent_topic time_jump bad_parameters)
+  add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
+endforeach()
