@@ -6,6 +6,7 @@
 //                                                 YAML file, corrected stream, bad calibration files
 //   Calibration.SilentTopic    silent_topic.test  test stream stops for 20 min
 //   Calibration.TimeJump       time_jump.test     stamps jump forward by an hour
+//   Calibration.Decimation10Hz decimation.test    10 Hz inputs decimated to 1 Hz in the node
 //   Calibration.BadParameters  bad_parameters.test  impossible parameters: the node exits naming them
 // Private parameters of the test node: the topic names and the calibration file of the launch.
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
@@ -103,8 +104,12 @@ class Harness {
 
   /// Publishes samples [first, last) of the simulation: /clock = start + k * period (never
   /// jumps), stamps = that + stamp_offset_s; reference and/or test. ~rate samples per wall second.
-  void publish(std::size_t first, std::size_t last, bool reference, bool test, double stamp_offset_s = 0.0) {
-    const double rate = std::stod(param("rate", "2500"));
+  void publish(std::size_t first, std::size_t last, bool reference, bool test, double stamp_offset_s = 0.0,
+               double rate = -1.0) {
+    if (rate < 0.0) {
+      rate = 2500.0;  // samples per wall second; 0: as fast as possible
+      ros::param::get("~rate", rate);
+    }
     const ros::WallTime started = ros::WallTime::now();
     for (std::size_t k = first; k < last; ++k) {
       const double clock_s = pair_.reference.time_s[k];
@@ -115,7 +120,7 @@ class Harness {
       if (reference) reference_pub_.publish(field_message(stamp, "reference_frame", pair_.reference.values_nT.row(k), Eigen::Vector3d::Constant(0.01)));
       if (test) test_pub_.publish(field_message(stamp, "test_frame", pair_.test.values_nT.row(k), test_noise_rms_nT_));
       last_clock_s_ = clock_s;
-      if ((k - first) % 50 == 49) {
+      if (rate > 0.0 && (k - first) % 50 == 49) {
         const double due = static_cast<double>(k - first + 1) / rate;
         const double ahead = due - (ros::WallTime::now() - started).toSec();
         if (ahead > 0) ros::WallDuration(ahead).sleep();
@@ -252,10 +257,10 @@ class Harness {
   std::map<std::string, std::vector<DiagnosticRecord>> diagnostics_;
 };
 
-mic::SimulationSettings simulation(double duration_s, std::uint64_t seed) {
+mic::SimulationSettings simulation(double duration_s, std::uint64_t seed, double period_s = 1.0) {
   mic::SimulationSettings s;
   s.duration_s = duration_s;
-  s.sample_period_s = 1.0;
+  s.sample_period_s = period_s;
   s.seed = seed;
   return s;
 }
@@ -288,9 +293,12 @@ std::size_t value_of(const DiagnosticRecord* r, const std::string& key) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(Calibration, Nominal) {
-  // 3 h 20 min at 1 Hz: windows of 3 h every 10 min -> windows starting at t0 and t0 + 600 s.
+  // 3 h 20 min of pairs at 1 Hz (~rate samples per wall second): windows of 3 h every 10 min ->
+  // windows starting at t0 and t0 + 600 s. Then a burst of 5000 test samples alone, as fast as
+  // the test can publish them, into the correction nodes (the load measurement: none dropped).
   const double window_s = 10800.0, step_s = 600.0;
-  Harness h(simulation(12000.0, 7));
+  const std::size_t paired_samples = 12000, burst = 5000;
+  Harness h(simulation(static_cast<double>(paired_samples + burst), 7));
   const std::string corrected = param("corrected_topic", "/sim/corrected");
   const std::vector<std::string> bad_file_topics = {"/sim/corrected_malformed", "/sim/corrected_truncated"};
   h.subscribe_corrected(corrected);
@@ -302,21 +310,45 @@ TEST(Calibration, Nominal) {
 
   const ros::WallTime started = ros::WallTime::now();
   const std::size_t n = h.pair().reference.size();
-  h.publish(0, n, true, true);
+  h.publish(0, paired_samples, true, true);
   const double publish_wall_s = (ros::WallTime::now() - started).toSec();
+  // Both windows estimated and in use by the correction nodes before the burst.
+  const bool paired_done = h.wait([&] {
+    if (h.calibrations().size() < 2) return false;
+    for (const std::string& topic : {corrected, bad_file_topics[0], bad_file_topics[1]}) {
+      const auto& c = h.corrected(topic);
+      if (c.empty() || c.back().stamp_s < h.pair().reference.time_s[paired_samples - 1]) return false;
+    }
+    return true;
+  }, 30.0);
+  const ros::WallTime burst_started = ros::WallTime::now();
+  h.publish(paired_samples, n, false, true, 0.0, /*rate=*/0.0);
+  const double burst_wall_s = (ros::WallTime::now() - burst_started).toSec();
+  // Everything processed: the corrected streams reached the last stamp, and the correction
+  // nodes have counted every sample (the clock keeps ticking for their diagnostics).
   const double last_stamp = h.pair().reference.time_s.back();
-  // Everything processed: both windows published, the corrected stream reached the last stamp,
-  // and the correction node has counted every sample (the clock keeps ticking for its diagnostics).
-  const bool done = h.wait([&] {
-    const auto& c = h.corrected(corrected);
-    return h.calibrations().size() >= 2 && !c.empty() && c.back().stamp_s >= last_stamp;
-  }, 30.0) && h.wait_ticking([&] { return value_of(h.latest_diagnostic("correction_sim"), "received") == n; }, 30.0);
+  const bool done = paired_done && h.wait([&] {
+    for (const std::string& topic : {corrected, bad_file_topics[0], bad_file_topics[1]}) {
+      const auto& c = h.corrected(topic);
+      if (c.empty() || c.back().stamp_s < last_stamp) return false;
+    }
+    return true;
+  }, 30.0) && h.wait_ticking([&] {
+    for (const char* node : {"correction_sim", "correction_malformed", "correction_truncated"}) {
+      if (value_of(h.latest_diagnostic(node), "received") != n) return false;
+    }
+    return true;
+  }, 30.0);
+  const double burst_done_s = (ros::WallTime::now() - burst_started).toSec();
   h.tick_clock(30.0);  // a last round of diagnostics
   ros::WallDuration(0.3).sleep();
   std::lock_guard<std::mutex> lock(h.mutex());
-  EXPECT_TRUE(done) << "timed out waiting for the nodes";
-  std::printf("[ timing ] published %zu pairs in %.2f s wall (%.0f samples/s per stream); done %.2f s after start\n", n,
-              publish_wall_s, n / publish_wall_s, (ros::WallTime::now() - started).toSec());
+  EXPECT_TRUE(paired_done) << "timed out waiting for the calibrations";
+  EXPECT_TRUE(done) << "timed out waiting for the corrected burst";
+  std::printf("[ timing ] published %zu pairs in %.2f s wall (%.0f samples/s per stream); burst of %zu test samples "
+              "in %.3f s (%.0f samples/s), all corrected %.2f s after its start; total %.2f s\n",
+              paired_samples, publish_wall_s, paired_samples / publish_wall_s, burst, burst_wall_s, burst / burst_wall_s,
+              burst_done_s, (ros::WallTime::now() - started).toSec());
 
   // 1. Calibrations: two windows, accepted, within 3 standard errors of n_true.
   const auto& calibrations = h.calibrations();
@@ -429,7 +461,7 @@ TEST(Calibration, Nominal) {
   const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
   ASSERT_NE(cal, nullptr);
   EXPECT_EQ(value_of(cal, "windows accepted"), 2u);
-  EXPECT_EQ(value_of(cal, "paired"), n);
+  EXPECT_EQ(value_of(cal, "paired"), paired_samples);
   EXPECT_EQ(value_of(cal, "late") + value_of(cal, "duplicates"), 0u);
 
   // 5. Correction nodes started with a malformed / half-written file: an error in the
@@ -445,6 +477,10 @@ TEST(Calibration, Nominal) {
     const auto& bad = h.corrected("/sim/" + std::string(node == "correction_malformed" ? "corrected_malformed" : "corrected_truncated"));
     ASSERT_FALSE(bad.empty());
     EXPECT_GT(bad.front().stamp_s, first_calibrated);
+    const DiagnosticRecord* last = h.latest_diagnostic(node);
+    ASSERT_NE(last, nullptr);
+    EXPECT_EQ(value_of(last, "received"), n) << "samples dropped under load";
+    EXPECT_EQ(value_of(last, "published"), bad.size());
   }
 }
 
@@ -551,6 +587,48 @@ TEST(Calibration, TimeJump) {
   const auto& out = h.corrected(param("corrected_topic", "/sim/corrected"));
   ASSERT_FALSE(out.empty());
   EXPECT_GE(out.back().stamp_s, t0 + 8400.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Calibration, Decimation10Hz) {
+  // 10 Hz inputs (input_period 0.1 s), low-passed and decimated to 1 Hz in calibration_node;
+  // windows of 30 min every 5 min. The decimator's first output comes h = 3.9 s after the first
+  // sample, so the first window starts at t0 + 300 s.
+  Harness h(simulation(2500.0, 17, 0.1));
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  const double t0 = h.start_s();
+  const ros::WallTime started = ros::WallTime::now();
+  const std::size_t n = h.pair().reference.size();
+  h.publish(0, n, true, true);
+  const double publish_wall_s = (ros::WallTime::now() - started).toSec();
+  EXPECT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 20.0));
+  h.tick_clock(20.0);
+  ros::WallDuration(0.2).sleep();
+  std::printf("[ timing ] published %zu pairs at 10 Hz in %.2f s wall (%.0f samples/s per stream)\n", n, publish_wall_s,
+              n / publish_wall_s);
+
+  std::lock_guard<std::mutex> lock(h.mutex());
+  ASSERT_EQ(h.calibrations().size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto& c = h.calibrations()[i];
+    SCOPED_TRACE("calibration " + std::to_string(i));
+    EXPECT_TRUE(c.accepted) << c.quality_text;
+    EXPECT_DOUBLE_EQ(c.window_start.toSec(), t0 + 300.0 * (i + 1));
+    EXPECT_DOUBLE_EQ(c.sample_period, 1.0);
+    EXPECT_EQ(c.samples, 1800u);
+    EXPECT_EQ(c.filled_samples, 0u);
+    const Eigen::Matrix3d n_hat = matrix_of(c), se = stderr_of(c), n_true = h.pair().n_true;
+    for (int k = 0; k < 9; ++k) {
+      EXPECT_LE(std::abs(n_hat(k / 3, k % 3) - n_true(k / 3, k % 3)), 3.0 * se(k / 3, k % 3)) << "entry " << k;
+    }
+    std::printf("[ result ] 10 Hz window %zu: max |n - n_true| / se = %.2f\n", i,
+                ((n_hat - n_true).cwiseAbs().array() / se.array()).maxCoeff());
+  }
+  const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
+  ASSERT_NE(cal, nullptr);
+  EXPECT_EQ(cal->values.at("decimating"), "True");
+  EXPECT_EQ(value_of(cal, "paired"), n);
 }
 
 // ---------------------------------------------------------------------------------------------

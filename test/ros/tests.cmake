@@ -6,7 +6,7 @@
 # Test binaries are EXCLUDE_FROM_ALL: build the `tests` target before ctest.
 find_package(rostest REQUIRED)
 
-catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR} TIMEOUT 120)
+catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
 if(TARGET test_ros_layer)
   target_link_libraries(test_ros_layer ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
   target_compile_options(test_ros_layer PRIVATE -Wall -Wextra)
@@ -22,6 +22,6 @@ target_compile_definitions(rostest_calibration PRIVATE
   CORRECTION_NODE_PATH="$<TARGET_FILE:correction_node>")
 # add_rostest_gtest does not make the test depend on the nodes it launches.
 add_dependencies(rostest_calibration calibration_node correction_node)
-foreach(rostest_file silent_topic time_jump bad_parameters)
+foreach(rostest_file silent_topic time_jump decimation bad_parameters)
   add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 endforeach()

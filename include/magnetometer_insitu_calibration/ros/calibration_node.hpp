@@ -58,14 +58,14 @@ struct CalibrationNodeSettings {
   double input_period_s = 1.0;          ///< nominal sample period of both inputs, s
   DecimationSettings decimation;        ///< output_period_s (s), sigma_s (s, 0 = default), half_width_sigmas
   double pairing_tolerance_s = 0.010;   ///< largest |t_test - t_ref| of a pair, s
-  double pairing_max_wait_s = 120.0;    ///< longest wait (stamp time) for a partner, s
+  double pairing_max_wait_s = 600.0;    ///< longest wait (stamp time) for a partner, s
   double window_s = 86400.0;            ///< window length, s
   double step_s = 3600.0;               ///< step between window starts, s
   WindowGapRule gap_rule;               ///< max_fill_s (s) and max_filled_fraction
   EstimatorSettings estimator;          ///< band (Hz), gamma, trend, quality rules
   double silent_timeout_s = 10.0;       ///< ROS time without a message before a topic is "silent", s
   double time_jump_threshold_s = 60.0;  ///< stamp step counted as a time jump, s
-  int queue_size = 1000;                ///< subscriber queue length, messages
+  int queue_size = 10000;               ///< subscriber queue length, messages
   int max_pending_windows = 8;          ///< windows waiting for the worker
   double diagnostic_period_s = 1.0;     ///< ROS time between diagnostics, s
 

@@ -56,8 +56,8 @@ struct CorrectionNodeSettings {
   std::string calibration_topic = "calibration";
   std::string calibration_file;                 ///< YAML loaded at start ("" = none)
   double reload_period_s = 0.0;                 ///< wall s between file checks, 0 = only at start
-  int queue_size = 1000;                        ///< subscriber queue, messages
-  int publisher_queue_size = 1000;              ///< publisher queue, messages
+  int queue_size = 10000;                       ///< subscriber queue, messages
+  int publisher_queue_size = 10000;             ///< publisher queue, messages
   bool correct_samples_before_window = true;
   bool check_frame_id = true;
   bool include_calibration_covariance = true;
