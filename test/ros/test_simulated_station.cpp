@@ -1,0 +1,225 @@
+// rostest (test/ros/test_simulated_station.test): the whole simulated station end to end,
+// launch/simulated_station.launch: two lemi025_simulator instances on pseudo-terminals (same
+// seed, roles reference and test, --speed faster than real time) -> two lemi025_driver ->
+// calibration_node (10 Hz decimated to 1 Hz, short windows) -> correction_node.
+//
+// SimulatedStation.CalibrationRecoversTruthAndCorrectionMatchesReference asserts that
+//  * the first accepted MagnetometerCalibration recovers the simulated n_true: every element
+//    within 3 of its standard errors (sqrt of the diagonal of matrix_covariance), with the
+//    drivers' frame ids;
+//  * the corrected test stream equals the reference stream, sample by sample at identical
+//    stamps: the difference's mean lies within 3 standard deviations of the corrected
+//    covariance (the calibration's uncertainty times the main field dominates it), and its
+//    scatter within 1.5 times the scatter of the simulated noise alone (the two instruments'
+//    noise, recomputed here with the core simulator from the same seed and settings).
+// Private parameters (strings): seed, start, duration (as given to the simulators),
+// pairs (corrected samples to compare), timeout (s).
+#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/time_format.hpp"
+
+#include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/MagneticField.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+constexpr double kNanoteslaPerTesla = 1e9;
+
+std::string station_param(const std::string& name, const std::string& fallback) {
+  std::string value;
+  return ros::param::get("~" + name, value) ? value : fallback;
+}
+
+struct Sample {
+  Eigen::Vector3d field_nT;
+  Eigen::Vector3d variance_nT2;  ///< covariance diagonal
+};
+
+class StationRecorder {
+ public:
+  StationRecorder() {
+    ros::NodeHandle nh;
+    calibration_sub_ = nh.subscribe(station_param("calibration_topic", "/test/calibration"), 100,
+                                    &StationRecorder::on_calibration, this);
+    reference_sub_ = nh.subscribe(station_param("reference_topic", "/reference/magnetic_field"), 100000,
+                                  &StationRecorder::on_reference, this);
+    corrected_sub_ = nh.subscribe(station_param("corrected_topic", "/test/corrected"), 100000,
+                                  &StationRecorder::on_corrected, this);
+  }
+
+  std::size_t corrected_count() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return corrected_.size();
+  }
+  bool accepted(mic::MagnetometerCalibration& out) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& c : calibrations_) {
+      if (c.accepted) {
+        out = c;
+        return true;
+      }
+    }
+    return false;
+  }
+  std::vector<mic::MagnetometerCalibration> calibrations() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return calibrations_;
+  }
+  /// (reference, corrected) at the same stamps, keyed by stamp in ns.
+  std::map<std::uint64_t, std::pair<Sample, Sample>> pairs() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::map<std::uint64_t, std::pair<Sample, Sample>> out;
+    for (const auto& c : corrected_) {
+      const auto r = reference_.find(c.first);
+      if (r != reference_.end()) out[c.first] = {r->second, c.second};
+    }
+    return out;
+  }
+
+ private:
+  static Sample sample(const sensor_msgs::MagneticField& m) {
+    Sample s;
+    s.field_nT = kNanoteslaPerTesla * Eigen::Vector3d(m.magnetic_field.x, m.magnetic_field.y, m.magnetic_field.z);
+    for (int i = 0; i < 3; ++i) {
+      s.variance_nT2(i) = kNanoteslaPerTesla * kNanoteslaPerTesla * m.magnetic_field_covariance[static_cast<std::size_t>(4 * i)];
+    }
+    return s;
+  }
+  void on_calibration(const mic::MagnetometerCalibration::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    calibrations_.push_back(*m);
+  }
+  void on_reference(const sensor_msgs::MagneticField::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    reference_[m->header.stamp.toNSec()] = sample(*m);
+  }
+  void on_corrected(const sensor_msgs::MagneticField::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    corrected_[m->header.stamp.toNSec()] = sample(*m);
+  }
+
+  std::mutex mutex_;
+  std::vector<mic::MagnetometerCalibration> calibrations_;
+  std::map<std::uint64_t, Sample> reference_, corrected_;
+  ros::Subscriber calibration_sub_, reference_sub_, corrected_sub_;
+};
+
+TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
+  const ros::WallTime started = ros::WallTime::now();
+  // The simulators' record (lemi025_simulator: 10 Hz, sample 10 i + k at start - 0.3 + 0.1 (10 i + k)).
+  mic::SimulationSettings settings;
+  settings.seed = std::stoull(station_param("seed", "1"));
+  const double start_s = mic::parse_iso8601(station_param("start", "2025-05-13T23:55:00Z"));
+  settings.start_time_s = start_s - 0.3;
+  settings.duration_s = std::stod(station_param("duration", "3000"));
+  settings.sample_period_s = 0.1;
+  settings.variation_rms_nT = 5.0;
+  settings.keep_clean_field = true;
+  const mic::SimulatedPair truth = mic::simulate_pair(settings);
+  const std::size_t wanted_pairs = std::stoul(station_param("pairs", "3000"));
+  const double timeout_s = std::stod(station_param("timeout", "80"));
+
+  StationRecorder recorder;
+  mic::MagnetometerCalibration calibration;
+  auto remaining = [&] { return timeout_s - (ros::WallTime::now() - started).toSec(); };
+  while (ros::ok() && remaining() > 0 && !recorder.accepted(calibration)) ros::WallDuration(0.05).sleep();
+  ASSERT_TRUE(recorder.accepted(calibration)) << recorder.calibrations().size()
+                                              << " calibrations published, none accepted, within " << timeout_s << " s";
+  const double calibrated_after_s = (ros::WallTime::now() - started).toSec();
+  while (ros::ok() && remaining() > 0 && recorder.pairs().size() < wanted_pairs) ros::WallDuration(0.05).sleep();
+  const auto pairs = recorder.pairs();
+  const double finished_after_s = (ros::WallTime::now() - started).toSec();
+
+  // ---- The calibration against the truth -----------------------------------------------------
+  EXPECT_EQ(calibration.reference_frame_id, "lemi025_sim_reference");
+  EXPECT_EQ(calibration.test_frame_id, "lemi025_sim_test");
+  EXPECT_EQ(calibration.quality, mic::MagnetometerCalibration::QUALITY_OK) << calibration.quality_text;
+  Eigen::Matrix3d n;
+  for (int k = 0; k < 9; ++k) n(k / 3, k % 3) = calibration.matrix[static_cast<std::size_t>(k)];
+  std::fprintf(stderr, "simulated station: (n - n_true) / standard error, row-major:");
+  for (int k = 0; k < 9; ++k) {
+    std::fprintf(stderr, " %.2f", (n(k / 3, k % 3) - truth.n_true(k / 3, k % 3)) /
+                                      std::sqrt(calibration.matrix_covariance[static_cast<std::size_t>(10 * k)]));
+  }
+  std::fprintf(stderr, "\n");
+  for (int k = 0; k < 9; ++k) {
+    const double se = std::sqrt(calibration.matrix_covariance[static_cast<std::size_t>(10 * k)]);
+    const double error = n(k / 3, k % 3) - truth.n_true(k / 3, k % 3);
+    EXPECT_GT(se, 0.0);
+    EXPECT_LE(std::abs(error), 3.0 * se) << "n(" << k / 3 << "," << k % 3 << ") = " << n(k / 3, k % 3) << ", true "
+                                         << truth.n_true(k / 3, k % 3) << ", standard error " << se;
+  }
+
+  // ---- The corrected stream against the reference ------------------------------------------------
+  ASSERT_GE(pairs.size(), wanted_pairs) << "corrected samples paired with reference samples";
+  const Eigen::Matrix3d n_true_inverse = truth.n_true.inverse();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d noise_sum = Eigen::Vector3d::Zero(), noise_sum2 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d variance_sum = Eigen::Vector3d::Zero();
+  std::size_t used = 0;
+  for (const auto& entry : pairs) {
+    const double stamp_s = static_cast<double>(entry.first) * 1e-9;
+    const auto index = static_cast<Eigen::Index>(std::llround((stamp_s - settings.start_time_s) / 0.1));
+    if (index < 0 || index >= truth.reference.values_nT.rows()) continue;
+    const Eigen::Vector3d difference = entry.second.second.field_nT - entry.second.first.field_nT;
+    // The simulated noise alone, in the reference frame: e_t n_true^-1 - e_r (rows are samples).
+    const Eigen::RowVector3d field = truth.field_nT.row(index);
+    const Eigen::RowVector3d e_r = truth.reference.values_nT.row(index) - field;
+    const Eigen::RowVector3d e_t = truth.test.values_nT.row(index) - field * truth.n_true;
+    const Eigen::Vector3d noise = (e_t * n_true_inverse - e_r).transpose();
+    sum += difference;
+    sum2 += difference.cwiseProduct(difference);
+    noise_sum += noise;
+    noise_sum2 += noise.cwiseProduct(noise);
+    variance_sum += entry.second.second.variance_nT2;
+    ++used;
+  }
+  ASSERT_GE(used, wanted_pairs);
+  const double count = static_cast<double>(used);
+  const Eigen::Vector3d mean = sum / count;
+  const Eigen::Vector3d scatter = (sum2 / count - mean.cwiseProduct(mean)).cwiseMax(0.0).cwiseSqrt();
+  const Eigen::Vector3d noise_mean = noise_sum / count;
+  const Eigen::Vector3d noise_scatter =
+      (noise_sum2 / count - noise_mean.cwiseProduct(noise_mean)).cwiseMax(0.0).cwiseSqrt();
+  const Eigen::Vector3d corrected_sd = (variance_sum / count).cwiseSqrt();
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_LE(std::abs(mean(c)), 3.0 * corrected_sd(c))
+        << "component " << c << ": corrected - reference = " << mean(c) << " nT on average, corrected sd "
+        << corrected_sd(c) << " nT";
+    EXPECT_LE(scatter(c), 1.5 * noise_scatter(c))
+        << "component " << c << ": scatter of corrected - reference " << scatter(c)
+        << " nT, of the simulated noise alone " << noise_scatter(c) << " nT";
+  }
+  std::fprintf(stderr,
+      "simulated station: first accepted window %s .. %s after %.1f s (wall), %zu samples compared after %.1f s;\n"
+      "  max |n - n_true| / se = %.2f; corrected - reference: mean %.4f %.4f %.4f nT (corrected sd %.4f %.4f %.4f nT),\n"
+      "  scatter %.4f %.4f %.4f nT (simulated noise alone %.4f %.4f %.4f nT)\n",
+      mic::format_iso8601(calibration.window_start.toSec(), 0).c_str(),
+      mic::format_iso8601(calibration.window_end.toSec(), 0).c_str(), calibrated_after_s, used, finished_after_s,
+      [&] {
+        double worst = 0.0;
+        for (int k = 0; k < 9; ++k) {
+          worst = std::max(worst, std::abs(n(k / 3, k % 3) - truth.n_true(k / 3, k % 3)) /
+                                      std::sqrt(calibration.matrix_covariance[static_cast<std::size_t>(10 * k)]));
+        }
+        return worst;
+      }(),
+      mean(0), mean(1), mean(2), corrected_sd(0), corrected_sd(1), corrected_sd(2), scatter(0), scatter(1), scatter(2),
+      noise_scatter(0), noise_scatter(1), noise_scatter(2));
+}
+
+}  // namespace
