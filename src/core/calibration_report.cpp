@@ -60,6 +60,12 @@ json window_to_json(const CalibrationWindow& w) {
       {"residual_rms_nT", vec3(e.residual_rms_nT)},
       {"quality", quality_name(e.quality)},
       {"quality_text", e.quality_text},
+      {"method", e.method},
+      {"band_used_hz", json::array({number(e.band_low_hz), number(e.band_high_hz)})},
+      {"delay_s", number(e.delay_s)},
+      {"delay_ci95_s", number(e.delay_ci95_s)},
+      {"screened_fraction", e.screened_fraction},
+      {"downweighted_fraction", e.downweighted_fraction},
   };
 }
 
@@ -74,6 +80,8 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s,
         {"model", "T = R n + trend, rows are samples (nT); column l of n is test axis l in reference coordinates"},
         {"band_hz", json::array({s.estimator.band_low_hz, s.estimator.band_high_hz})},
         {"gamma", s.estimator.gamma},
+        {"method", estimator_method_name(s.estimator.method)},
+        {"auto_band", s.estimator.robust.auto_band},
         {"trend", s.estimator.trend},
         {"intervals", s.windows.intervals},
         {"window_s", s.windows.window_s},
@@ -147,8 +155,17 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     row("start (UTC)", [](const CalibrationWindow& w) { return format_iso8601(w.start_s, 0); });
     row("end (UTC)", [](const CalibrationWindow& w) { return format_iso8601(w.end_s, 0); });
     row("samples", [](const CalibrationWindow& w) { return std::to_string(w.estimate.samples); });
+    row("method", [](const CalibrationWindow& w) { return w.estimate.method; });
+    row("band used Hz", [](const CalibrationWindow& w) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%.4g-%.4g", w.estimate.band_low_hz, w.estimate.band_high_hz);
+      return std::string(b);
+    });
     row("harmonics m0..m", [](const CalibrationWindow& w) {
       return std::to_string(w.estimate.harmonic_first) + ".." + std::to_string(w.estimate.harmonic_last);
+    });
+    row("delay test-ref s", [](const CalibrationWindow& w) {
+      return with_ci(w.estimate.delay_s, w.estimate.delay_ci95_s, 3);
     });
     for (int l = 0; l < 3; ++l) {
       row(std::string("scale ratio K") + axes[l] + "t/K" + axes[l] + "r", [l](const CalibrationWindow& w) {
