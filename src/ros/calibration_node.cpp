@@ -266,33 +266,6 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
 }
 
 // ---------------------------------------------------------------------------------------------
-// Stream bookkeeping
-
-StreamMonitor::Jump StreamMonitor::observe(double stamp_s, double arrival_s, const std::string& frame,
-                                           double threshold_s) {
-  Jump jump = Jump::kNone;
-  if (messages > 0) {
-    const double step = stamp_s - last_stamp_s;
-    if (step > threshold_s) {
-      ++jumps_forward;
-      jump = Jump::kForward;
-    } else if (step < -threshold_s) {
-      ++jumps_backward;
-      jump = Jump::kBackward;
-    }
-  }
-  ++messages;
-  last_stamp_s = stamp_s;
-  last_arrival_s = arrival_s;
-  frame_id = frame;
-  return jump;
-}
-
-double StreamMonitor::silence_s(double now_s, double since_s) const {
-  return now_s - (messages > 0 ? last_arrival_s : since_s);
-}
-
-// ---------------------------------------------------------------------------------------------
 // Channel: one test instrument
 
 struct CalibrationNode::Channel {
@@ -604,9 +577,10 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   status.add("topic", nh_.resolveName(reference_.topic));
   status.add("frame_id", reference_.frame_id);
   status.add("messages", reference_.messages);
-  status.add("last stamp", reference_.messages > 0 ? iso(reference_.last_stamp_s) : std::string("none"));
+  status.add("newest stamp", reference_.messages > 0 ? iso(reference_.newest_stamp_s) : std::string("none"));
   status.add("stamp jumps forward", reference_.jumps_forward);
   status.add("stamp jumps backward", reference_.jumps_backward);
+  status.add("stray stamps", reference_.stray);
   const double silence = reference_.silence_s(now, started_s_);
   status.add("silent for (s)", silence);
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
@@ -628,9 +602,10 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   status.add("calibration file", ch.settings.calibration_file);
   status.add("test frame_id", ch.test.frame_id);
   status.add("test messages", ch.test.messages);
-  status.add("test last stamp", ch.test.messages > 0 ? iso(ch.test.last_stamp_s) : std::string("none"));
+  status.add("test newest stamp", ch.test.messages > 0 ? iso(ch.test.newest_stamp_s) : std::string("none"));
   status.add("test stamp jumps forward", ch.test.jumps_forward);
   status.add("test stamp jumps backward", ch.test.jumps_backward);
+  status.add("test stray stamps", ch.test.stray);
   const double silence = ch.test.silence_s(now, started_s_);
   status.add("test silent for (s)", silence);
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {

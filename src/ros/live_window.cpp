@@ -7,6 +7,38 @@
 
 namespace magnetometer_insitu_calibration {
 
+StreamMonitor::Jump StreamMonitor::observe(double stamp_s, double arrival_s, const std::string& frame,
+                                           double threshold_s) {
+  ++messages;
+  last_arrival_s = arrival_s;
+  frame_id = frame;
+  if (messages == 1 || !std::isfinite(newest_stamp_s)) {
+    newest_stamp_s = stamp_s;
+    return Jump::kNone;
+  }
+  if (stamp_s < newest_stamp_s - threshold_s) {
+    if (!behind_) {  // maybe one stray stamp: wait for the next sample
+      behind_ = true;
+      ++stray;
+      return Jump::kNone;
+    }
+    behind_ = false;  // two in a row: the clock was set back
+    --stray;
+    ++jumps_backward;
+    newest_stamp_s = stamp_s;
+    return Jump::kBackward;
+  }
+  behind_ = false;
+  const Jump jump = stamp_s > newest_stamp_s + threshold_s ? Jump::kForward : Jump::kNone;
+  if (jump == Jump::kForward) ++jumps_forward;
+  newest_stamp_s = std::max(newest_stamp_s, stamp_s);
+  return jump;
+}
+
+double StreamMonitor::silence_s(double now_s, double since_s) const {
+  return now_s - (messages > 0 ? last_arrival_s : since_s);
+}
+
 SlidingWindowBuffer::SlidingWindowBuffer(double window_s, double step_s, double period_s)
     : window_s_(window_s),
       step_s_(step_s),

@@ -7,6 +7,7 @@
 //   Calibration.SilentTopic    silent_topic.test  test stream stops for 20 min
 //   Calibration.TimeJump       time_jump.test     stamps jump forward by an hour
 //   Calibration.Decimation10Hz decimation.test    10 Hz inputs decimated to 1 Hz in the node
+//   Calibration.TwoInstruments two_instruments.test  a ~tests list: two test instruments, one node
 //   Calibration.BadParameters  bad_parameters.test  impossible parameters: the node exits naming them
 // Private parameters of the test node: the topic names and the calibration file of the launch.
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
@@ -85,6 +86,31 @@ class Harness {
     spinner_.stop();
   }
 
+  /// Also publishes the test stream on `topic` with `frame_id` (a second test instrument).
+  void add_test_copy(const std::string& topic, const std::string& frame_id) {
+    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id});
+  }
+
+  /// Records MagnetometerCalibration messages of another topic (see calibrations_of()).
+  void subscribe_calibration(const std::string& topic) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    extra_calibration_subs_.push_back(nh_.subscribe<mic::MagnetometerCalibration>(
+        topic, 1000, [this, topic](const mic::MagnetometerCalibration::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          calibrations_of_[topic].push_back(*m);
+        }));
+  }
+  const std::vector<mic::MagnetometerCalibration>& calibrations_of(const std::string& topic) {
+    return calibrations_of_[topic];
+  }
+
+  /// One raw test message (sample k of the simulation) with any stamp and frame_id.
+  void publish_test_sample(std::size_t k, double stamp_s, const std::string& frame_id) {
+    test_pub_.publish(field_message(ros::Time().fromSec(stamp_s), frame_id, pair_.test.values_nT.row(k), test_noise_rms_nT_));
+  }
+
+  std::size_t test_subscribers(std::size_t copy) const { return test_copies_.at(copy).first.getNumSubscribers(); }
+
   void subscribe_corrected(const std::string& topic) {
     std::lock_guard<std::mutex> lock(mutex_);
     corrected_subs_.push_back(nh_.subscribe<sensor_msgs::MagneticField>(
@@ -118,7 +144,12 @@ class Harness {
       clock_pub_.publish(clock);
       const ros::Time stamp = ros::Time().fromSec(clock_s + stamp_offset_s);
       if (reference) reference_pub_.publish(field_message(stamp, "reference_frame", pair_.reference.values_nT.row(k), Eigen::Vector3d::Constant(0.01)));
-      if (test) test_pub_.publish(field_message(stamp, "test_frame", pair_.test.values_nT.row(k), test_noise_rms_nT_));
+      if (test) {
+        test_pub_.publish(field_message(stamp, "test_frame", pair_.test.values_nT.row(k), test_noise_rms_nT_));
+        for (auto& copy : test_copies_) {
+          copy.first.publish(field_message(stamp, copy.second, pair_.test.values_nT.row(k), test_noise_rms_nT_));
+        }
+      }
       last_clock_s_ = clock_s;
       if (rate > 0.0 && (k - first) % 50 == 49) {
         const double due = static_cast<double>(k - first + 1) / rate;
@@ -247,13 +278,15 @@ class Harness {
   std::string reference_topic_, test_topic_, calibration_topic_;
   ros::Publisher clock_pub_, reference_pub_, test_pub_;
   ros::Subscriber calibration_sub_, diagnostics_sub_;
-  std::vector<ros::Subscriber> corrected_subs_;
+  std::vector<ros::Subscriber> corrected_subs_, extra_calibration_subs_;
+  std::vector<std::pair<ros::Publisher, std::string>> test_copies_;
   Eigen::Vector3d test_noise_rms_nT_ = Eigen::Vector3d::Zero();
   std::atomic<double> last_clock_s_{0.0};
 
   std::mutex mutex_;
   std::vector<mic::MagnetometerCalibration> calibrations_;
   std::map<std::string, std::vector<CorrectedSample>> corrected_;
+  std::map<std::string, std::vector<mic::MagnetometerCalibration>> calibrations_of_;
   std::map<std::string, std::vector<DiagnosticRecord>> diagnostics_;
 };
 
@@ -466,7 +499,7 @@ TEST(Calibration, Nominal) {
 
   // 5. Correction nodes started with a malformed / half-written file: an error in the
   //    diagnostics, nothing published until a calibration arrives on the topic, then correcting.
-  for (const std::string node : {"correction_malformed", "correction_truncated"}) {
+  for (const std::string& node : {std::string("correction_malformed"), std::string("correction_truncated")}) {
     SCOPED_TRACE(node);
     bool error_seen = false;
     for (const DiagnosticRecord* r : h.all_diagnostics(node)) {
@@ -494,7 +527,9 @@ TEST(Calibration, SilentTopic) {
   const double t0 = h.start_s();
   h.publish(0, 2400, true, true);
   h.publish(2400, 3600, true, false);  // test topic silent for 20 min (reference and /clock go on)
-  // The silence shows in the diagnostics while it lasts (silent_timeout 30 s, diagnostics every 5 s).
+  // The silence shows in the diagnostics while it lasts (silent_timeout 300 s, diagnostics every
+  // 5 s; a timeout much shorter than the arrival skew of the topics at 2500x real time, about
+  // 0.1 s wall = 250 s simulated, would also warn about the reference now and then).
   EXPECT_TRUE(h.wait([&] {
     for (const DiagnosticRecord* r : h.all_diagnostics("calibration_sim: sim")) {
       if (r->level == 1 && r->message.find("test topic silent") != std::string::npos) return true;
@@ -558,6 +593,7 @@ TEST(Calibration, TimeJump) {
   h.tick_clock(20.0);
   ros::WallDuration(0.2).sleep();
 
+  {
   std::lock_guard<std::mutex> lock(h.mutex());
   std::size_t accepted_before = 0, flagged_across = 0, accepted_after = 0;
   for (const auto& c : h.calibrations()) {
@@ -587,6 +623,36 @@ TEST(Calibration, TimeJump) {
   const auto& out = h.corrected(param("corrected_topic", "/sim/corrected"));
   ASSERT_FALSE(out.empty());
   EXPECT_GE(out.back().stamp_s, t0 + 8400.0);
+  }
+
+  // Correction policy, with the last calibration (window t0 + 6600 .. 8399 s) in use:
+  // 5 samples of another frame_id are not corrected (counted); 5 samples stamped before the
+  // window are corrected with it (counted); neither disturbs the calibration node beyond a
+  // stray stamp and, for the second old sample in a row, a restart of its pairing.
+  const std::string corrected = param("corrected_topic", "/sim/corrected");
+  std::size_t corrected_before = 0, received_before = 0;
+  {
+    std::lock_guard<std::mutex> lock(h.mutex());
+    corrected_before = h.corrected(corrected).size();
+    received_before = value_of(h.latest_diagnostic("correction_sim"), "received");
+  }
+  for (std::size_t k = 0; k < 5; ++k) h.publish_test_sample(4000 + k, t0 + 8401.0 + k, "another_frame");
+  for (std::size_t k = 0; k < 5; ++k) h.publish_test_sample(100 + k, t0 + 100.0 + k, "test_frame");
+  EXPECT_TRUE(h.wait_ticking([&] {
+    return value_of(h.latest_diagnostic("correction_sim"), "received") == received_before + 10 &&
+           h.corrected(corrected).size() == corrected_before + 5;
+  }, 10.0));
+  std::lock_guard<std::mutex> lock(h.mutex());
+  const DiagnosticRecord* d = h.latest_diagnostic("correction_sim");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(value_of(d, "dropped, frame_id mismatch"), 5u);
+  EXPECT_EQ(value_of(d, "corrected, before window"), 5u);
+  const auto& out = h.corrected(corrected);
+  ASSERT_EQ(out.size(), corrected_before + 5);
+  for (std::size_t i = corrected_before; i < out.size(); ++i) {
+    EXPECT_DOUBLE_EQ(out[i].stamp_s, t0 + 100.0 + (i - corrected_before));
+    EXPECT_EQ(out[i].frame_id, "reference_frame");
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -629,6 +695,44 @@ TEST(Calibration, Decimation10Hz) {
   ASSERT_NE(cal, nullptr);
   EXPECT_EQ(cal->values.at("decimating"), "True");
   EXPECT_EQ(value_of(cal, "paired"), n);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Calibration, TwoInstruments) {
+  // One calibration_node with a ~tests list of two instruments (the second one sees the same
+  // simulated test readings under another frame_id): one calibration topic and file each.
+  Harness h(simulation(2401.0, 19));
+  h.add_test_copy("/sim/test_b/magnetic_field", "test_b_frame");
+  h.subscribe_calibration("/sim/b/calibration");
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  ASSERT_TRUE(h.wait([&] { return h.test_subscribers(0) >= 1; }, 20.0));
+  h.publish(0, 2401, true, true);
+  EXPECT_TRUE(h.wait([&] {
+    return h.calibrations().size() >= 3 && h.calibrations_of("/sim/b/calibration").size() >= 3;
+  }, 20.0));
+  std::lock_guard<std::mutex> lock(h.mutex());
+  const auto& a = h.calibrations();
+  const auto& b = h.calibrations_of("/sim/b/calibration");
+  ASSERT_EQ(a.size(), 3u);  // [0, 1800), [300, 2100), [600, 2400)
+  ASSERT_EQ(b.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_TRUE(a[i].accepted) << a[i].quality_text;
+    EXPECT_TRUE(b[i].accepted) << b[i].quality_text;
+    EXPECT_EQ(a[i].test_name, "a");
+    EXPECT_EQ(b[i].test_name, "b");
+    EXPECT_EQ(a[i].test_frame_id, "test_frame");
+    EXPECT_EQ(b[i].test_frame_id, "test_b_frame");
+    EXPECT_EQ(a[i].window_start, b[i].window_start);
+    for (int k = 0; k < 9; ++k) EXPECT_EQ(a[i].matrix[k], b[i].matrix[k]);  // same data, same estimate
+  }
+  for (const std::string& file : {param("file_a"), param("file_b")}) {
+    SCOPED_TRACE(file);
+    mic::MagnetometerCalibration loaded;
+    ASSERT_NO_THROW(loaded = mic::load_calibration_file(file));
+    EXPECT_EQ(loaded.window_start, a.back().window_start);
+    std::remove(file.c_str());
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

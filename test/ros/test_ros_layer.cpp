@@ -281,3 +281,30 @@ TEST(CorrectionModel, RefusesUnusableMatrices) {
   nan_cov(3, 3) = std::numeric_limits<double>::infinity();
   EXPECT_THROW(mic::CorrectionModel(Eigen::Matrix3d::Identity(), nan_cov, 100.0), std::invalid_argument);
 }
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(StreamMonitor, ForwardJumpsStrayStampsAndConfirmedBackwardJumps) {
+  using Jump = mic::StreamMonitor::Jump;
+  mic::StreamMonitor m;
+  const double threshold = 60.0;
+  double t = 1.0e9;
+  for (int k = 0; k < 10; ++k) EXPECT_EQ(m.observe(t += 1.0, 0.0, "f", threshold), Jump::kNone);
+  EXPECT_EQ(m.observe(t += 3600.0, 0.0, "f", threshold), Jump::kForward);  // clock jumps ahead
+  EXPECT_EQ(m.observe(t += 1.0, 0.0, "f", threshold), Jump::kNone);
+  EXPECT_EQ(m.observe(0.0, 0.0, "f", threshold), Jump::kNone);  // one stray stamp
+  EXPECT_EQ(m.observe(t += 1.0, 0.0, "f", threshold), Jump::kNone);
+  EXPECT_EQ(m.stray, 1u);
+  EXPECT_EQ(m.jumps_backward, 0u);
+  EXPECT_EQ(m.observe(t - 7200.0, 0.0, "f", threshold), Jump::kNone);  // clock set back: first sample
+  EXPECT_EQ(m.observe(t - 7199.0, 0.0, "f", threshold), Jump::kBackward);  // confirmed
+  EXPECT_EQ(m.observe(t - 7198.0, 0.0, "f", threshold), Jump::kNone);
+  EXPECT_EQ(m.jumps_forward, 1u);
+  EXPECT_EQ(m.jumps_backward, 1u);
+  EXPECT_EQ(m.stray, 1u);
+  EXPECT_EQ(m.messages, 17u);
+  EXPECT_DOUBLE_EQ(m.newest_stamp_s, t - 7198.0);
+  // Small disorder is neither.
+  EXPECT_EQ(m.observe(t - 7210.0, 0.0, "f", threshold), Jump::kNone);
+  EXPECT_EQ(m.stray, 1u);
+}

@@ -78,22 +78,6 @@ struct CalibrationNodeSettings {
   static CalibrationNodeSettings load(const ros::NodeHandle& private_nh);
 };
 
-/// Arrival and stamp bookkeeping of one input topic, for diagnostics.
-struct StreamMonitor {
-  enum class Jump { kNone, kForward, kBackward };
-  std::string topic;
-  std::string frame_id;                   ///< of the newest message
-  std::size_t messages = 0;
-  std::size_t jumps_forward = 0;          ///< stamp later than the previous one by > threshold
-  std::size_t jumps_backward = 0;         ///< stamp earlier than the previous one by > threshold
-  double last_stamp_s = 0.0;              ///< UNIX s
-  double last_arrival_s = 0.0;            ///< ROS time, s
-
-  Jump observe(double stamp_s, double arrival_s, const std::string& frame, double threshold_s);
-  /// ROS-time seconds since the last message (or since `since_s` when none yet).
-  double silence_s(double now_s, double since_s) const;
-};
-
 class CalibrationNode {
  public:
   /// Reads the parameters (throws ParameterError), subscribes, advertises, starts the worker.

@@ -14,6 +14,34 @@
 
 namespace magnetometer_insitu_calibration {
 
+/// Arrival and stamp bookkeeping of one input topic (diagnostics and time jumps).
+/// Jumps are judged against the newest stamp of the stream:
+///  * forward: a stamp more than threshold_s after the newest one (a clock jump, or a gap in
+///    the data); counted, the stream goes on from there;
+///  * backward: a stamp more than threshold_s before the newest one. A single such sample (a
+///    stray stamp, e.g. 0) is only counted in `stray`; it takes two in a row to confirm a
+///    backward jump (a clock set back), which is counted and returned as kBackward once, so
+///    that the caller restarts the pipeline (the pairer would otherwise drop every later sample
+///    as late).
+struct StreamMonitor {
+  enum class Jump { kNone, kForward, kBackward };
+  std::string topic;
+  std::string frame_id;                   ///< of the newest message
+  std::size_t messages = 0;
+  std::size_t jumps_forward = 0;
+  std::size_t jumps_backward = 0;         ///< confirmed backward jumps
+  std::size_t stray = 0;                  ///< single samples far behind the newest stamp
+  double newest_stamp_s = 0.0;            ///< UNIX s
+  double last_arrival_s = 0.0;            ///< ROS time, s
+
+  Jump observe(double stamp_s, double arrival_s, const std::string& frame, double threshold_s);
+  /// ROS-time seconds since the last message (or since `since_s` when none yet).
+  double silence_s(double now_s, double since_s) const;
+
+ private:
+  bool behind_ = false;  ///< the previous sample was far behind the newest stamp
+};
+
 /// One window of the live stream, copied out of the buffer for the estimator.
 struct WindowData {
   double start_s = 0.0;               ///< nominal first epoch, UNIX s (a whole multiple of step)
