@@ -22,7 +22,7 @@ target_compile_definitions(rostest_calibration PRIVATE
   CORRECTION_NODE_PATH="$<TARGET_FILE:correction_node>")
 # add_rostest_gtest does not make the test depend on the nodes it launches.
 add_dependencies(rostest_calibration calibration_node correction_node)
-foreach(rostest_file silent_topic time_jump decimation two_instruments bad_parameters)
+foreach(rostest_file silent_topic time_jump decimation two_instruments correction_reload bad_parameters)
   add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 endforeach()
 add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros/test_lemi025_driver.cpp test/ros/test_simulated_station.cpp)
