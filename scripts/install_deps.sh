@@ -11,6 +11,7 @@ PACKAGES=(
   python3-yaml python3-matplotlib python3-numpy
   nlohmann-json3-dev libcli11-dev
   socat gzip
+  clang libclang-rt-14-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -89,6 +89,19 @@ int day_of_year(std::int64_t days_since_epoch) {
   return static_cast<int>(days_since_epoch - days_from_civil(year, 1, 1) + 1);
 }
 
+/// A time for an error message: ISO 8601 when it has one (years 0000..9999 after rounding to
+/// the millisecond), else UNIX seconds. Never throws: the InputError being built must not be
+/// replaced by format_iso8601's std::invalid_argument (found by fuzz/fuzz_iaga2002.cpp).
+std::string time_for_message(double time_s) {
+  try {
+    return format_iso8601(time_s);
+  } catch (const std::invalid_argument&) {
+    char buffer[40];
+    std::snprintf(buffer, sizeof buffer, "%.17g s (UNIX time)", time_s);
+    return buffer;
+  }
+}
+
 struct ColumnLayout {
   std::vector<std::string> names;  // element column names as in the file, e.g. "WICH"
 };
@@ -153,7 +166,7 @@ void parse_data_line(const std::string& path, std::size_t line_number, const std
   bool doy_ok = !doy_text.empty() && doy_text.size() <= 3;
   for (char c : doy_text) {
     if (c < '0' || c > '9') doy_ok = false;
-    doy = doy * 10 + (c - '0');
+    if (doy_ok) doy = doy * 10 + (c - '0');  // at most 3 digits: no int overflow
   }
   if (!doy_ok) {
     throw InputError(path, line_number, "DOY field: '" + doy_text + "' is not a day of year");
@@ -182,7 +195,7 @@ void parse_data_line(const std::string& path, std::size_t line_number, const std
     throw InputError(path, line_number,
                      std::string("DATE/TIME field: ") +
                          (time_s == times.back() ? "duplicate time " : "time goes backwards: ") +
-                         format_iso8601(time_s) + " is not after " + format_iso8601(times.back()) +
+                         time_for_message(time_s) + " is not after " + time_for_message(times.back()) +
                          " on line " + std::to_string(previous_line));
   }
   times.push_back(time_s);

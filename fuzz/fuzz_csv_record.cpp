@@ -1,0 +1,28 @@
+// libFuzzer target: CSV records, plain or gzip (csv_record.hpp: read_csv_record).
+// Input: the file's bytes (written to an in-memory file; gzip inputs that inflate to more than
+// 1 MiB are declined to keep one execution short).
+// Checks: a value or InputError (never std::invalid_argument or another exception); finite,
+// strictly increasing times; values NaN or finite and below the 88888 nT sentinel.
+#include "fuzz_common.hpp"
+
+#include "magnetometer_insitu_calibration/csv_record.hpp"
+
+using namespace magnetometer_insitu_calibration;
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (!mic_fuzz::within_bounds(data, size, true)) return -1;
+  mic_fuzz::InputFile& file = mic_fuzz::input_file();
+  file.set(data, size);
+  try {
+    const VectorRecord record = read_csv_record(file.path());
+    mic_fuzz::check_record(record);
+    FUZZ_CHECK(!record.empty(), "no data but no InputError");
+    for (Eigen::Index r = 0; r < record.values_nT.rows(); ++r)
+      for (int c = 0; c < 3; ++c)
+        FUZZ_CHECK(!(record.values_nT(r, c) >= 88888.0), "sentinel value not turned into NaN");
+  } catch (const InputError&) {
+  } catch (...) {
+    mic_fuzz::unexpected_exception(__FILE__, __LINE__);
+  }
+  return 0;
+}
