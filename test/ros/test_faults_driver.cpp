@@ -1,0 +1,500 @@
+// Fault injection on lemi025_driver's serial line (rostest with a real master; started by
+// test/ros/test_faults_driver.test, which launches the driver on a pty's symlink, checksum sum8).
+// Each fault is asserted on what is published (every good packet, nothing else), on the
+// diagnostics counters, and on stamps only growing. Faults ALREADY covered elsewhere, not
+// repeated here (test/ros/test_lemi025_driver.cpp): garbage bytes BETWEEN packets and a packet
+// with a wrong checksum; a clock step backwards (several packets); serial unplug/replug BETWEEN
+// packets; GPS status lost ('P', PC-clock stamps, WARN) and regained; NaN/implausible readings
+// from a compact-flash image. New here (run in declaration order, GPS seconds always growing):
+//   LineCutMidPacketAndRestored   the pty hangs up after 80 of a packet's 152 bytes; a new pty
+//                                 appears; the half packet is not published (nor glued to the
+//                                 next bytes), every later packet is; disconnect/reconnect counted
+//   LineStallsMidPacket           the line stays up but the rest of a packet never comes (power
+//                                 glitch of the instrument): the next whole packet is published
+//   BytesDroppedInsidePacket      30 bytes missing from the middle of a packet: that packet is
+//                                 lost (unavoidable), the following one (whose header then sits
+//                                 inside the parser's 152-byte frame) is NOT lost; resync counted
+//   GarbageInsertedInsidePacket   5 noise bytes inside a packet: same
+//   ImplausibleReadingsLiveNeverPublishedAsNumbers  readings of +-1e6 nT over the live line:
+//                                 never published as numbers, neighbours exact, loss counted;
+//   DISABLED_ImplausibleReadingsLiveAreNaN  what the driver documents (NaN for the bad readings
+//                                 only, counted): NODE BUG, the whole packet is lost (see the test)
+//   DuplicatedPacketPublishedOnce the same packet twice (repeater/buffer replay): its 10 readings
+//                                 published once, 10 counted as dropped, WARN
+//   ClockJumpsForwardThenContinues GPS time steps forward 1 h and runs on (real re-synchronisation):
+//                                 everything published, time jump counted
+//   DISABLED_SingleForwardGlitchDoesNotBlockData  one packet with a GPS second 1 day ahead
+//                                 (valid checksum), then the correct seconds again: the driver
+//                                 publishes the glitch and then DROPS every reading for a day (node
+//                                 bug, see the test). Last, since it poisons the shared driver.
+#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <sensor_msgs/MagneticField.h>
+
+#include <fcntl.h>
+#include <stdlib.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+constexpr double kNanotesla = 1e-9;
+constexpr double kT0 = 1709251200.0;  // 2024-03-01T00:00:00Z
+const Eigen::Vector3d kBias_nT(21500.0, 502.5, 43000.0);
+const char* const kDropped = "readings dropped (stamp not after the previous)";
+
+std::string param(const std::string& name, const std::string& fallback = "") {
+  std::string value;
+  return ros::param::get("~" + name, value) ? value : fallback;
+}
+
+bool wait_for(const std::function<bool()>& done, double timeout_s) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  while (ros::ok() && ros::WallTime::now() < deadline) {
+    if (done()) return true;
+    ros::WallDuration(0.01).sleep();
+  }
+  return done();
+}
+
+class FakeSerialPort {
+ public:
+  explicit FakeSerialPort(std::string link) : link_(std::move(link)) {}
+  ~FakeSerialPort() {
+    close();
+    ::unlink(link_.c_str());
+  }
+  std::string open() {
+    master_ = ::posix_openpt(O_RDWR | O_NOCTTY);
+    if (master_ < 0 || ::grantpt(master_) != 0 || ::unlockpt(master_) != 0) return std::strerror(errno);
+    const std::string slave_name = ::ptsname(master_);
+    slave_ = ::open(slave_name.c_str(), O_RDWR | O_NOCTTY);
+    if (slave_ < 0) return slave_name + ": " + std::strerror(errno);
+    termios tio{};
+    ::tcgetattr(slave_, &tio);
+    ::cfmakeraw(&tio);
+    ::tcsetattr(slave_, TCSANOW, &tio);
+    const std::string tmp = link_ + ".tmp";
+    ::unlink(tmp.c_str());
+    if (::symlink(slave_name.c_str(), tmp.c_str()) != 0 || ::rename(tmp.c_str(), link_.c_str()) != 0) {
+      return "cannot point " + link_ + " at " + slave_name;
+    }
+    return "";
+  }
+  void close() {
+    if (slave_ >= 0) ::close(slave_);
+    if (master_ >= 0) ::close(master_);
+    slave_ = master_ = -1;
+  }
+  void write(const std::vector<std::uint8_t>& bytes) {
+    std::size_t done = 0;
+    while (done < bytes.size()) {
+      const ssize_t n = ::write(master_, bytes.data() + done, bytes.size() - done);
+      ASSERT_GT(n, 0) << std::strerror(errno);
+      done += static_cast<std::size_t>(n);
+    }
+  }
+
+ private:
+  std::string link_;
+  int master_ = -1, slave_ = -1;
+};
+
+mic::Lemi025Packet make_packet(double gps_s) {
+  mic::Lemi025Packet p;
+  p.station = 3;
+  p.gps_time_s = gps_s;
+  const double i = std::fmod(gps_s - kT0, 40.0);
+  p.sensor_temperature_C = 20.0 + 0.01 * i;
+  p.electronics_temperature_C = 30.0;
+  p.dac_counts = {{1, 2, 3}};
+  p.bias_nT = kBias_nT;
+  for (int k = 0; k < mic::kLemi025ReadingsPerPacket; ++k)
+    for (int c = 0; c < 3; ++c) p.variation_nT(k, c) = (c + 1) * 10.0 + 0.5 * k + 0.25 * i;
+  p.mode = 2;
+  p.flash_free_percent = 50;
+  p.supply_V = 12.0;
+  p.gps_status = 'A';
+  return p;
+}
+
+std::vector<std::uint8_t> encode(const mic::Lemi025Packet& p) {
+  const auto b = mic::encode_lemi025_packet(p, mic::ChecksumMode::kSum8);
+  return std::vector<std::uint8_t>(b.begin(), b.end());
+}
+std::vector<std::uint8_t> encode(double gps_s) { return encode(make_packet(gps_s)); }
+
+void append(std::vector<std::uint8_t>& to, const std::vector<std::uint8_t>& bytes) {
+  to.insert(to.end(), bytes.begin(), bytes.end());
+}
+
+ros::Time gps_stamp(double gps_s, int k) {
+  return ros::Time(static_cast<std::uint32_t>(gps_s)) + ros::Duration(-0.3 + 0.1 * k);
+}
+
+class Inbox {
+ public:
+  Inbox() {
+    ros::NodeHandle nh;
+    const std::string ns = param("driver_namespace", "/faults");
+    fields_sub_ = nh.subscribe(ns + "/magnetic_field", 10000, &Inbox::on_field, this);
+    diagnostics_sub_ = nh.subscribe("/diagnostics", 1000, &Inbox::on_diagnostics, this);
+  }
+  bool connected() const { return fields_sub_.getNumPublishers() > 0; }
+  std::size_t count() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return fields_.size();
+  }
+  std::vector<sensor_msgs::MagneticField> from(std::size_t first) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
+  }
+  bool status(const std::string& task, diagnostic_msgs::DiagnosticStatus& out) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = statuses_.find(task);
+    if (it == statuses_.end()) return false;
+    out = it->second;
+    return true;
+  }
+  std::string value(const std::string& task, const std::string& key) {
+    diagnostic_msgs::DiagnosticStatus s;
+    if (!status(task, s)) return "";
+    for (const auto& kv : s.values)
+      if (kv.key == key) return kv.value;
+    return "";
+  }
+  long long counter(const std::string& task, const std::string& key) {
+    const std::string text = value(task, key);
+    return text.empty() ? -1 : std::stoll(text);
+  }
+  long long wait_counter(const std::string& task, const std::string& key, long long target, double timeout_s = 5.0) {
+    long long seen = -1;
+    wait_for([&] { return (seen = counter(task, key)) >= target; }, timeout_s);
+    return seen;
+  }
+  /// Waits for a diagnostics message newer than now (so counters reflect what was just sent).
+  void fresh() {
+    const std::size_t n0 = diagnostics_seen();
+    wait_for([&] { return diagnostics_seen() >= n0 + 2; }, 3.0);
+  }
+
+ private:
+  std::size_t diagnostics_seen() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return diagnostics_seen_;
+  }
+  void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    fields_.push_back(*m);
+  }
+  void on_diagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+    const std::string prefix = param("driver_node_name", "faults/lemi_driver") + ": ";
+    std::lock_guard<std::mutex> lock(mutex_);
+    bool ours = false;
+    for (const auto& s : m->status) {
+      if (s.name.compare(0, prefix.size(), prefix) == 0) {
+        statuses_[s.name.substr(prefix.size())] = s;
+        ours = true;
+      }
+    }
+    if (ours) ++diagnostics_seen_;
+  }
+
+  std::mutex mutex_;
+  std::vector<sensor_msgs::MagneticField> fields_;
+  std::map<std::string, diagnostic_msgs::DiagnosticStatus> statuses_;
+  std::size_t diagnostics_seen_ = 0;
+  ros::Subscriber fields_sub_, diagnostics_sub_;
+};
+
+FakeSerialPort* g_port = nullptr;
+Inbox* g_inbox = nullptr;
+
+class DriverFaults : public testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_NE(g_port, nullptr);
+    ASSERT_TRUE(wait_for([] { return g_inbox->connected(); }, 20.0)) << "driver topic not connected";
+    ASSERT_TRUE(wait_for([] { return g_inbox->value("link", "connected") == "True"; }, 20.0))
+        << "driver not connected to the pty: " << g_inbox->value("link", "last warning");
+  }
+  Inbox& inbox() { return *g_inbox; }
+  FakeSerialPort& port() { return *g_port; }
+
+  /// Writes `bytes`, waits for `expected` readings, then 0.3 s more for anything extra.
+  std::vector<sensor_msgs::MagneticField> write_and_collect(const std::vector<std::uint8_t>& bytes,
+                                                            std::size_t expected) {
+    const std::size_t before = inbox().count();
+    port().write(bytes);
+    EXPECT_TRUE(wait_for([&] { return inbox().count() >= before + expected; }, 10.0))
+        << "got " << inbox().count() - before << " of " << expected << " readings";
+    ros::WallDuration(0.3).sleep();
+    return inbox().from(before);
+  }
+
+  /// The readings are exactly the 10 readings of each of `seconds`, in order, with their values.
+  static void expect_packets(const std::vector<sensor_msgs::MagneticField>& fields, const std::vector<double>& seconds) {
+    ASSERT_EQ(fields.size(), 10 * seconds.size());
+    for (std::size_t i = 0; i < fields.size(); ++i) {
+      const double s = seconds[i / 10];
+      const int k = static_cast<int>(i % 10);
+      EXPECT_EQ(fields[i].header.stamp, gps_stamp(s, k)) << "reading " << i;
+      const mic::Lemi025Packet p = make_packet(s);
+      EXPECT_NEAR(fields[i].magnetic_field.x, (kBias_nT(0) + p.variation_nT(k, 0)) * kNanotesla, 1e-4 * kNanotesla);
+      EXPECT_NEAR(fields[i].magnetic_field.z, (kBias_nT(2) + p.variation_nT(k, 2)) * kNanotesla, 1e-4 * kNanotesla);
+    }
+  }
+  void expect_all_increasing() {
+    const auto all = inbox().from(0);
+    for (std::size_t i = 1; i < all.size(); ++i)
+      ASSERT_GT(all[i].header.stamp, all[i - 1].header.stamp) << "message " << i << " goes backwards";
+  }
+};
+
+TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
+  const long long disconnects0 = inbox().counter("link", "disconnects");
+  const long long reconnects0 = inbox().counter("link", "reconnects");
+  std::vector<std::uint8_t> bytes = encode(kT0);
+  append(bytes, encode(kT0 + 1));
+  std::vector<std::uint8_t> half = encode(kT0 + 2);
+  half.resize(80);
+  append(bytes, half);
+  const std::size_t before = inbox().count();
+  port().write(bytes);
+  ASSERT_TRUE(wait_for([&] { return inbox().count() >= before + 20; }, 10.0));
+  ros::WallDuration(0.3).sleep();  // the driver has read the half packet too
+  port().close();                  // cut mid-packet
+  EXPECT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "False"; }, 10.0));
+  diagnostic_msgs::DiagnosticStatus link;
+  ASSERT_TRUE(inbox().status("link", link));
+  EXPECT_EQ(link.level, diagnostic_msgs::DiagnosticStatus::ERROR) << link.message;
+  ASSERT_EQ(port().open(), "");  // restored: a new pty under the same link
+  ASSERT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "True"; }, 10.0));
+  // The rest of the cut packet never comes; the instrument goes on with whole packets.
+  std::vector<std::uint8_t> after = encode(kT0 + 3);
+  append(after, encode(kT0 + 4));
+  write_and_collect(after, 20);
+  expect_packets(inbox().from(before), {kT0, kT0 + 1, kT0 + 3, kT0 + 4});
+  EXPECT_EQ(inbox().wait_counter("link", "disconnects", disconnects0 + 1), disconnects0 + 1);
+  EXPECT_GE(inbox().wait_counter("link", "reconnects", reconnects0 + 1), reconnects0 + 1);
+  EXPECT_EQ(inbox().counter("link", "readings published as NaN (invalid)"), 0);
+  expect_all_increasing();
+}
+
+TEST_F(DriverFaults, LineStallsMidPacket) {
+  const long long checksum0 = inbox().counter("link", "checksum errors");
+  const long long resyncs0 = inbox().counter("link", "resyncs");
+  std::vector<std::uint8_t> half = encode(kT0 + 5);
+  half.resize(100);
+  const std::size_t before = inbox().count();
+  port().write(half);
+  ros::WallDuration(1.0).sleep();  // silence: the rest never comes
+  write_and_collect(encode(kT0 + 6), 10);
+  std::vector<std::uint8_t> more = encode(kT0 + 7);
+  append(more, encode(kT0 + 8));
+  write_and_collect(more, 20);
+  expect_packets(inbox().from(before), {kT0 + 6, kT0 + 7, kT0 + 8});
+  inbox().fresh();
+  // The half packet is skipped (flushed at the read gap or resynchronised): never a packet.
+  EXPECT_GE(inbox().counter("link", "checksum errors") - checksum0 + inbox().counter("link", "resyncs") - resyncs0 +
+                (inbox().counter("link", "bytes skipped") > 0 ? 1 : 0),
+            1);
+  expect_all_increasing();
+}
+
+TEST_F(DriverFaults, BytesDroppedInsidePacket) {
+  const long long resyncs0 = inbox().counter("link", "resyncs");
+  const long long skipped0 = inbox().counter("link", "bytes skipped");
+  std::vector<std::uint8_t> damaged = encode(kT0 + 9);
+  damaged.erase(damaged.begin() + 40, damaged.begin() + 70);  // 30 bytes lost on the line
+  std::vector<std::uint8_t> bytes = damaged;
+  append(bytes, encode(kT0 + 10));
+  append(bytes, encode(kT0 + 11));
+  const auto fields = write_and_collect(bytes, 20);
+  expect_packets(fields, {kT0 + 10, kT0 + 11});
+  inbox().fresh();
+  EXPECT_GE(inbox().wait_counter("link", "resyncs", resyncs0 + 1), resyncs0 + 1);
+  EXPECT_GE(inbox().counter("link", "bytes skipped"), skipped0 + 1);
+  expect_all_increasing();
+}
+
+TEST_F(DriverFaults, GarbageInsertedInsidePacket) {
+  const long long resyncs0 = inbox().counter("link", "resyncs");
+  std::vector<std::uint8_t> damaged = encode(kT0 + 12);
+  const std::vector<std::uint8_t> noise = {0x4C, 0x30, 0xFF, 0x00, 0x4C};  // 0x4C: 'L', a header-like byte
+  damaged.insert(damaged.begin() + 60, noise.begin(), noise.end());
+  std::vector<std::uint8_t> bytes = damaged;
+  append(bytes, encode(kT0 + 13));
+  append(bytes, encode(kT0 + 14));
+  const auto fields = write_and_collect(bytes, 20);
+  expect_packets(fields, {kT0 + 13, kT0 + 14});
+  EXPECT_GE(inbox().wait_counter("link", "resyncs", resyncs0 + 1), resyncs0 + 1);
+  expect_all_increasing();
+}
+
+/// Packets kT0+first .. +2; the middle one carries a burst of 4 implausible readings (1e6 nT,
+/// float garbage of a failing ADC) in x and z; the others are normal.
+std::vector<mic::Lemi025Packet> packets_with_bad_burst(double first) {
+  std::vector<mic::Lemi025Packet> sent;
+  for (int j = 0; j < 3; ++j) {
+    mic::Lemi025Packet p = make_packet(first + j);
+    if (j == 1) {
+      for (int k = 3; k < 7; ++k) p.variation_nT(k, k % 2 == 0 ? 0 : 2) = (k % 2 == 0 ? 1.0 : -1.0) * 1.0e6;
+    }
+    sent.push_back(p);
+  }
+  return sent;
+}
+
+// What the live path does today: the core parser (check_lemi025_structure, used to find packet
+// boundaries) takes a packet with an implausible reading for a non-packet and skips it byte by
+// byte, so the WHOLE packet is lost (its 6 good readings too) and counted as a resync, not as
+// NaN readings. Asserted here: no implausible value is ever published as a number, the
+// neighbouring packets are exact, the loss is visible in the diagnostics.
+TEST_F(DriverFaults, ImplausibleReadingsLiveNeverPublishedAsNumbers) {
+  const long long resyncs0 = inbox().counter("link", "resyncs");
+  const auto sent = packets_with_bad_burst(kT0 + 15);
+  std::vector<std::uint8_t> bytes;
+  for (const auto& p : sent) append(bytes, encode(p));
+  const auto fields = write_and_collect(bytes, 20);
+  expect_packets(fields, {kT0 + 15, kT0 + 17});
+  for (const auto& f : fields) {
+    EXPECT_LT(std::abs(f.magnetic_field.x), 1e-4) << "implausible value published as a number";
+    EXPECT_LT(std::abs(f.magnetic_field.z), 1e-4) << "implausible value published as a number";
+  }
+  EXPECT_GE(inbox().wait_counter("link", "resyncs", resyncs0 + 1), resyncs0 + 1);
+  expect_all_increasing();
+}
+
+TEST_F(DriverFaults, DuplicatedPacketPublishedOnce) {
+  const long long dropped0 = inbox().counter("link", kDropped);
+  std::vector<std::uint8_t> bytes = encode(kT0 + 18);
+  append(bytes, encode(kT0 + 18));  // repeated
+  append(bytes, encode(kT0 + 19));
+  append(bytes, encode(kT0 + 19));  // repeated
+  append(bytes, encode(kT0 + 20));
+  const auto fields = write_and_collect(bytes, 30);
+  expect_packets(fields, {kT0 + 18, kT0 + 19, kT0 + 20});
+  EXPECT_EQ(inbox().wait_counter("link", kDropped, dropped0 + 20), dropped0 + 20);
+  diagnostic_msgs::DiagnosticStatus link;
+  EXPECT_TRUE(wait_for(
+      [&] {
+        return inbox().status("link", link) && link.message.find("readings dropped") != std::string::npos;
+      },
+      3.0))
+      << link.message;
+  EXPECT_EQ(link.level, diagnostic_msgs::DiagnosticStatus::WARN) << link.message;
+  expect_all_increasing();
+}
+
+TEST_F(DriverFaults, ClockJumpsForwardThenContinues) {
+  const long long jumps0 = inbox().counter("link", "time jumps");
+  const long long dropped0 = inbox().counter("link", kDropped);
+  const double later = kT0 + 3600.0 + 21;
+  std::vector<std::uint8_t> bytes = encode(kT0 + 21);
+  append(bytes, encode(later));
+  append(bytes, encode(later + 1));
+  append(bytes, encode(later + 2));
+  const auto fields = write_and_collect(bytes, 40);
+  expect_packets(fields, {kT0 + 21, later, later + 1, later + 2});
+  EXPECT_GE(inbox().wait_counter("link", "time jumps", jumps0 + 1), jumps0 + 1);
+  inbox().fresh();
+  EXPECT_EQ(inbox().counter("link", kDropped), dropped0);
+  expect_all_increasing();
+}
+
+// NODE BUG (lemi025_driver + core Lemi025StreamParser): the driver documents "a reading that is
+// not finite or outside the plausible range is published as NaN and counted", but on the serial
+// path a packet with one such reading never reaches the driver (see the test above): 10
+// readings (1 s) are lost per bad reading instead of 1 NaN, and "readings published as NaN" stays
+// 0. With a checksum (sum8/xor8) that verifies, the packet is intact and should be published
+// with NaN for its bad readings only. Expected behaviour below; enable when fixed.
+TEST_F(DriverFaults, DISABLED_ImplausibleReadingsLiveAreNaN) {
+  const long long invalid0 = inbox().counter("link", "readings published as NaN (invalid)");
+  const double first = kT0 + 3600.0 + 100;  // after every other test
+  const auto sent = packets_with_bad_burst(first);
+  std::vector<std::uint8_t> bytes;
+  for (const auto& p : sent) append(bytes, encode(p));
+  const auto fields = write_and_collect(bytes, 30);
+  ASSERT_EQ(fields.size(), 30u);
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const std::size_t j = i / 10;
+    const int k = static_cast<int>(i % 10);
+    EXPECT_EQ(fields[i].header.stamp, gps_stamp(first + static_cast<double>(j), k)) << "reading " << i;
+    const auto& f = fields[i].magnetic_field;
+    if (j == 1 && k >= 3 && k < 7) {
+      EXPECT_TRUE(std::isnan(f.x) && std::isnan(f.y) && std::isnan(f.z)) << "reading " << i;
+    } else {
+      EXPECT_NEAR(f.y, (kBias_nT(1) + sent[j].variation_nT(k, 1)) * kNanotesla, 1e-4 * kNanotesla) << i;
+    }
+  }
+  EXPECT_EQ(inbox().wait_counter("link", "readings published as NaN (invalid)", invalid0 + 4), invalid0 + 4);
+}
+
+// NODE BUG (lemi025_driver, "stamps never go backwards"): a single packet whose GPS second is
+// wrong but whose checksum is right (a GPS receiver glitch, or any corruption with checksum
+// none, the default) sets last_published_ a day ahead; every correct reading after it is
+// "not after the last published one" and dropped until the real time passes the glitch: a day
+// of good data lost, and the calibration node sees the glitch as a stray stamp. Expected: the
+// isolated outlier is dropped (or the driver resynchronises on the next two consistent packets)
+// and the good packets are published. Enable when the driver is fixed. Last test: it leaves the
+// shared driver's last stamp a day ahead.
+TEST_F(DriverFaults, DISABLED_SingleForwardGlitchDoesNotBlockData) {
+  const double base = kT0 + 7200.0;
+  std::vector<std::uint8_t> bytes = encode(base);
+  append(bytes, encode(base + 86400.0));  // one bad GPS second
+  append(bytes, encode(base + 2));
+  append(bytes, encode(base + 3));
+  append(bytes, encode(base + 4));
+  const auto fields = write_and_collect(bytes, 40);
+  std::size_t good = 0;
+  for (const auto& f : fields)
+    if (f.header.stamp < ros::Time(static_cast<std::uint32_t>(base + 10))) ++good;
+  EXPECT_EQ(good, 40u) << "good readings after a single forward glitch were dropped (" << fields.size()
+                       << " published in all)";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_faults_driver");
+  ros::NodeHandle nh;
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const std::string link = param("link");
+  if (link.empty()) {
+    std::fprintf(stderr, "test_faults_driver: ~link not set\n");
+    return 1;
+  }
+  auto port = std::make_unique<FakeSerialPort>(link);
+  const std::string error = port->open();
+  if (!error.empty()) {
+    std::fprintf(stderr, "test_faults_driver: %s\n", error.c_str());
+    return 1;
+  }
+  auto inbox = std::make_unique<Inbox>();
+  g_port = port.get();
+  g_inbox = inbox.get();
+  const int result = RUN_ALL_TESTS();
+  g_port = nullptr;
+  g_inbox = nullptr;
+  spinner.stop();
+  return result;
+}
