@@ -34,3 +34,7 @@ add_rostest_gtest(test_faults_driver test/ros/test_faults_driver.test test/ros/t
 target_link_libraries(test_faults_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_compile_options(test_faults_driver PRIVATE -Wall -Wextra)
 add_dependencies(test_faults_driver lemi025_driver)
+add_rostest_gtest(test_faults_calibration test/ros/test_faults_calibration.test test/ros/test_faults_calibration.cpp)
+target_link_libraries(test_faults_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+target_compile_options(test_faults_calibration PRIVATE -Wall -Wextra)
+add_dependencies(test_faults_calibration calibration_node)
