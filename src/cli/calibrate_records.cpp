@@ -5,6 +5,8 @@
 #include "magnetometer_insitu_calibration/input_error.hpp"
 #include "magnetometer_insitu_calibration/record_file.hpp"
 
+#include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
+
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
@@ -38,8 +40,12 @@ int main(int argc, char** argv) {
   std::string reference_path, test_path, json_path, band = "0.0002:0.01";
   mic::CalibrationSettings settings;
   bool no_trend = false, no_despike = false;
-  app.add_option("--reference", reference_path, "reference record (IAGA-2002 or CSV, .gz allowed)")->required();
-  app.add_option("--test", test_path, "test record (IAGA-2002 or CSV, .gz allowed)")->required();
+  auto* reference_option = app.add_option("--reference", reference_path,
+                                          "reference record (IAGA-2002 or CSV, .gz allowed; LemiBin, LEMI compact "
+                                          "flash, LEMI-025 byte stream)")
+                               ->required();
+  auto* test_option = app.add_option("--test", test_path, "test record (same formats)")->required();
+  mic::BagInputOptions bag(app, reference_option, test_option);  // or both records from one bag
   app.add_option("--band", band, "estimation band LOW:HIGH, Hz")->capture_default_str();
   app.add_option("--gamma", settings.estimator.gamma, "weight exponent: lambda_j^gamma")->capture_default_str();
   app.add_flag("--no-trend", no_trend, "no linear-trend column");
@@ -74,10 +80,9 @@ int main(int argc, char** argv) {
     settings.preprocess.despike = !no_despike;
     settings.estimator.method = mic::parse_estimator_method(method, "--method");
     settings.validate();
-    const mic::VectorRecord reference = mic::read_record(reference_path);
-    const mic::VectorRecord test = mic::read_record(test_path);
+    const auto [reference, test] = bag.records(reference_path, test_path);
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
-    const mic::ReportInputs inputs{reference_path, test_path};
+    const mic::ReportInputs inputs = bag.inputs(reference_path, test_path);
     std::cout << mic::format_calibration_table(result, inputs);
     if (!json_path.empty()) {
       std::ofstream out(json_path);

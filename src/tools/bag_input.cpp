@@ -1,0 +1,49 @@
+// Bag input for command-line programs; see bag_input.hpp.
+#include "bag_input.hpp"
+
+#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/record_file.hpp"
+#include "magnetometer_insitu_calibration/ros/bag_records.hpp"
+
+#include <iostream>
+
+namespace magnetometer_insitu_calibration {
+
+BagInputOptions::BagInputOptions(CLI::App& app, CLI::Option* reference, CLI::Option* test) {
+  reference->required(false);
+  test->required(false);
+  auto* bag = app.add_option("--bag", bag_,
+                             "rosbag with sensor_msgs/MagneticField (tesla) on --reference-topic and --test-topic, "
+                             "instead of --reference and --test");
+  auto* reference_topic = app.add_option("--reference-topic", reference_topic_, "reference topic in --bag");
+  auto* test_topic = app.add_option("--test-topic", test_topic_, "test topic in --bag");
+  bag->excludes(reference)->excludes(test)->needs(reference_topic)->needs(test_topic);
+  reference_topic->needs(bag);
+  test_topic->needs(bag);
+}
+
+std::pair<VectorRecord, VectorRecord> BagInputOptions::records(const std::string& reference_path,
+                                                               const std::string& test_path) const {
+  if (bag_.empty()) {
+    if (reference_path.empty() || test_path.empty()) {
+      throw InputError(reference_path.empty() ? "--reference" : "--test",
+                       "is required (or --bag FILE with --reference-topic and --test-topic)");
+    }
+    std::vector<std::string> warnings;  // LEMI formats: damaged records skipped, with their offsets
+    std::pair<VectorRecord, VectorRecord> out{read_record(reference_path, LemiReadOptions(), &warnings),
+                                              read_record(test_path, LemiReadOptions(), &warnings)};
+    for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+    return out;
+  }
+  std::vector<std::string> warnings;
+  std::vector<VectorRecord> records = read_bag_records(bag_, {reference_topic_, test_topic_}, &warnings);
+  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  return {std::move(records[0]), std::move(records[1])};
+}
+
+ReportInputs BagInputOptions::inputs(const std::string& reference_path, const std::string& test_path) const {
+  if (bag_.empty()) return {reference_path, test_path};
+  return {bag_ + ":" + bag_topic_name(reference_topic_), bag_ + ":" + bag_topic_name(test_topic_)};
+}
+
+}  // namespace magnetometer_insitu_calibration

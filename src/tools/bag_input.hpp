@@ -1,0 +1,36 @@
+// Bag input for command-line programs: --bag FILE --reference-topic T --test-topic T as an
+// alternative to --reference FILE --test FILE (calibrate_records).
+#pragma once
+
+#include "magnetometer_insitu_calibration/calibration_report.hpp"
+#include "magnetometer_insitu_calibration/vector_record.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+#include <utility>
+
+namespace magnetometer_insitu_calibration {
+
+class BagInputOptions {
+ public:
+  /// Adds --bag, --reference-topic and --test-topic to `app`; `reference` and `test` (the file
+  /// options) stop being required, and exclude --bag.
+  BagInputOptions(CLI::App& app, CLI::Option* reference, CLI::Option* test);
+
+  /// After parsing: the reference and test records, from the files (read_record: IAGA-2002,
+  /// CSV, LEMI formats) or from the bag's two topics in one pass (read_bag_records). Warnings
+  /// (LEMI records skipped, bag messages reordered) go to stderr. Throws InputError("--reference", ...) when neither
+  /// the files nor the bag are given.
+  std::pair<VectorRecord, VectorRecord> records(const std::string& reference_path, const std::string& test_path) const;
+
+  /// Names of the inputs for the report: the files, or "<bag>:<topic>".
+  ReportInputs inputs(const std::string& reference_path, const std::string& test_path) const;
+
+  bool from_bag() const { return !bag_.empty(); }
+
+ private:
+  std::string bag_, reference_topic_, test_topic_;
+};
+
+}  // namespace magnetometer_insitu_calibration

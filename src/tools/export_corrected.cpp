@@ -1,0 +1,205 @@
+// export_corrected: the test record corrected into the reference frame with an in-situ
+// calibration, written as IAGA-2002 (70-column records, the 12 mandatory header records,
+// comments stating the calibration applied: matrix, window, source).
+//
+//   export_corrected --test TEST --calibration report.json [--window "whole record"] --output out.sec
+//   export_corrected --bag pair.bag --test-topic /test/magnetic_field --calibration fge.yaml --output out.sec
+//
+// Correction (rows are samples, nT; T = R n): r = t n^-1. The calibration is one window of a
+// calibrate_records --json report, or the YAML file of calibration_node (the latest accepted
+// window). Only n is applied: the test instrument's baseline (offset) is not estimated by the
+// calibration (DFT harmonic 0 is excluded) and is not removed; an offset b of the test reading
+// appears in the output as b n^-1, so the corrected series needs its own baselines from
+// absolute measurements, as any variometer record. The trend column is not applied either.
+#include "archive_records.hpp"
+
+#include "magnetometer_insitu_calibration/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/ros/bag_records.hpp"
+#include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
+#include "magnetometer_insitu_calibration/time_format.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+/// The calibration applied and the words that describe it.
+struct Applied {
+  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
+  std::string window;        ///< "whole record 2025-05-14T00:00:00.000Z to ..."
+  std::string quality;       ///< "ok", ...
+  std::string inputs;        ///< "reference X, test Y"
+  std::string parameters;    ///< scale ratios, non-orthogonality
+};
+
+std::string fixed(double v, int decimals) {
+  char b[48];
+  std::snprintf(b, sizeof b, "%.*f", decimals, v);
+  return b;
+}
+
+Applied from_json(const std::string& path, const std::string& which) {
+  const nlohmann::json report = mic::read_json_file(path);
+  const mic::ReportWindow w = mic::select_report_window(report, which, path);
+  Applied a;
+  a.n = w.n;
+  a.window = "'" + w.label + "' (" + w.start + " to " + w.end + ")";
+  a.quality = w.quality;
+  if (report.contains("settings")) {
+    const nlohmann::json& s = report["settings"];
+    a.inputs = "reference " + s.value("reference", std::string("?")) + ", test " + s.value("test", std::string("?"));
+  }
+  const nlohmann::json& j = w.json;
+  try {
+    std::ostringstream p;
+    p << "Scale ratios Kt/Kr x y z: " << fixed(j["scale_ratio"][0], 6) << " " << fixed(j["scale_ratio"][1], 6) << " "
+      << fixed(j["scale_ratio"][2], 6) << "; non-orthogonality xy xz yz: " << fixed(j["nonorthogonality_deg"]["xy"], 4)
+      << " " << fixed(j["nonorthogonality_deg"]["xz"], 4) << " " << fixed(j["nonorthogonality_deg"]["yz"], 4)
+      << " deg; misalignment x y z: " << fixed(j["misalignment_deg"][0], 4) << " " << fixed(j["misalignment_deg"][1], 4)
+      << " " << fixed(j["misalignment_deg"][2], 4) << " deg.";
+    a.parameters = p.str();
+  } catch (const std::exception&) {
+    a.parameters.clear();  // a null (not finite) value: the matrix says it all
+  }
+  return a;
+}
+
+Applied from_yaml(const std::string& path) {
+  mic::MagnetometerCalibration c;
+  try {
+    c = mic::load_calibration_file(path);
+  } catch (const mic::CalibrationFileError& e) {
+    throw mic::InputError(path, e.what());
+  }
+  Applied a;
+  for (int r = 0; r < 3; ++r) {
+    for (int col = 0; col < 3; ++col) a.n(r, col) = c.matrix[static_cast<std::size_t>(3 * r + col)];
+  }
+  a.window = "'" + c.test_name + "' live window (" + mic::format_iso8601(c.window_start.toSec(), 3) + " to " +
+             mic::format_iso8601(c.window_end.toSec(), 3) + ")";
+  a.quality = c.accepted ? "ok" : "not accepted: " + c.quality_text;
+  a.inputs = "reference frame " + c.reference_frame_id + ", test frame " + c.test_frame_id;
+  a.parameters = "Scale ratios Kt/Kr x y z: " + fixed(c.scale_ratio[0], 6) + " " + fixed(c.scale_ratio[1], 6) + " " +
+                 fixed(c.scale_ratio[2], 6) + "; non-orthogonality xy xz yz: " +
+                 fixed(c.nonorthogonality_deg[0], 4) + " " + fixed(c.nonorthogonality_deg[1], 4) + " " +
+                 fixed(c.nonorthogonality_deg[2], 4) + " deg.";
+  return a;
+}
+
+bool ends_with(const std::string& text, const std::string& suffix) {
+  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::array<std::string, 3> split_components(const std::string& text) {
+  std::array<std::string, 3> out;
+  std::stringstream stream(text);
+  std::string item;
+  std::size_t k = 0;
+  while (std::getline(stream, item, ',')) {
+    if (k >= 3 || item.empty()) break;
+    out[k++] = item;
+  }
+  if (k != 3 || std::getline(stream, item, ',')) {
+    throw mic::InputError("--components", "expected three names separated by commas, e.g. H,E,Z; got '" + text + "'");
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Test magnetometer record corrected into the reference frame (r = t n^-1), written as IAGA-2002."};
+  std::string test_path, bag_path, test_topic, calibration_path, which, output, components;
+  mic::Iaga2002WriteOptions iaga;
+  double max_condition = 100.0;
+  bool allow_flagged = false;
+  auto* test = app.add_option("--test", test_path,
+                              "test record: IAGA-2002, CSV (.gz allowed), LemiBin, LEMI compact flash, LEMI-025 stream");
+  auto* bag = app.add_option("--bag", bag_path, "rosbag holding the test record as sensor_msgs/MagneticField");
+  auto* topic = app.add_option("--test-topic", test_topic, "test topic in --bag");
+  bag->excludes(test)->needs(topic);
+  topic->needs(bag);
+  app.add_option("--calibration", calibration_path,
+                 "calibrate_records --json report (.json) or calibration_node YAML file (.yaml/.yml)")
+      ->required();
+  app.add_option("--window", which,
+                 "window of the JSON report: 1-based index or label (default: 'whole record', else the last ok window)");
+  app.add_option("-o,--output", output, "IAGA-2002 file to write (.gz: compressed)")->required();
+  app.add_option("--components", components, "names of the corrected components, e.g. H,E,Z (default: the test's)");
+  app.add_option("--iaga-code", iaga.iaga_code, "IAGA code (default: the test record's)");
+  app.add_option("--station-name", iaga.station_name, "Station Name");
+  app.add_option("--source-of-data", iaga.source_of_data, "Source of Data");
+  app.add_option("--latitude", iaga.geodetic_latitude, "Geodetic Latitude, degrees north");
+  app.add_option("--longitude", iaga.geodetic_longitude, "Geodetic Longitude, degrees east (0..360)");
+  app.add_option("--elevation", iaga.elevation, "Elevation, m");
+  app.add_option("--digital-sampling", iaga.digital_sampling, "Digital Sampling, e.g. '0.1 second'");
+  app.add_option("--data-type", iaga.data_type, "Data Type (default: the test record's, else variation)");
+  app.add_option("--max-condition", max_condition, "refuse a matrix n with a larger condition number")
+      ->capture_default_str();
+  app.add_flag("--allow-flagged", allow_flagged, "apply a window whose quality is not ok");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (test_path.empty() && bag_path.empty()) throw mic::InputError("--test", "is required (or --bag with --test-topic)");
+    const bool yaml = ends_with(calibration_path, ".yaml") || ends_with(calibration_path, ".yml");
+    if (yaml && !which.empty()) throw mic::InputError("--window", "applies to a JSON report, not to a YAML calibration");
+    const Applied applied = yaml ? from_yaml(calibration_path) : from_json(calibration_path, which);
+    if (applied.quality != "ok" && !allow_flagged) {
+      throw mic::InputError(calibration_path, "window " + applied.window + " has quality '" + applied.quality +
+                                                  "': not applied (--allow-flagged to apply it anyway)");
+    }
+
+    mic::VectorRecord record;
+    std::string test_name = test_path;
+    if (!bag_path.empty()) {
+      record = mic::read_bag_records(bag_path, {test_topic}).front();
+      test_name = record.source;
+    } else {
+      mic::ArchiveRecord archive = mic::read_archive_record(test_path);  // damaged records skipped, reported
+      for (const std::string& problem : archive.problems) std::cerr << "export_corrected: warning: " << problem << "\n";
+      record = std::move(archive.record);
+    }
+    const std::array<std::string, 3> names = components.empty() ? record.components : split_components(components);
+    const mic::VectorRecord corrected = mic::correct_record(record, applied.n, names, max_condition);
+
+    std::string letters;
+    for (const std::string& c : names) letters += c;
+    if (iaga.reported.empty()) iaga.reported = letters + "F";
+    if (iaga.sensor_orientation.empty()) iaga.sensor_orientation = letters;
+    char row[3][96];
+    for (int r = 0; r < 3; ++r) {
+      std::snprintf(row[r], sizeof row[r], "n row %d: %+.10f %+.10f %+.10f", r + 1, applied.n(r, 0), applied.n(r, 1),
+                    applied.n(r, 2));
+    }
+    iaga.comments = {
+        "Test record corrected into the reference frame by in-situ calibration against a co-located reference "
+        "(FD-WLSE, Marusenkov et al.): r = t n^-1, rows are samples in nT, T = R n.",
+        std::string(row[0]) + "\n" + row[1] + "\n" + row[2],
+        "Calibration window " + applied.window + ", quality " + applied.quality + ", from " + calibration_path +
+            (applied.inputs.empty() ? std::string() : " (" + applied.inputs + ")") + ".",
+        "Test record: " + test_name + ".",
+        "Baseline: the test offset is not estimated (DFT harmonic 0 excluded) and not removed; an offset b appears "
+        "as b n^-1. Trend not removed. Derive baselines from absolute measurements.",
+    };
+    if (!applied.parameters.empty()) iaga.comments.insert(iaga.comments.begin() + 2, applied.parameters);
+    if (const auto it = record.header.find("comments"); it != record.header.end() && !it->second.empty()) {
+      iaga.comments.push_back("Comments of the test record:\n" + it->second);
+    }
+    mic::write_iaga2002(output, corrected, iaga);
+    std::cout << "wrote " << output << ": " << corrected.size() << " samples of " << test_name
+              << " corrected with window " << applied.window << "\n";
+  } catch (const mic::InputError& e) {
+    std::cerr << "export_corrected: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "export_corrected: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

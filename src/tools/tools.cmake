@@ -1,0 +1,41 @@
+# Archived-record tools (included by CMakeLists.txt after src/ros/nodes.cmake):
+#  - ${PROJECT_NAME}_archive: ROS-free, every record format read past damaged records, LEMI
+#    temperatures, correction into the reference frame, calibrate_records JSON windows;
+#  - ${PROJECT_NAME}_bag: sensor_msgs/MagneticField bags <-> VectorRecords (rosbag C++ API, no
+#    master) and the --bag input of calibrate_records;
+#  - programs records_to_bag, export_corrected, benchmark_bag_read;
+#  - calibrate_records (built by CMakeLists.txt from src/cli) gets the bag input.
+add_library(${PROJECT_NAME}_archive src/tools/archive_records.cpp)
+target_include_directories(${PROJECT_NAME}_archive PUBLIC include src/tools)
+target_link_libraries(${PROJECT_NAME}_archive PUBLIC ${PROJECT_NAME}_core)
+target_compile_options(${PROJECT_NAME}_archive PRIVATE -Wall -Wextra)
+
+add_library(${PROJECT_NAME}_bag src/ros/bag_records.cpp src/tools/bag_input.cpp)
+target_include_directories(${PROJECT_NAME}_bag PUBLIC include src/tools ${catkin_INCLUDE_DIRS})
+target_link_libraries(${PROJECT_NAME}_bag PUBLIC ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+target_compile_options(${PROJECT_NAME}_bag PRIVATE -Wall -Wextra)
+
+add_executable(records_to_bag src/tools/records_to_bag.cpp)
+target_link_libraries(records_to_bag ${PROJECT_NAME}_bag ${PROJECT_NAME}_archive)
+
+add_executable(export_corrected src/tools/export_corrected.cpp)
+target_include_directories(export_corrected PRIVATE ${CATKIN_DEVEL_PREFIX}/include)
+target_link_libraries(export_corrected ${PROJECT_NAME}_bag ${PROJECT_NAME}_archive ${PROJECT_NAME}_ros)
+add_dependencies(export_corrected ${PROJECT_NAME}_generate_messages_cpp)
+
+# A program, not a test: its figures go in the README ("Archived records").
+add_executable(benchmark_bag_read src/tools/benchmark_bag_read.cpp)
+target_link_libraries(benchmark_bag_read ${PROJECT_NAME}_bag)
+
+foreach(program records_to_bag export_corrected benchmark_bag_read)
+  target_compile_options(${program} PRIVATE -Wall -Wextra)
+  install(TARGETS ${program} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+endforeach()
+
+# calibrate_records --bag FILE --reference-topic T --test-topic T.
+if(TARGET calibrate_records)
+  target_link_libraries(calibrate_records ${PROJECT_NAME}_bag)
+endif()
+
+catkin_install_python(PROGRAMS scripts/plot_calibration DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(FILES launch/replay.launch DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/launch)

@@ -1,0 +1,70 @@
+# Tests of the archived-record tools (included by test/ros/tests.cmake):
+#  - test/core/test_archive_records, test/core/test_export_corrected (ROS-free, created by the
+#    core glob of CMakeLists.txt): linked here to the archive library, given the programs;
+#  - test_bag_records: gtest without a master (bags, records_to_bag, calibrate_records --bag,
+#    export_corrected from a bag and a calibration_node YAML);
+#  - rostest replay_agreement: launch/replay.launch vs calibrate_records --bag, same windows;
+#  - plot_calibration: scripts/plot_calibration on the real WIC pair (Python, JUnit XML).
+# Test binaries and fixtures are EXCLUDE_FROM_ALL: build the `tests` target before ctest.
+set(_mic_programs
+  RECORDS_TO_BAG_BIN="$<TARGET_FILE:records_to_bag>"
+  EXPORT_CORRECTED_BIN="$<TARGET_FILE:export_corrected>"
+  CALIBRATE_RECORDS_BIN="$<TARGET_FILE:calibrate_records>"
+  PACKAGE_DATA_DIR="${CMAKE_CURRENT_SOURCE_DIR}/data"
+  TEST_DATA_DIR="${CMAKE_CURRENT_SOURCE_DIR}/test/data")
+
+foreach(_mic_test test_archive_records test_export_corrected)
+  if(TARGET ${_mic_test})
+    target_link_libraries(${_mic_test} ${PROJECT_NAME}_archive)
+    target_compile_definitions(${_mic_test} PRIVATE EXPORT_CORRECTED_BIN="$<TARGET_FILE:export_corrected>")
+    add_dependencies(${_mic_test} export_corrected calibrate_records)
+  endif()
+endforeach()
+
+catkin_add_gtest(test_bag_records test/ros/test_bag_records.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
+if(TARGET test_bag_records)
+  target_include_directories(test_bag_records PRIVATE test/core ${CATKIN_DEVEL_PREFIX}/include)
+  target_link_libraries(test_bag_records ${PROJECT_NAME}_bag ${PROJECT_NAME}_archive ${PROJECT_NAME}_ros
+    ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
+  target_compile_definitions(test_bag_records PRIVATE ${_mic_programs})
+  target_compile_options(test_bag_records PRIVATE -Wall -Wextra)
+  add_dependencies(test_bag_records records_to_bag export_corrected calibrate_records
+    ${PROJECT_NAME}_generate_messages_cpp)
+endif()
+
+# Replay fixture: 6 h of a simulated 1 Hz pair from 2025-05-14T00:00:00Z (a whole multiple of the
+# step, so that the live windows are the offline ones) -> bag -> offline report of the windows.
+set(_mic_replay ${CMAKE_CURRENT_BINARY_DIR}/archive_fixtures/replay)
+add_custom_command(
+  OUTPUT ${_mic_replay}/pair.bag ${_mic_replay}/offline.json
+  COMMAND ${CMAKE_COMMAND} -E make_directory ${_mic_replay}
+  COMMAND $<TARGET_FILE:simulate_records> --out-dir ${_mic_replay} --format iaga --days 0.25 --seed 11 > ${_mic_replay}/fixture.log
+  COMMAND $<TARGET_FILE:records_to_bag> --quiet --reference ${_mic_replay}/reference.iaga --test ${_mic_replay}/test.iaga
+          -o ${_mic_replay}/pair.bag >> ${_mic_replay}/fixture.log
+  COMMAND $<TARGET_FILE:calibrate_records> --bag ${_mic_replay}/pair.bag --reference-topic /reference/magnetic_field
+          --test-topic /test/magnetic_field --window 3600 --step 1800 --method plain --no-despike
+          --json ${_mic_replay}/offline.json >> ${_mic_replay}/fixture.log
+  DEPENDS simulate_records records_to_bag calibrate_records
+  COMMENT "Replay fixture: simulated bag and the offline calibration of its windows")
+add_custom_target(${PROJECT_NAME}_replay_fixture DEPENDS ${_mic_replay}/pair.bag ${_mic_replay}/offline.json)
+
+catkin_add_executable_with_gtest(rostest_replay test/ros/rostest_replay.cpp EXCLUDE_FROM_ALL)
+if(TARGET rostest_replay)
+  target_include_directories(rostest_replay PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})
+  target_link_libraries(rostest_replay ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+  target_compile_options(rostest_replay PRIVATE -Wall -Wextra)
+  # add_rostest does not make the test depend on the nodes it launches, nor on the fixture.
+  add_dependencies(rostest_replay ${PROJECT_NAME}_generate_messages_cpp ${PROJECT_NAME}_replay_fixture
+    calibration_node correction_node)
+  add_rostest(test/ros/replay_agreement.test
+    ARGS bag:=${_mic_replay}/pair.bag offline_json:=${_mic_replay}/offline.json
+    DEPENDENCIES rostest_replay)
+endif()
+
+# catkin's run_tests.py takes the command as one string (as catkin_add_gtest passes it).
+catkin_run_tests_target(python plot_calibration python-plot_calibration.xml
+  COMMAND "/usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/test/ros/test_plot_calibration.py --calibrate-records $<TARGET_FILE:calibrate_records> --script ${CMAKE_CURRENT_SOURCE_DIR}/scripts/plot_calibration --data-dir ${CMAKE_CURRENT_SOURCE_DIR}/data --certificate ${CMAKE_CURRENT_SOURCE_DIR}/test/data/coil_certificate_marusenkov2010.yaml --xml ${CATKIN_TEST_RESULTS_DIR}/${PROJECT_NAME}/python-plot_calibration.xml"
+  DEPENDENCIES calibrate_records)
+if(TARGET tests)
+  add_dependencies(tests calibrate_records)
+endif()

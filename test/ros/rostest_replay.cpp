@@ -1,0 +1,156 @@
+// Replay agreement (test/ros/replay_agreement.test): a bag of a simulated 1 Hz pair played by
+// launch/replay.launch (rosbag play --clock, /use_sim_time) into calibration_node and
+// correction_node gives, window for window, the calibration that calibrate_records --bag wrote
+// for the same bag and the same windows (--window/--step, --method plain --no-despike: what the
+// live node does). Agreement to numerical noise: every number of the message within 1e-7
+// relative (plus 1e-12 absolute) of the JSON; counts, harmonics and quality equal.
+#include "magnetometer_insitu_calibration/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/time_format.hpp"
+
+#include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <ros/ros.h>
+#include <sensor_msgs/MagneticField.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <mutex>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+constexpr double kRelative = 1e-7;
+constexpr double kAbsolute = 1e-12;
+
+/// |live - offline| <= kRelative * max(|live|, |offline|) + kAbsolute.
+::testing::AssertionResult agrees(double live, double offline) {
+  if (std::abs(live - offline) <= kRelative * std::max(std::abs(live), std::abs(offline)) + kAbsolute) {
+    return ::testing::AssertionSuccess();
+  }
+  return ::testing::AssertionFailure() << "live " << live << " offline " << offline << " (difference "
+                                       << live - offline << ")";
+}
+
+template <typename Array>
+void expect_vector(const Array& live, const nlohmann::json& offline, const std::string& what) {
+  ASSERT_EQ(offline.size(), 3u) << what;
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_TRUE(agrees(live[i], offline[i].get<double>())) << what << "[" << i << "]";
+}
+
+template <typename Array>
+void expect_pairs(const Array& live, const nlohmann::json& offline, const std::string& what) {
+  const char* keys[3] = {"xy", "xz", "yz"};
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_TRUE(agrees(live[i], offline[keys[i]].get<double>())) << what << "." << keys[i];
+}
+
+}  // namespace
+
+TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
+  ros::NodeHandle nh, p("~");
+  std::string json_path, calibration_topic, corrected_topic;
+  double timeout_s = 150.0;
+  ASSERT_TRUE(p.getParam("offline_json", json_path));
+  p.param<std::string>("calibration_topic", calibration_topic, "/replay/calibration");
+  p.param<std::string>("corrected_topic", corrected_topic, "/replay/corrected");
+  p.param("timeout", timeout_s, timeout_s);
+
+  std::ifstream in(json_path);
+  ASSERT_TRUE(in.good()) << json_path;
+  const nlohmann::json report = nlohmann::json::parse(in);
+  const nlohmann::json& windows = report["windows"];
+  ASSERT_GE(windows.size(), 3u);
+  ASSERT_EQ(report["settings"]["despike"], false) << "the live node does not despike";
+
+  // Offline windows by start (ms); the live node completes every window but the one that ends
+  // with the record (no sample after its end).
+  double last_end = 0.0;
+  for (const auto& w : windows) last_end = std::max(last_end, mic::parse_iso8601(w["end"].get<std::string>()));
+  std::map<long long, const nlohmann::json*> expected;
+  for (const auto& w : windows) {
+    if (mic::parse_iso8601(w["end"].get<std::string>()) < last_end) {
+      expected[std::llround(1000.0 * mic::parse_iso8601(w["start"].get<std::string>()))] = &w;
+    }
+  }
+  ASSERT_GE(expected.size(), 2u);
+
+  std::mutex mutex;
+  std::map<long long, mic::MagnetometerCalibration> live;
+  std::size_t corrected = 0;
+  std::string corrected_frame;
+  ros::Subscriber calibration_sub = nh.subscribe<mic::MagnetometerCalibration>(
+      calibration_topic, 1000, [&](const mic::MagnetometerCalibration::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        live[std::llround(1000.0 * m->window_start.toSec())] = *m;
+      });
+  ros::Subscriber corrected_sub =
+      nh.subscribe<sensor_msgs::MagneticField>(corrected_topic, 10000, [&](const sensor_msgs::MagneticField::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        ++corrected;
+        corrected_frame = m->header.frame_id;
+      });
+
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  for (;;) {
+    ros::spinOnce();
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      std::size_t have = 0;
+      for (const auto& e : expected) have += live.count(e.first);
+      if (have == expected.size()) break;
+    }
+    if (ros::WallTime::now() > deadline) break;
+    ros::WallDuration(0.05).sleep();
+  }
+  ros::WallDuration(0.5).sleep();  // a few corrected samples more
+  ros::spinOnce();
+
+  std::lock_guard<std::mutex> lock(mutex);
+  for (const auto& [start_ms, w] : expected) {
+    const std::string label = (*w)["label"].get<std::string>() + " (" + (*w)["start"].get<std::string>() + ")";
+    const auto it = live.find(start_ms);
+    ASSERT_NE(it, live.end()) << "no live calibration for offline " << label << " within " << timeout_s
+                              << " s; live windows received: " << live.size();
+    const mic::MagnetometerCalibration& m = it->second;
+    const nlohmann::json& o = *w;
+    SCOPED_TRACE(label);
+    EXPECT_NEAR(m.window_end.toSec(), mic::parse_iso8601(o["end"].get<std::string>()), 1e-3);
+    EXPECT_EQ(m.samples, o["samples"].get<std::uint32_t>());
+    EXPECT_EQ(m.filled_samples, o["filled_samples"].get<std::uint32_t>());
+    EXPECT_EQ(static_cast<int>(m.harmonic_first), o["harmonics"][0].get<int>());
+    EXPECT_EQ(static_cast<int>(m.harmonic_last), o["harmonics"][1].get<int>());
+    EXPECT_EQ(mic::quality_name(static_cast<mic::Quality>(m.quality)), o["quality"].get<std::string>());
+    EXPECT_TRUE(m.accepted);
+    for (int k = 0; k < 9; ++k) {
+      EXPECT_TRUE(agrees(m.matrix[k], o["matrix"][k / 3][k % 3].get<double>())) << "matrix " << k;
+    }
+    for (int k = 0; k < 81; ++k) {
+      EXPECT_TRUE(agrees(m.matrix_covariance[k], o["matrix_covariance"][k / 9][k % 9].get<double>()))
+          << "matrix_covariance " << k;
+    }
+    expect_vector(m.trend_nT_per_day, o["trend_nT_per_day"], "trend_nT_per_day");
+    expect_vector(m.scale_ratio, o["scale_ratio"], "scale_ratio");
+    expect_vector(m.scale_ratio_ci95, o["scale_ratio_ci95"], "scale_ratio_ci95");
+    expect_pairs(m.nonorthogonality_deg, o["nonorthogonality_deg"], "nonorthogonality_deg");
+    expect_pairs(m.nonorthogonality_ci95_deg, o["nonorthogonality_ci95_deg"], "nonorthogonality_ci95_deg");
+    expect_vector(m.misalignment_deg, o["misalignment_deg"], "misalignment_deg");
+    expect_vector(m.misalignment_ci95_deg, o["misalignment_ci95_deg"], "misalignment_ci95_deg");
+    expect_vector(m.axis_deviation_deg, o["axis_deviation_deg"], "axis_deviation_deg");
+    expect_vector(m.coherence, o["coherence"], "coherence");
+    expect_vector(m.residual_rms_nT, o["residual_rms_nT"], "residual_rms_nT");
+    EXPECT_TRUE(agrees(m.condition_number, o["condition_number"].get<double>())) << "condition_number";
+  }
+  // The replay also drives correction_node: the test stream comes out in the reference frame.
+  EXPECT_GT(corrected, 0u);
+  EXPECT_EQ(corrected_frame, "reference");
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "rostest_replay");
+  ros::NodeHandle nh;  // keeps the node up for the whole test
+  return RUN_ALL_TESTS();
+}

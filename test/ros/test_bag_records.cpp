@@ -1,0 +1,383 @@
+// Records in rosbags, without a master: the bag round trip (bag_records.hpp), records_to_bag on
+// every input format (skipped records reported, temperatures, progress), calibrate_records
+// --bag giving the JSON of calibrate_records on the files (the real WIC pair and a simulated
+// 10 Hz LEMI pair), and export_corrected from a bag and from calibration_node's YAML file.
+#include "magnetometer_insitu_calibration/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/record_file.hpp"
+#include "magnetometer_insitu_calibration/ros/bag_records.hpp"
+#include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
+#include "magnetometer_insitu_calibration/simulator.hpp"
+
+#include "archive_fixtures.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <rosbag/bag.h>
+#include <sensor_msgs/MagneticField.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sys/wait.h>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+struct ProgramRun {
+  int status = -1;
+  std::string output;
+};
+
+ProgramRun run(const std::string& program, const std::string& args) {
+  ProgramRun r;
+  FILE* pipe = popen((program + " " + args + " 2>&1").c_str(), "r");
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) r.output += buffer;
+  const int raw = pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return r;
+}
+
+std::string temp_dir(const std::string& tag) {
+  std::string pattern = (std::filesystem::temp_directory_path() / ("mic_" + tag + "_XXXXXX")).string();
+  if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+  return pattern;
+}
+
+std::string package_data(const std::string& name) { return std::string(PACKAGE_DATA_DIR) + "/" + name; }
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+/// Times equal, values within one unit in the last place (the tesla conversion), NaN kept.
+void expect_same_record_to_one_ulp(const mic::VectorRecord& a, const mic::VectorRecord& b) {
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.time_s, b.time_s);
+  std::size_t exact = 0, total = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const double x = a.values_nT(static_cast<Eigen::Index>(i), c), y = b.values_nT(static_cast<Eigen::Index>(i), c);
+      if (std::isnan(x) || std::isnan(y)) {
+        ASSERT_TRUE(std::isnan(x) && std::isnan(y)) << "sample " << i;
+        continue;
+      }
+      ++total;
+      exact += x == y;
+      const double ulp = std::nextafter(std::abs(x), std::numeric_limits<double>::infinity()) - std::abs(x);
+      ASSERT_LE(std::abs(x - y), ulp) << "sample " << i << " component " << c;
+    }
+  }
+  EXPECT_GT(exact, total * 8 / 10) << "most values survive the tesla round trip bit for bit";
+}
+
+/// Two calibrate_records reports describe the same calibration: every window's labels, times,
+/// counts, harmonics and quality equal; every number within `relative` (numerical noise of the
+/// one-ulp tesla round trip of the inputs); the pre-processing counts equal.
+void expect_same_report(const nlohmann::json& a, const nlohmann::json& b, double relative) {
+  ASSERT_EQ(a["windows"].size(), b["windows"].size());
+  EXPECT_EQ(a["preprocessing"], b["preprocessing"]);
+  double worst = 0.0;
+  std::string worst_at;
+  std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> walk =
+      [&](const nlohmann::json& x, const nlohmann::json& y, const std::string& at) {
+        if (x.is_number_float() || y.is_number_float()) {
+          ASSERT_TRUE(x.is_number() && y.is_number()) << at;
+          const double u = x.get<double>(), v = y.get<double>();
+          const double d = std::abs(u - v) / std::max({std::abs(u), std::abs(v), 1e-300});
+          if (d > worst) {
+            worst = d;
+            worst_at = at;
+          }
+        } else if (x.is_object()) {
+          ASSERT_EQ(x.size(), y.size()) << at;
+          for (auto it = x.begin(); it != x.end(); ++it) walk(it.value(), y.at(it.key()), at + "." + it.key());
+        } else if (x.is_array()) {
+          ASSERT_EQ(x.size(), y.size()) << at;
+          for (std::size_t i = 0; i < x.size(); ++i) walk(x[i], y[i], at + "[" + std::to_string(i) + "]");
+        } else {
+          EXPECT_EQ(x, y) << at;
+        }
+      };
+  walk(a["windows"], b["windows"], "windows");
+  EXPECT_LE(worst, relative) << "largest relative difference at " << worst_at;
+}
+
+bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+}  // namespace
+
+// ---- the library ------------------------------------------------------------------------------
+
+TEST(BagRecords, RoundTripKeepsTimesExactValuesToOneUlpGapsAndTemperatures) {
+  const std::string dir = temp_dir("bag_roundtrip");
+  mic::SimulationSettings s;
+  s.duration_s = 7200.0;
+  s.sample_period_s = 0.1;
+  s.start_time_s = 1747180800.0 - 0.3;
+  s.gap_count = 3;
+  s.gap_length_s = 20.0;
+  s.keep_clean_field = false;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::BagTemperatureStream temperature{"/ref/sensor_temperature", "ref_frame", {}, {}};
+  for (int j = 0; j < 7200; ++j) {
+    temperature.time_s.push_back(1747180800.0 + j);
+    temperature.celsius.push_back(21.0 + 0.01 * j);
+  }
+  std::vector<std::pair<std::size_t, std::size_t>> progress;
+  const mic::BagWriteSummary summary = mic::write_records_bag(
+      dir + "/pair.bag", {{"ref/field", "ref_frame", &pair.reference}, {"/tst/field", "tst_frame", &pair.test}},
+      {temperature}, mic::BagCompression::kLz4,
+      [&](std::size_t done, std::size_t total) { progress.emplace_back(done, total); });
+  EXPECT_EQ(summary.messages, 2 * 72000u + 7200u);
+  EXPECT_EQ(summary.per_topic.at("/ref/field"), 72000u);
+  ASSERT_FALSE(progress.empty());
+  EXPECT_EQ(progress.back(), std::make_pair(summary.messages, summary.messages));
+
+  std::vector<std::string> warnings;
+  const std::vector<mic::VectorRecord> back = mic::read_bag_records(dir + "/pair.bag", {"/tst/field", "ref/field"}, &warnings);
+  EXPECT_TRUE(warnings.empty());
+  ASSERT_EQ(back.size(), 2u);
+  expect_same_record_to_one_ulp(back[0], pair.test);
+  expect_same_record_to_one_ulp(back[1], pair.reference);
+  EXPECT_EQ(back[0].header.at("frame_id"), "tst_frame");
+  EXPECT_EQ(back[1].source, dir + "/pair.bag:/ref/field");
+  std::size_t nan_rows = 0;
+  for (Eigen::Index i = 0; i < back[0].values_nT.rows(); ++i) nan_rows += std::isnan(back[0].values_nT(i, 0));
+  EXPECT_GT(nan_rows, 0u) << "the simulated gaps travel as NaN messages";
+
+  const mic::BagTemperatureStream t = mic::read_bag_temperatures(dir + "/pair.bag", "/ref/sensor_temperature");
+  EXPECT_EQ(t.time_s, temperature.time_s);
+  EXPECT_EQ(t.celsius, temperature.celsius);
+  EXPECT_EQ(t.frame_id, "ref_frame");
+}
+
+TEST(BagRecords, MissingTopicWrongTypeAndUnreadableBagAreNamed) {
+  const std::string dir = temp_dir("bag_errors");
+  mic::VectorRecord r;
+  r.time_s = {1747180800.0, 1747180801.0};
+  r.values_nT = mic::Readings::Ones(2, 3);
+  r.source = "tiny";
+  mic::write_records_bag(dir + "/b.bag", {{"/a/field", "a", &r}}, {{"/a/temperature", "a", {1747180800.0}, {20.0}}});
+  try {
+    mic::read_bag_records(dir + "/b.bag", {"/a/field", "/b/field"});
+    ADD_FAILURE();
+  } catch (const mic::InputError& e) {
+    EXPECT_TRUE(has(e.what(), "/b/field")) << e.what();
+    EXPECT_TRUE(has(e.what(), "/a/field (sensor_msgs/MagneticField)")) << e.what();
+  }
+  try {
+    mic::read_bag_records(dir + "/b.bag", {"/a/temperature"});
+    ADD_FAILURE();
+  } catch (const mic::InputError& e) {
+    EXPECT_TRUE(has(e.what(), "holds sensor_msgs/Temperature")) << e.what();
+  }
+  { std::ofstream(dir + "/not.bag") << "not a bag\n"; }
+  EXPECT_THROW(mic::read_bag_records(dir + "/not.bag", {"/a/field"}), mic::InputError);
+  mic::VectorRecord early = r;
+  early.time_s[0] = -1.0;
+  EXPECT_THROW(mic::write_records_bag(dir + "/c.bag", {{"/a/field", "a", &early}}, {}), mic::InputError);
+}
+
+TEST(BagRecords, MessagesOutOfStampOrderAreSortedAndRepeatsDropped) {
+  const std::string dir = temp_dir("bag_order");
+  {
+    rosbag::Bag bag(dir + "/o.bag", rosbag::bagmode::Write);
+    const double stamps[] = {10.0, 12.0, 11.0, 12.0, 13.0};
+    for (int i = 0; i < 5; ++i) {
+      sensor_msgs::MagneticField m;
+      m.header.stamp = ros::Time(stamps[i]);
+      m.magnetic_field.x = 1e-9 * i;  // the first of the repeated stamps (i = 1) is kept
+      bag.write("/f", ros::Time(100.0 + i), m);  // bag time in arrival order, not stamp order
+    }
+  }
+  std::vector<std::string> warnings;
+  const mic::VectorRecord r = mic::read_bag_records(dir + "/o.bag", {"f"}, &warnings).front();
+  EXPECT_EQ(r.time_s, (std::vector<double>{10.0, 11.0, 12.0, 13.0}));
+  EXPECT_DOUBLE_EQ(r.values_nT(2, 0), 1.0);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_TRUE(has(warnings[0], "1 with a repeated stamp dropped")) << warnings[0];
+}
+
+// ---- records_to_bag and calibrate_records --bag -------------------------------------------------
+
+// The real WIC day: IAGA-2002 -> bag -> calibrate_records --bag gives the report of
+// calibrate_records on the files (the paper's layout: four intervals and the day).
+TEST(RecordsToBag, WicDayBagGivesTheSameCalibrationAsTheFiles) {
+  const std::string dir = temp_dir("bag_wic");
+  const std::string lemi = package_data("wic20250514_lemi036.sec.gz"), fge = package_data("wic20250514_fge.sec.gz");
+  ProgramRun r = run(RECORDS_TO_BAG_BIN, "--reference " + lemi + " --test " + fge + " -o " + dir +
+                                      "/wic.bag --reference-topic /wic/lemi036/magnetic_field --test-topic "
+                                      "/wic/fge/magnetic_field --reference-frame lemi036 --test-frame fge");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(has(r.output, "wrote " + dir + "/wic.bag: 172800 messages")) << r.output;
+  EXPECT_TRUE(has(r.output, "skipped records: 0 in the reference, 0 in the test")) << r.output;
+  const auto records = mic::read_bag_records(dir + "/wic.bag", {"/wic/lemi036/magnetic_field", "/wic/fge/magnetic_field"});
+  expect_same_record_to_one_ulp(records[0], mic::read_record(lemi));
+  expect_same_record_to_one_ulp(records[1], mic::read_record(fge));
+  EXPECT_EQ(records[1].header.at("frame_id"), "fge");
+  EXPECT_EQ(mic::bag_topics(dir + "/wic.bag").size(), 2u) << "IAGA-2002 has no temperatures";
+
+  r = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/wic.bag --reference-topic /wic/lemi036/magnetic_field "
+                                 "--test-topic /wic/fge/magnetic_field --intervals 4 --json " + dir + "/bag.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(has(r.output, "reference: " + dir + "/wic.bag:/wic/lemi036/magnetic_field")) << r.output;
+  r = run(CALIBRATE_RECORDS_BIN, "--reference " + lemi + " --test " + fge + " --intervals 4 --json " + dir + "/file.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json bag = read_json(dir + "/bag.json"), file = read_json(dir + "/file.json");
+  ASSERT_EQ(bag["windows"].size(), 5u);
+  expect_same_report(bag, file, 1e-7);
+  EXPECT_EQ(bag["settings"]["test"], dir + "/wic.bag:/wic/fge/magnetic_field");
+}
+
+// A simulated 10 Hz LEMI-025 pair: the reference as LemiBin, the test as a raw serial capture
+// with two bursts of noise. records_to_bag reports them with their byte offsets, keeps every good
+// reading, writes the temperatures; the calibration from the bag is that of the files (through
+// read_record's LEMI dispatch), decimation to 1 Hz included.
+TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
+  const std::string dir = temp_dir("bag_lemi");
+  const double t0 = 1747180800.0;
+  mic::SimulationSettings s;
+  s.start_time_s = t0 - 0.3;
+  s.sample_period_s = 0.1;
+  s.duration_s = 4 * 3600.0;
+  s.keep_clean_field = false;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  const auto reference_packets = mic::test::lemi_packets_of(pair.reference, t0);
+  const auto test_packets = mic::test::lemi_packets_of(pair.test, t0);
+  mic::test::write_lemi_bin_file(dir + "/reference.bin", reference_packets);
+  mic::test::write_lemi_stream(dir + "/test.raw", test_packets, {100, 5000});
+  mic::test::write_lemi_stream(dir + "/test_clean.raw", test_packets);
+
+  ProgramRun r = run(RECORDS_TO_BAG_BIN, "--reference " + dir + "/reference.bin --test " + dir + "/test.raw -o " + dir +
+                                      "/lemi.bag --progress-delay 0 --reference-topic /lemi/ref/magnetic_field "
+                                      "--test-topic /lemi/test/magnetic_field");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(has(r.output, "(LemiBin): 144000 samples")) << r.output;
+  EXPECT_TRUE(has(r.output, "(LEMI-025 byte stream): 144000 samples")) << r.output;
+  EXPECT_TRUE(has(r.output, dir + "/test.raw byte " + std::to_string(101 * 153) + ": skipped")) << r.output;
+  EXPECT_TRUE(has(r.output, dir + "/test.raw byte " + std::to_string(5001 * 153 + 37) + ": skipped")) << r.output;
+  EXPECT_TRUE(has(r.output, "skipped records: 0 in the reference, 2 in the test")) << r.output;
+  EXPECT_TRUE(has(r.output, "writing " + dir + "/lemi.bag")) << "progress shown: " << r.output;
+  EXPECT_TRUE(has(r.output, "/lemi/test/sensor_temperature: 14400")) << r.output;
+  EXPECT_TRUE(has(r.output, "/lemi/ref/electronics_temperature: 14400")) << r.output;
+
+  const auto records = mic::read_bag_records(dir + "/lemi.bag", {"/lemi/ref/magnetic_field", "/lemi/test/magnetic_field"});
+  expect_same_record_to_one_ulp(records[0], mic::read_record(dir + "/reference.bin"));
+  expect_same_record_to_one_ulp(records[1], mic::read_record(dir + "/test_clean.raw"));  // nothing good lost
+  const mic::BagTemperatureStream sensor = mic::read_bag_temperatures(dir + "/lemi.bag", "/lemi/test/sensor_temperature");
+  ASSERT_EQ(sensor.celsius.size(), 14400u);
+  for (std::size_t j = 0; j < 14400; j += 997) {
+    EXPECT_DOUBLE_EQ(sensor.time_s[j], t0 + static_cast<double>(j) - 0.3);
+    EXPECT_NEAR(sensor.celsius[j], mic::test::lemi_sensor_temperature(j), 1e-9);
+  }
+
+  const std::string common = " --intervals 2 --json ";
+  r = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/lemi.bag --reference-topic /lemi/ref/magnetic_field --test-topic "
+                                 "/lemi/test/magnetic_field" + common + dir + "/bag.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run(CALIBRATE_RECORDS_BIN, "--reference " + dir + "/reference.bin --test " + dir + "/test.raw" + common + dir +
+                                     "/file.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json bag = read_json(dir + "/bag.json");
+  EXPECT_TRUE(bag["preprocessing"]["decimated"].get<bool>());
+  expect_same_report(bag, read_json(dir + "/file.json"), 1e-7);
+  // And the calibration is the simulated one.
+  const nlohmann::json& whole = bag["windows"][2];
+  for (int k = 0; k < 9; ++k) {
+    EXPECT_LT(std::abs(whole["matrix"][k / 3][k % 3].get<double>() - pair.n_true(k / 3, k % 3)),
+              4.0 * whole["matrix_stderr"][k / 3][k % 3].get<double>())
+        << k;
+  }
+}
+
+// Damaged IAGA-2002 lines: named with their line numbers, skipped, counted; the rest converted.
+TEST(RecordsToBag, DamagedTextRecordsAreNamedSkippedAndCounted) {
+  const std::string dir = temp_dir("bag_damaged");
+  mic::SimulationSettings s;
+  s.duration_s = 7200.0;
+  s.keep_clean_field = false;
+  mic::SimulatedPair pair = mic::simulate_pair(s);
+  pair.reference.station = pair.test.station = "SIM";
+  mic::write_iaga2002(dir + "/reference.sec", pair.reference);
+  mic::write_iaga2002(dir + "/test.sec", pair.test);
+  std::vector<std::string> lines = mic::test::read_lines(dir + "/test.sec");
+  const std::size_t d = mic::test::iaga_first_data_line(lines);
+  lines[d + 10].replace(45, 5, "#####");
+  lines[d + 5000].replace(11, 2, "25");  // hour 25
+  mic::test::write_lines(dir + "/test_damaged.sec", lines, true);
+
+  const ProgramRun r = run(RECORDS_TO_BAG_BIN, "--reference " + dir + "/reference.sec --test " + dir +
+                                            "/test_damaged.sec -o " + dir + "/d.bag");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(has(r.output, dir + "/test_damaged.sec:" + std::to_string(d + 11) + ": ")) << r.output;
+  EXPECT_TRUE(has(r.output, dir + "/test_damaged.sec:" + std::to_string(d + 5001) + ": ")) << r.output;
+  EXPECT_TRUE(has(r.output, "skipped records: 0 in the reference, 2 in the test")) << r.output;
+  const auto back = mic::read_bag_records(dir + "/d.bag", {"/test/magnetic_field"});
+  expect_same_record_to_one_ulp(back[0],
+                                mic::test::without_samples(mic::read_iaga2002(dir + "/test.sec"), {10, 5000}));
+}
+
+TEST(CalibrateRecordsBag, BadBagRequestsAreNamed) {
+  const std::string dir = temp_dir("bag_cli");
+  mic::VectorRecord r;
+  r.time_s = {1747180800.0, 1747180801.0};
+  r.values_nT = mic::Readings::Ones(2, 3);
+  mic::write_records_bag(dir + "/b.bag", {{"/reference/magnetic_field", "r", &r}}, {});
+  ProgramRun run_missing = run(CALIBRATE_RECORDS_BIN, "--bag " + dir +
+                                                   "/b.bag --reference-topic /reference/magnetic_field --test-topic /nope");
+  EXPECT_EQ(run_missing.status, 1);
+  EXPECT_TRUE(has(run_missing.output, "no sensor_msgs/MagneticField message on topic /nope")) << run_missing.output;
+  ProgramRun both = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/b.bag --reference x --test y --reference-topic a --test-topic b");
+  EXPECT_NE(both.status, 0);
+  EXPECT_TRUE(has(both.output, "--reference excludes --bag") || has(both.output, "--bag excludes --reference"))
+      << both.output;
+  ProgramRun none = run(CALIBRATE_RECORDS_BIN, "--intervals 2");
+  EXPECT_EQ(none.status, 1);
+  EXPECT_TRUE(has(none.output, "--reference: is required (or --bag")) << none.output;
+  ProgramRun no_topic = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/b.bag --test-topic a");
+  EXPECT_NE(no_topic.status, 0);
+  EXPECT_TRUE(has(no_topic.output, "--reference-topic")) << no_topic.output;
+}
+
+// ---- export_corrected from a bag, with calibration_node's YAML ----------------------------------
+
+TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
+  const std::string dir = temp_dir("bag_export");
+  mic::SimulationSettings s;
+  s.duration_s = 3600.0;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::write_records_bag(dir + "/p.bag", {{"/test/magnetic_field", "fge", &pair.test}}, {});
+  mic::MagnetometerCalibration c;
+  c.test_name = "fge";
+  c.reference_frame_id = "lemi";
+  c.test_frame_id = "fge";
+  c.window_start = ros::Time(1747180800.0);
+  c.window_end = ros::Time(1747184399.0);
+  for (int k = 0; k < 9; ++k) c.matrix[k] = pair.n_true(k / 3, k % 3);
+  c.scale_ratio = {0.9996, 1.0004, 1.0004};
+  c.quality = mic::MagnetometerCalibration::QUALITY_OK;
+  c.quality_text = "ok";
+  c.accepted = true;
+  { std::ofstream(dir + "/fge.yaml") << mic::calibration_to_yaml(c, "/calibration_fge"); }
+  const ProgramRun r = run(EXPORT_CORRECTED_BIN, "--bag " + dir + "/p.bag --test-topic /test/magnetic_field --calibration " +
+                                              dir + "/fge.yaml --iaga-code SIM -o " + dir + "/corrected.sec");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const mic::VectorRecord out = mic::read_iaga2002(dir + "/corrected.sec");
+  ASSERT_EQ(out.size(), 3600u);
+  EXPECT_EQ(out.time_s, pair.test.time_s);
+  // The clean field, within the test noise and the 0.01 nT of the format.
+  const mic::Readings e = out.values_nT - pair.field_nT;
+  for (int comp = 0; comp < 3; ++comp) {
+    EXPECT_LT(std::abs(e.col(comp).mean()), 0.02) << comp;
+    EXPECT_LT(e.col(comp).cwiseAbs().maxCoeff(), 0.2) << comp;
+  }
+  EXPECT_TRUE(has(out.header.at("comments"), "'fge' live window (2025-05-14T00:00:00.000Z to")) << out.header.at("comments");
+  EXPECT_TRUE(has(out.header.at("comments"), "p.bag:/test/magnetic_field")) << out.header.at("comments");
+}

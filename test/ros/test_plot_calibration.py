@@ -1,0 +1,206 @@
+#!/usr/bin/python3
+"""Tests of scripts/plot_calibration on the real WIC pair (data/wic20250514_*.sec.gz).
+
+Registered by test/ros/archive_tests.cmake (ctest and catkin run_tests, JUnit XML with --xml):
+  test_plot_calibration.py --calibrate-records BIN --script scripts/plot_calibration
+                           --data-dir data --certificate test/data/coil_certificate_marusenkov2010.yaml
+                           [--xml results.xml]
+
+What is asserted:
+  * the intervals view (calibrate_records --intervals 4) draws, per panel, exactly the report's
+    values and 95 % half-widths for intervals 1-4 and the whole record, and the certificate's
+    value and uncertainty as the grey band (scale ratios and non-orthogonality; none for the
+    axes row, which the certificate does not give);
+  * the PNG is a PNG of the expected size, not blank (dark pixels of markers and text, the grey
+    of the band present);
+  * the time-series view (--window 21600 --step 3600) draws every sliding window at its middle
+    time, and a window flagged in the report is listed and drawn in red;
+  * a missing report and a certificate with an unknown key exit 1 with the file named.
+"""
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+import xml.etree.ElementTree as ET
+
+ARGS = None
+WORK = None
+
+
+def run(cmd):
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    return p.returncode, p.stdout, p.stderr
+
+
+def calibrate(json_path, *options):
+    data = ARGS.data_dir
+    code, out, err = run([ARGS.calibrate_records, "--reference", os.path.join(data, "wic20250514_lemi036.sec.gz"),
+                          "--test", os.path.join(data, "wic20250514_fge.sec.gz"), "--json", json_path] + list(options))
+    if code != 0:
+        raise AssertionError("calibrate_records failed: %s %s" % (out, err))
+    with open(json_path) as f:
+        return json.load(f)
+
+
+def plot(*options):
+    return run([sys.executable, ARGS.script] + list(options))
+
+
+def png_pixels(path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.image as mpimg
+    return mpimg.imread(path)  # rows x cols x 4, floats in [0, 1]
+
+
+class PlotCalibration(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.intervals_json = os.path.join(WORK, "wic_intervals.json")
+        cls.intervals = calibrate(cls.intervals_json, "--intervals", "4")
+        cls.sliding_json = os.path.join(WORK, "wic_sliding.json")
+        cls.sliding = calibrate(cls.sliding_json, "--window", "21600", "--step", "3600")
+
+    def check_png(self, path):
+        with open(path, "rb") as f:
+            self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+        self.assertGreater(os.path.getsize(path), 20000)
+        pixels = png_pixels(path)
+        self.assertEqual(pixels.shape[:2], (1045, 1485))  # 13.5 x 9.5 in at 110 dpi
+        rgb = pixels[:, :, :3]
+        dark = (rgb.max(axis=2) < 0.3).mean()
+        self.assertGreater(dark, 0.005, "markers, error bars and text")
+        self.assertLess(dark, 0.5)
+        return rgb
+
+    def test_intervals_view_draws_the_report_and_the_certificate(self):
+        png = os.path.join(WORK, "intervals.png")
+        code, out, err = plot(self.intervals_json, "-o", png, "--certificate", ARGS.certificate, "--summary")
+        self.assertEqual(code, 0, err)
+        summary = json.loads(out)
+        self.assertEqual(summary["view"], "intervals")
+        self.assertEqual(summary["flagged"], [])
+        panels = summary["panels"]
+        self.assertEqual(len(panels), 9)
+        windows = self.intervals["windows"]
+        self.assertEqual([w["label"] for w in windows],
+                         ["interval 1/4", "interval 2/4", "interval 3/4", "interval 4/4", "whole record"])
+        import yaml
+        with open(ARGS.certificate) as f:
+            cert = yaml.safe_load(f)
+        for panel in panels:
+            key, comp = panel["parameter"], panel["component"]
+            ci_key = {"scale_ratio": "scale_ratio_ci95", "nonorthogonality_deg": "nonorthogonality_ci95_deg",
+                      "misalignment_deg": "misalignment_ci95_deg"}[key]
+            index = {"x": 0, "y": 1, "z": 2}.get(comp, comp)
+            self.assertEqual(panel["x"], ["1", "2", "3", "4", "all"])
+            self.assertEqual(panel["values"], [w[key][index] for w in windows], key + " " + comp)
+            self.assertEqual(panel["ci95"], [w[ci_key][index] for w in windows], key + " " + comp)
+            if key in cert:
+                self.assertEqual(panel["certificate"], cert[key][comp])
+            else:
+                self.assertNotIn("certificate", panel)
+        rgb = self.check_png(png)
+        grey = (abs(rgb - 209.0 / 255.0).max(axis=2) < 0.02).mean()
+        self.assertGreater(grey, 0.001, "certificate bands drawn in grey")
+
+    def test_timeseries_view_follows_the_sliding_windows_and_flags(self):
+        report = json.loads(json.dumps(self.sliding))
+        self.assertEqual(len(report["windows"]), 19)
+        report["windows"][7]["quality"] = "low_coherence"
+        flagged_json = os.path.join(WORK, "sliding_flagged.json")
+        with open(flagged_json, "w") as f:
+            json.dump(report, f)
+        png = os.path.join(WORK, "sliding.png")
+        code, out, err = plot(flagged_json, "-o", png, "--summary")
+        self.assertEqual(code, 0, err)
+        summary = json.loads(out)
+        self.assertEqual(summary["view"], "timeseries")
+        self.assertEqual(summary["flagged"], ["window 8"])
+        first = summary["panels"][0]
+        self.assertEqual(first["x"][0], "2025-05-14T03:00:00Z")  # middle of 00:00:00 .. 05:59:59
+        self.assertEqual(len(first["x"]), 19)
+        self.assertEqual(first["values"], [w["scale_ratio"][0] for w in report["windows"]])
+        rgb = self.check_png(png)
+        red = ((abs(rgb[:, :, 0] - 214 / 255.0) < 0.03) & (abs(rgb[:, :, 1] - 39 / 255.0) < 0.03)).sum()
+        self.assertGreater(red, 20, "the flagged window is drawn in red")
+
+    def test_bad_input_is_named(self):
+        code, out, err = plot(os.path.join(WORK, "missing.json"))
+        self.assertEqual(code, 1)
+        self.assertIn("missing.json", err)
+        bad = os.path.join(WORK, "bad_certificate.yaml")
+        with open(bad, "w") as f:
+            f.write("scale_ratios: {x: [1, 0.1]}\n")
+        code, out, err = plot(self.intervals_json, "-o", os.path.join(WORK, "x.png"), "--certificate", bad)
+        self.assertEqual(code, 1)
+        self.assertIn("unknown key 'scale_ratios'", err)
+
+
+class Recorder(unittest.TextTestResult):
+    def __init__(self, *a, **k):
+        super().__init__(*a, **k)
+        self.cases = []  # (name, seconds, failure text or None)
+        self._start = 0.0
+
+    def startTest(self, test):
+        self._start = time.time()
+        super().startTest(test)
+
+    def _record(self, test, text):
+        self.cases.append((test.id().split(".")[-1], time.time() - self._start, text))
+
+    def addSuccess(self, test):
+        super().addSuccess(test)
+        self._record(test, None)
+
+    def addFailure(self, test, err):
+        super().addFailure(test, err)
+        self._record(test, self._exc_info_to_string(err, test))
+
+    def addError(self, test, err):
+        super().addError(test, err)
+        self._record(test, self._exc_info_to_string(err, test))
+
+
+def write_junit(path, result):
+    suite = ET.Element("testsuite", name="plot_calibration", tests=str(len(result.cases)),
+                       failures=str(len(result.failures)), errors=str(len(result.errors)))
+    for name, seconds, text in result.cases:
+        case = ET.SubElement(suite, "testcase", classname="PlotCalibration", name=name, time="%.3f" % seconds)
+        if text is not None:
+            ET.SubElement(case, "failure", message=text.strip().splitlines()[-1]).text = text
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
+
+
+def main():
+    global ARGS, WORK
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--calibrate-records", required=True)
+    parser.add_argument("--script", required=True)
+    parser.add_argument("--data-dir", required=True)
+    parser.add_argument("--certificate", required=True)
+    parser.add_argument("--xml")
+    parser.add_argument("--keep", action="store_true", help="keep the PNGs (their folder is printed)")
+    ARGS = parser.parse_args()
+    WORK = tempfile.mkdtemp(prefix="mic_plot_")
+    suite = unittest.defaultTestLoader.loadTestsFromTestCase(PlotCalibration)
+    result = unittest.TextTestRunner(verbosity=2, resultclass=Recorder).run(suite)
+    if ARGS.xml:
+        write_junit(ARGS.xml, result)
+    if ARGS.keep:
+        print("PNGs in", WORK)
+    else:
+        shutil.rmtree(WORK, ignore_errors=True)
+    return 0 if result.wasSuccessful() else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
