@@ -38,3 +38,6 @@ add_rostest_gtest(test_faults_calibration test/ros/test_faults_calibration.test 
 target_link_libraries(test_faults_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_compile_options(test_faults_calibration PRIVATE -Wall -Wextra)
 add_dependencies(test_faults_calibration calibration_node)
+
+# Archived records: bags, records_to_bag, calibrate_records --bag, export_corrected, replay, plots.
+include(${CMAKE_CURRENT_SOURCE_DIR}/test/ros/archive_tests.cmake)
