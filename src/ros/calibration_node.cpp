@@ -1,6 +1,7 @@
 // calibration_node: sliding-window in-situ calibration (see calibration_node.hpp).
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 
+#include "magnetometer_insitu_calibration/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
@@ -12,8 +13,10 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
+#include <sys/stat.h>
 #include <sstream>
 
 namespace magnetometer_insitu_calibration {
@@ -41,7 +44,9 @@ const std::vector<std::string> kKnownParameters = {
     "input_period", "output_period", "decimation_sigma", "decimation_half_width", "pairing_tolerance",
     "pairing_max_wait", "window", "step", "max_filled_fraction", "max_fill", "band_low", "band_high",
     "gamma", "trend", "min_harmonics", "max_condition_number", "min_coherence", "silent_timeout",
-    "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period"};
+    "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
+    "eiv_noise_ratio", "estimate_delay", "correct_delay", "change_false_alarm_probability", "change_scale_tolerance",
+    "change_angle_tolerance"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -50,7 +55,9 @@ const std::map<std::string, std::string> kCoreFieldToParameter = {
     {"min_coherence", "min_coherence"}, {"output_period_s", "output_period"}, {"sigma_s", "decimation_sigma"},
     {"half_width_sigmas", "decimation_half_width"}, {"input_period_s", "input_period"},
     {"tolerance_s", "pairing_tolerance"}, {"max_wait_s", "pairing_max_wait"}, {"window", "window"},
-    {"step", "step"}, {"max_fill_s", "max_fill"}, {"max_filled_fraction", "max_filled_fraction"}};
+    {"step", "step"}, {"max_fill_s", "max_fill"}, {"max_filled_fraction", "max_filled_fraction"},
+    {"eiv_noise_ratio", "eiv_noise_ratio"}, {"false_alarm_probability", "change_false_alarm_probability"},
+    {"scale_tolerance", "change_scale_tolerance"}, {"angle_tolerance_deg", "change_angle_tolerance"}};
 
 std::string text_of(double value) {
   std::ostringstream out;
@@ -230,6 +237,29 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   s.estimator.min_harmonics = static_cast<std::size_t>(min_harmonics);
   s.estimator.max_condition_number = param_double(p, "max_condition_number", s.estimator.max_condition_number);
   s.estimator.min_coherence = param_double(p, "min_coherence", s.estimator.min_coherence);
+  // The offline CLI's estimator (robust_estimator.hpp): method and the options that matter live.
+  try {
+    s.estimator.method = parse_estimator_method(param_string(p, "method", "robust"), "method");
+    s.estimator.robust.eiv = parse_eiv_correction(param_string(p, "eiv", "ratio"), "eiv");
+  } catch (const InputError& e) {
+    throw ParameterError(e.where(), e.problem());
+  }
+  if (s.estimator.robust.eiv == EivCorrection::kGiven) {
+    throw ParameterError("eiv", "'given' needs the reference noise spectrum, which the node does not take: use none or ratio");
+  }
+  s.estimator.robust.auto_band = param_bool(p, "auto_band", s.estimator.robust.auto_band);
+  s.estimator.robust.eiv_noise_ratio = param_double(p, "eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio);
+  require_non_negative("eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio, "(PSD ratio reference / test)");
+  s.estimator.robust.estimate_delay = param_bool(p, "estimate_delay", s.estimator.robust.estimate_delay);
+  s.estimator.robust.correct_delay = param_bool(p, "correct_delay", s.estimator.robust.correct_delay);
+  if (s.estimator.robust.correct_delay && !s.estimator.robust.estimate_delay) {
+    throw ParameterError("correct_delay", "is true but ~estimate_delay is false (nothing to correct)");
+  }
+  // Calibration change check against the accepted calibration.
+  s.change.false_alarm_probability =
+      param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);
+  s.change.scale_tolerance = param_double(p, "change_scale_tolerance", s.change.scale_tolerance);
+  s.change.angle_tolerance_deg = param_double(p, "change_angle_tolerance", s.change.angle_tolerance_deg);
   // A window must be able to hold min_harmonics harmonics j / window inside the band.
   const double harmonics = std::floor(s.estimator.band_high_hz * s.window_s) -
                            std::ceil(s.estimator.band_low_hz * s.window_s) + 1.0;
@@ -256,6 +286,7 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   // The core's own checks, reported under the parameter's name.
   try {
     s.estimator.validate();
+    s.change.validate();
     s.decimation.validate();
     WindowLayout{0, s.window_s, s.step_s}.validate();
   } catch (const InputError& e) {
@@ -304,6 +335,17 @@ struct CalibrationNode::Channel {
   std::string last_accepted_window, last_accepted_stamp;
   std::string file_error;
   double last_duration_s = 0.0;
+  double last_delay_s = std::numeric_limits<double>::quiet_NaN(), last_delay_ci95_s = last_delay_s;
+  std::string last_method, last_band, last_offset;
+  // Change check: the accepted calibration the sliding windows are compared with (the first
+  // window accepted since start, or the calibration file loaded at start).
+  std::unique_ptr<WindowEstimate> baseline;
+  std::string baseline_window, baseline_source = "none";
+  bool change_checked = false;
+  CalibrationChange last_change;
+  std::string last_change_window;
+  std::size_t changes_detected = 0;
+  std::string resume_state = "not tried";
 
   PairingCounters counters() const {
     PairingCounters total = counters_before_reset;
@@ -339,17 +381,19 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
         boost::function<void(const sensor_msgs::MagneticField::ConstPtr&)>(
             [this, i](const sensor_msgs::MagneticField::ConstPtr& m) { on_test(i, m); }),
         ros::VoidConstPtr(), hints);
+    resume_from_file(ch);
     updater_.add(t.name, [this, i](DiagnosticStatusWrapper& status) { diagnose_channel(i, status); });
     ROS_INFO("%s: test '%s' on %s -> %s, file %s", node_name_.c_str(), t.name.c_str(), nh_.resolveName(t.topic).c_str(),
              nh_.resolveName(t.calibration_topic).c_str(), t.calibration_file.c_str());
   }
   reference_subscriber_ = nh_.subscribe(settings_.reference_topic, static_cast<std::uint32_t>(settings_.queue_size),
                                         &CalibrationNode::on_reference, this, hints);
-  ROS_INFO("%s: reference %s; window %g s every %g s at %g s (%s); band %g-%g Hz", node_name_.c_str(),
+  ROS_INFO("%s: reference %s; window %g s every %g s at %g s (%s); band %g-%g Hz%s; method %s", node_name_.c_str(),
            nh_.resolveName(settings_.reference_topic).c_str(), settings_.window_s, settings_.step_s,
            settings_.estimation_period_s(),
            settings_.decimating() ? "low-passed and decimated" : "input rate", settings_.estimator.band_low_hz,
-           settings_.estimator.band_high_hz);
+           settings_.estimator.band_high_hz, settings_.estimator.robust.auto_band ? " (auto band)" : "",
+           estimator_method_name(settings_.estimator.method));
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });
   worker_ = std::thread([this] { run_worker(); });
@@ -453,8 +497,51 @@ void CalibrationNode::enqueue(std::size_t index, WindowData&& window) {
   queue_cv_.notify_one();
 }
 
+void CalibrationNode::resume_from_file(Channel& ch) {
+  const TestInstrumentSettings& t = ch.settings;
+  struct stat info {};
+  if (::stat(t.calibration_file.c_str(), &info) != 0) {
+    ch.resume_state = "no calibration file at start";
+    return;
+  }
+  try {
+    MagnetometerCalibration m = load_calibration_file(t.calibration_file);
+    std::string reason;
+    if (!m.accepted || m.quality != MagnetometerCalibration::QUALITY_OK) reason = "not an accepted calibration";
+    if (reason.empty() && m.test_name != t.name) reason = "written for test '" + m.test_name + "'";
+    auto e = std::make_unique<WindowEstimate>();
+    for (int k = 0; k < 9; ++k) e->n(k / 3, k % 3) = m.matrix[k];
+    for (int k = 0; k < 81; ++k) e->n_covariance(k / 9, k % 9) = m.matrix_covariance[k];
+    if (reason.empty() && !(e->n.allFinite() && e->n_covariance.allFinite())) reason = "matrix or covariance not finite";
+    if (!reason.empty()) {
+      ch.resume_state = "calibration file not resumed: " + reason;
+      ROS_WARN("%s: test '%s': %s (%s)", node_name_.c_str(), t.name.c_str(), ch.resume_state.c_str(),
+               t.calibration_file.c_str());
+      return;
+    }
+    e->samples = m.samples;
+    e->sample_period_s = m.sample_period;
+    e->quality = Quality::kOk;
+    e->method = m.method;
+    e->parameters = decompose(e->n, e->n_covariance);
+    const std::string window = iso(m.window_start.toSec()) + " .. " + iso(m.window_end.toSec());
+    ch.baseline = std::move(e);
+    ch.baseline_window = window;
+    ch.baseline_source = "file (loaded at start)";
+    ch.last_accepted_window = window;
+    ch.last_accepted_stamp = iso(m.header.stamp.toSec());
+    ch.resume_state = "resumed from file";
+    ch.publisher.publish(m);  // latched: subscribers get the persisted calibration at once
+    ROS_INFO("%s: test '%s': resumed the accepted calibration of window %s from %s", node_name_.c_str(),
+             t.name.c_str(), window.c_str(), t.calibration_file.c_str());
+  } catch (const std::exception& error) {
+    ch.resume_state = std::string("calibration file not resumed: ") + error.what();
+    ROS_WARN("%s: test '%s': %s", node_name_.c_str(), t.name.c_str(), ch.resume_state.c_str());
+  }
+}
+
 void CalibrationNode::run_worker() {
-  FdWlseEstimator estimator(settings_.estimator);  // this thread's own (FFTW plans and buffers)
+  WindowEstimator estimator(settings_.estimator);  // this thread's own (FFTW plans and buffers)
   for (;;) {
     Job job;
     {
@@ -468,7 +555,7 @@ void CalibrationNode::run_worker() {
   }
 }
 
-void CalibrationNode::process(Job& job, FdWlseEstimator& estimator) {
+void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   Channel& ch = *channels_[job.channel];
   const TestInstrumentSettings& t = ch.settings;
   const double period = job.window.period_s;
@@ -505,6 +592,13 @@ void CalibrationNode::process(Job& job, FdWlseEstimator& estimator) {
   m.harmonic_last = static_cast<std::uint32_t>(std::max(0, e.harmonic_last));
   m.gamma = settings_.estimator.gamma;
   m.trend_column = settings_.estimator.trend;
+  m.method = e.method;
+  m.band_used_low_hz = e.band_low_hz;
+  m.band_used_high_hz = e.band_high_hz;
+  m.delay_s = e.delay_s;
+  m.delay_ci95_s = e.delay_ci95_s;
+  copy3(m.offset_nT, result.offset_end_nT);
+  copy3(m.offset_ci95_nT, result.offset_end_ci95_nT);
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) m.matrix[vec_index(r, c)] = e.n(r, c);
   }
@@ -531,6 +625,10 @@ void CalibrationNode::process(Job& job, FdWlseEstimator& estimator) {
     m.quality = MagnetometerCalibration::QUALITY_NOT_FINITE;
     m.quality_text = "matrix or covariance not finite";
   }
+  if (m.quality == MagnetometerCalibration::QUALITY_OK && !result.offset_end_nT.allFinite()) {
+    m.quality = MagnetometerCalibration::QUALITY_NOT_FINITE;
+    m.quality_text = "offset not finite";
+  }
   m.accepted = m.quality == MagnetometerCalibration::QUALITY_OK;
 
   // The file first, so that whoever sees the accepted message finds it on disk.
@@ -550,6 +648,35 @@ void CalibrationNode::process(Job& job, FdWlseEstimator& estimator) {
            m.filled_samples, seconds);
 
   std::lock_guard<std::mutex> lock(ch.results_mutex);
+  // Change check of this window against the accepted calibration (before it may become it).
+  if (ch.baseline) {
+    ch.last_change = check_calibration_change(*ch.baseline, e, settings_.change);
+    ch.last_change_window = window_text;
+    ch.change_checked = true;
+    if (ch.last_change.status == CalibrationChangeStatus::kChanged) {
+      ++ch.changes_detected;
+      ROS_WARN("%s: test '%s': window %s: %s", node_name_.c_str(), t.name.c_str(), window_text.c_str(),
+               ch.last_change.text.c_str());
+    }
+  } else if (m.accepted) {
+    ch.baseline = std::make_unique<WindowEstimate>(e);
+    ch.baseline_window = window_text;
+    ch.baseline_source = "first window accepted since start";
+  }
+  {
+    std::ostringstream band, offset;
+    band << m.band_used_low_hz << " .. " << m.band_used_high_hz;
+    offset.precision(6);
+    for (int k = 0; k < 3; ++k) offset << (k ? " " : "") << m.offset_nT[k];
+    offset << " (95 % +-";
+    for (int k = 0; k < 3; ++k) offset << " " << m.offset_ci95_nT[k];
+    offset << ")";
+    ch.last_band = band.str();
+    ch.last_offset = offset.str();
+  }
+  ch.last_method = m.method;
+  ch.last_delay_s = m.delay_s;
+  ch.last_delay_ci95_s = m.delay_ci95_s;
   ++ch.estimated;
   ch.last_failed = false;
   ch.last_window = window_text;
@@ -664,6 +791,29 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("last accepted window", ch.last_accepted_window.empty() ? std::string("none") : ch.last_accepted_window);
     status.add("last accepted stamp", ch.last_accepted_stamp);
     status.add("calibration files written", ch.files_written);
+    status.add("method", ch.last_method.empty() ? estimator_method_name(settings_.estimator.method) : ch.last_method);
+    status.add("last band used (Hz)", ch.last_band);
+    status.add("last delay (s)", ch.last_delay_s);
+    status.add("last delay ci95 (s)", ch.last_delay_ci95_s);
+    status.add("last offset at window end (nT)", ch.last_offset);
+    status.add("resume at start", ch.resume_state);
+    status.add("loaded from file", ch.resume_state == "resumed from file");
+    status.add("accepted calibration (change check)", ch.baseline ? ch.baseline_window : std::string("none"));
+    status.add("accepted calibration source", ch.baseline_source);
+    status.add("calibration changes detected", ch.changes_detected);
+    if (ch.change_checked) {
+      status.add("change check window", ch.last_change_window);
+      status.add("change status", calibration_change_status_name(ch.last_change.status));
+      status.add("change chi2 (9 dof)", ch.last_change.chi2);
+      status.add("change p-value", ch.last_change.p_value);
+      status.add("change max z (scale)", ch.last_change.scale_z.maxCoeff());
+      status.add("change max z (nonorthogonality)", ch.last_change.nonorthogonality_z.maxCoeff());
+      status.add("change max z (misalignment)", ch.last_change.misalignment_z.maxCoeff());
+      status.add("change text", ch.last_change.text);
+      if (ch.last_change.status == CalibrationChangeStatus::kChanged) {
+        problems.emplace_back(DiagnosticStatus::WARN, "calibration changed: " + ch.last_change.text);
+      }
+    }
     status.add("calibration file error", ch.file_error);
     if (ch.last_failed) problems.emplace_back(DiagnosticStatus::ERROR, "window failed: " + ch.last_failure);
     if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);

@@ -20,7 +20,7 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-constexpr int kFormatVersion = 1;
+constexpr int kFormatVersion = 2;  // 2: method, band used, delay, offset (1 still loads)
 
 std::string number(double value) {
   if (std::isnan(value)) return ".nan";
@@ -127,8 +127,9 @@ bool reals_equal(double a, double b) { return a == b || (std::isnan(a) && std::i
 std::string calibration_to_yaml(const MagnetometerCalibration& c, const std::string& written_by) {
   std::ostringstream y;
   y << "# Magnetometer in-situ calibration (magnetometer_insitu_calibration/MagnetometerCalibration).\n"
-       "# Model, rows are samples, nT: T = R n + trend; column l of n is test axis l in reference\n"
-       "# coordinates. correction_node applies r = n^-T t (column vectors). Do not edit by hand:\n"
+       "# Model, rows are samples, nT: T = R n + offset + trend; column l of n is test axis l in\n"
+       "# reference coordinates. correction_node applies r = n^-T (t - offset_nT) (column vectors;\n"
+       "# r = n^-T t with ~apply_offset false). Do not edit by hand:\n"
        "# a malformed or incomplete file is refused as a whole.\n";
   y << "format_version: " << kFormatVersion << "\n";
   y << "written_by: " << quoted(written_by) << "\n";
@@ -148,10 +149,17 @@ std::string calibration_to_yaml(const MagnetometerCalibration& c, const std::str
   y << "harmonic_last: " << c.harmonic_last << "\n";
   y << "gamma: " << number(c.gamma) << "\n";
   y << "trend_column: " << (c.trend_column ? "true" : "false") << "\n";
+  y << "method: " << quoted(c.method) << "\n";
+  y << "band_used_low_hz: " << number(c.band_used_low_hz) << "\n";
+  y << "band_used_high_hz: " << number(c.band_used_high_hz) << "\n";
+  y << "delay_s: " << number(c.delay_s) << "  # test minus reference, s\n";
+  y << "delay_ci95_s: " << number(c.delay_ci95_s) << "\n";
   y << "matrix: " << list(c.matrix) << "  # n, row-major, T = R n\n";
   y << "matrix_covariance: " << list(c.matrix_covariance) << "  # 9x9, row-major vec(n)\n";
   y << "trend_nT_per_day: " << list(c.trend_nT_per_day) << "\n";
   y << "trend_ci95_nT_per_day: " << list(c.trend_ci95_nT_per_day) << "\n";
+  y << "offset_nT: " << list(c.offset_nT) << "  # test relative to reference at window_end, test frame\n";
+  y << "offset_ci95_nT: " << list(c.offset_ci95_nT) << "\n";
   y << "scale_ratio: " << list(c.scale_ratio) << "\n";
   y << "scale_ratio_ci95: " << list(c.scale_ratio_ci95) << "\n";
   y << "nonorthogonality_deg: " << list(c.nonorthogonality_deg) << "  # xy, xz, yz\n";
@@ -179,7 +187,7 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
   if (!root.IsMap()) throw CalibrationFileError(source + ": not a calibration file (expected a YAML map)");
   const Reader r{root, source};
   const long long version = r.integer("format_version", 0, 1000);
-  if (version != kFormatVersion) {
+  if (version != kFormatVersion && version != 1) {
     throw CalibrationFileError(source + ": format_version " + std::to_string(version) + " is not supported (expected " +
                                std::to_string(kFormatVersion) + ")");
   }
@@ -201,10 +209,30 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
   c.harmonic_last = static_cast<std::uint32_t>(r.integer("harmonic_last", 0, u32));
   c.gamma = r.real("gamma");
   c.trend_column = r.boolean("trend_column");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (version >= 2) {
+    c.method = r.text("method");
+    c.band_used_low_hz = r.real("band_used_low_hz");
+    c.band_used_high_hz = r.real("band_used_high_hz");
+    c.delay_s = r.real("delay_s");
+    c.delay_ci95_s = r.real("delay_ci95_s");
+  } else {  // format 1: plain estimator, requested band, no delay, no offset (0: none applied)
+    c.method = "plain";
+    c.band_used_low_hz = c.band_low_hz;
+    c.band_used_high_hz = c.band_high_hz;
+    c.delay_s = nan;
+    c.delay_ci95_s = nan;
+    c.offset_nT = {0.0, 0.0, 0.0};
+    c.offset_ci95_nT = {nan, nan, nan};
+  }
   r.array("matrix", c.matrix);
   r.array("matrix_covariance", c.matrix_covariance);
   r.array("trend_nT_per_day", c.trend_nT_per_day);
   r.array("trend_ci95_nT_per_day", c.trend_ci95_nT_per_day);
+  if (version >= 2) {
+    r.array("offset_nT", c.offset_nT);
+    r.array("offset_ci95_nT", c.offset_ci95_nT);
+  }
   r.array("scale_ratio", c.scale_ratio);
   r.array("scale_ratio_ci95", c.scale_ratio_ci95);
   r.array("nonorthogonality_deg", c.nonorthogonality_deg);
@@ -294,10 +322,17 @@ bool calibrations_equal(const MagnetometerCalibration& a, const MagnetometerCali
   MIC_SAME(harmonic_last, a.harmonic_last == b.harmonic_last)
   MIC_SAME(gamma, reals_equal(a.gamma, b.gamma))
   MIC_SAME(trend_column, a.trend_column == b.trend_column)
+  MIC_SAME(method, a.method == b.method)
+  MIC_SAME(band_used_low_hz, reals_equal(a.band_used_low_hz, b.band_used_low_hz))
+  MIC_SAME(band_used_high_hz, reals_equal(a.band_used_high_hz, b.band_used_high_hz))
+  MIC_SAME(delay_s, reals_equal(a.delay_s, b.delay_s))
+  MIC_SAME(delay_ci95_s, reals_equal(a.delay_ci95_s, b.delay_ci95_s))
   MIC_SAME(matrix, arrays_equal(a.matrix, b.matrix))
   MIC_SAME(matrix_covariance, arrays_equal(a.matrix_covariance, b.matrix_covariance))
   MIC_SAME(trend_nT_per_day, arrays_equal(a.trend_nT_per_day, b.trend_nT_per_day))
   MIC_SAME(trend_ci95_nT_per_day, arrays_equal(a.trend_ci95_nT_per_day, b.trend_ci95_nT_per_day))
+  MIC_SAME(offset_nT, arrays_equal(a.offset_nT, b.offset_nT))
+  MIC_SAME(offset_ci95_nT, arrays_equal(a.offset_ci95_nT, b.offset_ci95_nT))
   MIC_SAME(scale_ratio, arrays_equal(a.scale_ratio, b.scale_ratio))
   MIC_SAME(scale_ratio_ci95, arrays_equal(a.scale_ratio_ci95, b.scale_ratio_ci95))
   MIC_SAME(nonorthogonality_deg, arrays_equal(a.nonorthogonality_deg, b.nonorthogonality_deg))

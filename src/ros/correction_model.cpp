@@ -12,8 +12,10 @@
 
 namespace magnetometer_insitu_calibration {
 
-CorrectionModel::CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covariance, double max_condition)
-    : n_(n), covariance_(covariance) {
+CorrectionModel::CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covariance, double max_condition,
+                                 const Eigen::Vector3d& offset)
+    : n_(n), covariance_(covariance), offset_(offset) {
+  if (!offset.allFinite()) throw std::invalid_argument("offset has non-finite entries");
   if (!n.allFinite()) throw std::invalid_argument("matrix has non-finite entries");
   if (!covariance.allFinite()) throw std::invalid_argument("matrix_covariance has non-finite entries");
   if ((covariance.diagonal().array() < 0.0).any()) throw std::invalid_argument("matrix_covariance has a negative variance");

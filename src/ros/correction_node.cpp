@@ -23,7 +23,7 @@ using diagnostic_updater::DiagnosticStatusWrapper;
 const std::vector<std::string> kKnownParameters = {
     "test_topic", "corrected_topic", "calibration_topic", "calibration_file", "reload_period", "queue_size",
     "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
-    "max_matrix_condition", "diagnostic_period"};
+    "max_matrix_condition", "diagnostic_period", "apply_offset"};
 
 void check_topic(const std::string& parameter, const std::string& topic) {
   if (topic.empty()) throw ParameterError(parameter, "must not be empty");
@@ -65,6 +65,7 @@ CorrectionNodeSettings CorrectionNodeSettings::load(const ros::NodeHandle& p) {
   s.correct_samples_before_window = param_bool(p, "correct_samples_before_window", s.correct_samples_before_window);
   s.check_frame_id = param_bool(p, "check_frame_id", s.check_frame_id);
   s.include_calibration_covariance = param_bool(p, "include_calibration_covariance", s.include_calibration_covariance);
+  s.apply_offset = param_bool(p, "apply_offset", s.apply_offset);
   s.max_matrix_condition = param_double(p, "max_matrix_condition", s.max_matrix_condition);
   if (!(s.max_matrix_condition >= 1.0)) throw ParameterError("max_matrix_condition", "must be >= 1");
   s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
@@ -116,7 +117,10 @@ std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::s
     for (int k = 0; k < 9; ++k) n(k / 3, k % 3) = c.matrix[k];
     for (int k = 0; k < 81; ++k) covariance(k / 9, k % 9) = c.matrix_covariance[k];
     try {
-      model = std::make_unique<CorrectionModel>(n, covariance, settings_.max_matrix_condition);
+      // Offset in nT (test frame) -> tesla, the unit of the topics; constant (trend not extrapolated).
+      Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+      if (settings_.apply_offset) offset = 1e-9 * Eigen::Vector3d(c.offset_nT[0], c.offset_nT[1], c.offset_nT[2]);
+      model = std::make_unique<CorrectionModel>(n, covariance, settings_.max_matrix_condition, offset);
     } catch (const std::invalid_argument& e) {
       reason = e.what();
     }
@@ -258,6 +262,14 @@ void CorrectionNode::diagnose(DiagnosticStatusWrapper& status) {
     for (int k = 0; k < 9; ++k) matrix << (k ? " " : "") << c.matrix[k];
     status.add("calibration matrix n (row-major)", matrix.str());
     status.add("calibration condition number", active_->model->condition_number());
+    std::ostringstream offset;
+    offset.precision(6);
+    for (int k = 0; k < 3; ++k) offset << (k ? " " : "") << c.offset_nT[k];
+    offset << " (95 % +-";
+    for (int k = 0; k < 3; ++k) offset << " " << c.offset_ci95_nT[k];
+    offset << ")";
+    status.add("calibration offset at window end (nT)", offset.str());
+    status.add("offset applied", settings_.apply_offset);
   } else {
     status.add("calibration source", "none");
   }

@@ -112,7 +112,49 @@ WindowData SlidingWindowBuffer::copy_window(double start_s) const {
   return w;
 }
 
-WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, const WindowGapRule& rule) {
+namespace {
+
+constexpr double kSecondsPerDay = 86400.0;
+
+using EstimateFunction =
+    std::function<WindowEstimate(const Eigen::Ref<const Readings>&, const Eigen::Ref<const Readings>&, double)>;
+
+// Offset of the window (see WindowResult::offset_end_nT for the model and the interval).
+void estimate_offset(WindowResult& r, const PairedRecord& paired) {
+  const WindowEstimate& e = r.estimate;
+  const auto rows = paired.reference_nT.rows();
+  if (rows < 2 || !e.n.allFinite()) return;
+  double t_centre = 0.0;
+  for (double t : paired.time_s) t_centre += t;
+  t_centre /= static_cast<double>(paired.time_s.size());
+  const Eigen::Vector3d mean_r = paired.reference_nT.colwise().mean().transpose();
+  const Eigen::Vector3d mean_t = paired.test_nT.colwise().mean().transpose();
+  const Eigen::Vector3d trend_per_s = e.trend_nT_per_day / kSecondsPerDay;
+  const Eigen::Vector3d d = mean_t - e.n.transpose() * mean_r;
+  // Time-domain residual about the fitted model.
+  Eigen::Vector3d sum2 = Eigen::Vector3d::Zero();
+  for (Eigen::Index i = 0; i < rows; ++i) {
+    const Eigen::Vector3d residual = paired.test_nT.row(i).transpose() - e.n.transpose() * paired.reference_nT.row(i).transpose() -
+                                     d - trend_per_s * (paired.time_s[static_cast<std::size_t>(i)] - t_centre);
+    sum2 += residual.cwiseAbs2();
+  }
+  const double count = static_cast<double>(rows);
+  const double dt = r.end_s - t_centre;
+  r.offset_centre_nT = d;
+  r.offset_end_nT = d + trend_per_s * dt;
+  for (int l = 0; l < 3; ++l) {
+    Eigen::Matrix3d column_covariance;
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) column_covariance(a, b) = e.n_covariance(vec_index(a, l), vec_index(b, l));
+    }
+    const double trend_se_per_s = e.trend_stderr_nT_per_day(l) / kSecondsPerDay;
+    const double variance = mean_r.dot(column_covariance * mean_r) + sum2(l) / count / count +
+                            dt * dt * trend_se_per_s * trend_se_per_s;
+    r.offset_end_ci95_nT(l) = 1.959963984540054 * std::sqrt(std::max(0.0, variance));
+  }
+}
+
+WindowResult estimate_window_with(WindowData window, const EstimateFunction& estimate, const WindowGapRule& rule) {
   WindowResult r;
   r.start_s = window.start_s;
   r.end_s = window.end_s();
@@ -128,7 +170,8 @@ WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, cons
   r.interpolated = gaps.filled_samples;
   const double edge_gap_s = static_cast<double>(std::max(r.leading_missing, r.trailing_missing)) * period;
   r.long_gap = !gaps.long_gaps.empty() || edge_gap_s > rule.gaps.max_fill_s;
-  r.estimate = estimator.estimate(window.paired.reference_nT, window.paired.test_nT, period);
+  r.estimate = estimate(window.paired.reference_nT, window.paired.test_nT, period);
+  estimate_offset(r, window.paired);
   const double fraction = static_cast<double>(r.missing()) / static_cast<double>(window.expected_samples);
   if (r.long_gap || fraction > rule.max_filled_fraction) {
     // Missing data is the cause to report, even when the shortened window also failed one of
@@ -141,6 +184,26 @@ WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, cons
     r.estimate.quality_text = text.str();
   }
   return r;
+}
+
+}  // namespace
+
+WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, const WindowGapRule& rule) {
+  return estimate_window_with(
+      std::move(window),
+      [&](const Eigen::Ref<const Readings>& r, const Eigen::Ref<const Readings>& t, double p) {
+        return estimator.estimate(r, t, p);
+      },
+      rule);
+}
+
+WindowResult estimate_window(WindowData window, WindowEstimator& estimator, const WindowGapRule& rule) {
+  return estimate_window_with(
+      std::move(window),
+      [&](const Eigen::Ref<const Readings>& r, const Eigen::Ref<const Readings>& t, double p) {
+        return estimator.estimate(r, t, p);
+      },
+      rule);
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -3,7 +3,14 @@
 // correction_node (launched by the .test files of this folder). One TEST per .test file, picked
 // with --gtest_filter:
 //   Calibration.Nominal        nominal.test       accepted calibration within 3 sigma of n_true,
-//                                                 YAML file, corrected stream, bad calibration files
+//                                                 offset within its interval, YAML file, corrected
+//                                                 stream equal to the clean field (absolute level),
+//                                                 bad calibration files
+//   Calibration.ChangeDetected test_calibration_change.test  scale ratio steps mid-run: change WARN
+//                                                 after the step, never before
+//   Calibration.ResumeAfterRestart test_calibration_resume.test  calibration_node started, killed
+//                                                 and restarted by the test: the persisted
+//                                                 calibration is published at once
 //   Calibration.SilentTopic    silent_topic.test  test stream stops for 20 min
 //   Calibration.TimeJump       time_jump.test     stamps jump forward by an hour
 //   Calibration.Decimation10Hz decimation.test    10 Hz inputs decimated to 1 Hz in the node
@@ -23,7 +30,9 @@
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/MagneticField.h>
 
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -75,7 +84,9 @@ class Harness {
     calibration_sub_ = nh_.subscribe(calibration_topic_, 1000, &Harness::on_calibration, this);
     diagnostics_sub_ = nh_.subscribe("/diagnostics", 10000, &Harness::on_diagnostics, this);
     // Test noise actually simulated (nT rms per component, test frame): T - B n_true.
-    const mic::Readings noise = pair_.test.values_nT - pair_.field_nT * pair_.n_true;
+    // (about its mean: the test's baseline offset is not noise).
+    mic::Readings noise = pair_.test.values_nT - pair_.field_nT * pair_.n_true;
+    noise.rowwise() -= noise.colwise().mean();
     test_noise_rms_nT_ = (noise.array().square().colwise().mean()).sqrt().transpose();
     spinner_.start();
   }
@@ -229,6 +240,11 @@ class Harness {
   }
 
   const mic::SimulatedPair& pair() const { return pair_; }
+  /// From sample `first` on, the test stream is `other`'s (a step change of the instrument).
+  void splice_test(const mic::SimulatedPair& other, std::size_t first) {
+    const auto rows = static_cast<Eigen::Index>(pair_.test.values_nT.rows()) - static_cast<Eigen::Index>(first);
+    pair_.test.values_nT.bottomRows(rows) = other.test.values_nT.bottomRows(rows);
+  }
   const mic::SimulationSettings& settings() const { return settings_; }
   double start_s() const { return pair_.reference.time_s.front(); }
   double last_clock_s() const { return last_clock_s_; }
@@ -334,7 +350,9 @@ TEST(Calibration, Nominal) {
   // the test can publish them, into the correction nodes (the load measurement: none dropped).
   const double window_s = 10800.0, step_s = 600.0;
   const std::size_t paired_samples = 12000, burst = 5000;
-  Harness h(simulation(static_cast<double>(paired_samples + burst), 7));
+  mic::SimulationSettings sim = simulation(static_cast<double>(paired_samples + burst), 7);
+  sim.test_offset_nT = Eigen::Vector3d(120.0, -75.0, 30.0);  // baseline of the test: the offset transfer
+  Harness h(sim);
   const std::string corrected = param("corrected_topic", "/sim/corrected");
   const std::vector<std::string> bad_file_topics = {"/sim/corrected_malformed", "/sim/corrected_truncated"};
   h.subscribe_corrected(corrected);
@@ -386,7 +404,8 @@ TEST(Calibration, Nominal) {
               paired_samples, publish_wall_s, paired_samples / publish_wall_s, burst, burst_wall_s, burst / burst_wall_s,
               burst_done_s, (ros::WallTime::now() - started).toSec());
 
-  // 1. Calibrations: two windows, accepted, within 3 standard errors of n_true.
+  // 1. Calibrations: two windows, accepted, within 4 standard errors of n_true (robust method:
+  //    its intervals are ~20 % too narrow, docs/robust_estimation.md, so 3 se is ~2.5 true sigma).
   const auto& calibrations = h.calibrations();
   ASSERT_EQ(calibrations.size(), 2u);
   for (std::size_t i = 0; i < calibrations.size(); ++i) {
@@ -412,17 +431,32 @@ TEST(Calibration, Nominal) {
     const Eigen::Matrix3d n_hat = matrix_of(c), se = stderr_of(c), n_true = h.pair().n_true;
     for (int k = 0; k < 9; ++k) {
       EXPECT_GT(se(k / 3, k % 3), 0.0);
-      EXPECT_LE(std::abs(n_hat(k / 3, k % 3) - n_true(k / 3, k % 3)), 3.0 * se(k / 3, k % 3))
+      EXPECT_LE(std::abs(n_hat(k / 3, k % 3) - n_true(k / 3, k % 3)), 4.0 * se(k / 3, k % 3))
           << "entry " << k << ": " << n_hat(k / 3, k % 3) << " vs n_true " << n_true(k / 3, k % 3) << ", se "
           << se(k / 3, k % 3);
     }
     for (int l = 0; l < 3; ++l) {
-      EXPECT_NEAR(c.scale_ratio[l], h.settings().scale_ratio(l), 3.0 * c.scale_ratio_ci95[l] / 1.96 + 1e-12);
+      EXPECT_NEAR(c.scale_ratio[l], h.settings().scale_ratio(l), 4.0 * c.scale_ratio_ci95[l] / 1.96 + 1e-12);
       EXPECT_GT(c.coherence[l], 0.9);
       EXPECT_TRUE(std::isfinite(c.misalignment_deg[l]) && std::isfinite(c.nonorthogonality_deg[l]) &&
                   std::isfinite(c.axis_deviation_deg[l]) && std::isfinite(c.trend_ci95_nT_per_day[l]));
     }
     EXPECT_GT(c.condition_number, 1.0);
+    // The offline CLI's estimator, its band and delay; the offset at the window end.
+    EXPECT_EQ(c.method, "robust");
+    EXPECT_GE(c.band_used_low_hz, 0.0002 - 1e-12);
+    EXPECT_LE(c.band_used_high_hz, 0.01 + 1e-12);
+    EXPECT_GT(c.band_used_high_hz, c.band_used_low_hz);
+    EXPECT_TRUE(std::isfinite(c.delay_s) && c.delay_ci95_s > 0.0) << c.delay_s << " +- " << c.delay_ci95_s;
+    EXPECT_LE(std::abs(c.delay_s), 1.5 * c.delay_ci95_s) << "simulated delay is 0";
+    for (int l = 0; l < 3; ++l) {
+      EXPECT_GT(c.offset_ci95_nT[l], 0.0);
+      EXPECT_LE(std::abs(c.offset_nT[l] - sim.test_offset_nT(l)), 1.5 * c.offset_ci95_nT[l])
+          << "offset " << l << ": " << c.offset_nT[l] << " +- " << c.offset_ci95_nT[l];
+    }
+    std::printf("[ result ] window %zu: delay %.3f +- %.3f s, offset %.3f %.3f %.3f nT (+- %.3f %.3f %.3f), set %.0f %.0f %.0f\n",
+                i, c.delay_s, c.delay_ci95_s, c.offset_nT[0], c.offset_nT[1], c.offset_nT[2], c.offset_ci95_nT[0],
+                c.offset_ci95_nT[1], c.offset_ci95_nT[2], sim.test_offset_nT(0), sim.test_offset_nT(1), sim.test_offset_nT(2));
     std::printf("[ result ] window %zu: max |n - n_true| / se = %.2f, se(n_xx) = %.2e\n", i,
                 ((n_hat - n_true).cwiseAbs().array() / se.array()).maxCoeff(), se(0, 0));
   }
@@ -434,11 +468,12 @@ TEST(Calibration, Nominal) {
   EXPECT_TRUE(mic::calibrations_equal(loaded, calibrations.back(), &difference)) << "differs in " << difference;
 
   // 3. Corrected stream: nothing before the first calibration, then every sample (no drop), in
-  //    the reference frame. Each corrected sample is r = n^-T t with the matrix of one of the
-  //    published calibrations (the one in use: they switch in order, once); it equals the
-  //    clean field B within its published covariance (test noise + calibration uncertainty),
-  //    and, while one calibration is in use, B plus a constant offset (the calibration error
-  //    times the main field, covered by that covariance) within the simulated test noise.
+  //    the reference frame. Each corrected sample is r = n^-T (t - d) with the matrix and the
+  //    offset d (at its window end) of one of the published calibrations (the one in use: they
+  //    switch in order, once); it equals the clean field B within its published covariance,
+  //    and, while one calibration is in use, B itself in absolute level: the mean difference
+  //    within 4 noise sigma / sqrt(samples) plus the offset's stated 95 % half-width, the
+  //    scatter about it within 1.5 x the simulated test noise.
   const auto& out = h.corrected(corrected);
   ASSERT_GT(out.size(), 100u);
   const double first_calibrated = calibrations.front().window_end.toSec();
@@ -446,7 +481,11 @@ TEST(Calibration, Nominal) {
   const auto first_index = static_cast<std::size_t>(std::llround(out.front().stamp_s - h.start_s()));
   EXPECT_EQ(out.size(), n - first_index) << "corrected samples missing after the first one";
   std::vector<Eigen::Matrix3d> inverse_transposed;
-  for (const auto& c : calibrations) inverse_transposed.push_back(matrix_of(c).inverse().transpose());
+  std::vector<Eigen::Vector3d> offsets;
+  for (const auto& c : calibrations) {
+    inverse_transposed.push_back(matrix_of(c).inverse().transpose());
+    offsets.emplace_back(c.offset_nT[0], c.offset_nT[1], c.offset_nT[2]);
+  }
   std::vector<std::vector<Eigen::Vector3d>> errors(calibrations.size());
   std::size_t outside = 0, unexplained = 0, in_use = 0;
   for (std::size_t i = 0; i < out.size(); ++i) {
@@ -457,7 +496,7 @@ TEST(Calibration, Nominal) {
     const Eigen::Vector3d t = h.pair().test.values_nT.row(k).transpose();
     std::size_t which = calibrations.size();
     for (std::size_t c = in_use; c < calibrations.size() && which == calibrations.size(); ++c) {
-      if ((out[i].field_nT - inverse_transposed[c] * t).norm() < 1e-6) which = c;
+      if ((out[i].field_nT - inverse_transposed[c] * (t - offsets[c])).norm() < 1e-6) which = c;
     }
     if (which == calibrations.size()) {
       ++unexplained;
@@ -468,7 +507,7 @@ TEST(Calibration, Nominal) {
     for (int j = 0; j < 3; ++j) outside += std::abs(error(j)) > 5.0 * std::sqrt(out[i].covariance_nT2(j, j));
     errors[which].push_back(error);
   }
-  EXPECT_EQ(unexplained, 0u) << "corrected samples that are not n^-T t for the calibration in use";
+  EXPECT_EQ(unexplained, 0u) << "corrected samples that are not n^-T (t - d) for the calibration in use";
   EXPECT_EQ(outside, 0u) << "corrected values outside 5 sigma of their published covariance";
   for (std::size_t c = 0; c < errors.size(); ++c) {
     if (errors[c].empty()) continue;
@@ -477,7 +516,17 @@ TEST(Calibration, Nominal) {
     mean /= static_cast<double>(errors[c].size());
     for (const auto& e : errors[c]) rms += (e - mean).cwiseAbs2();
     rms = (rms / static_cast<double>(errors[c].size())).cwiseSqrt();
-    for (int j = 0; j < 3; ++j) EXPECT_LT(rms(j), 1.5 * h.test_noise_rms_nT()(j)) << "calibration " << c << ", component " << j;
+    for (int j = 0; j < 3; ++j) {
+      EXPECT_LT(rms(j), 1.5 * h.test_noise_rms_nT()(j)) << "calibration " << c << ", component " << j;
+      const double allowed = 4.0 * h.test_noise_rms_nT()(j) / std::sqrt(static_cast<double>(errors[c].size())) +
+                             calibrations[c].offset_ci95_nT[j];
+      EXPECT_LE(std::abs(mean(j)), allowed) << "calibration " << c << ", component " << j
+                                            << ": corrected minus clean field, mean " << mean(j) << " nT";
+      // The stated interval of d alone is wide (mean field x se(n)), but d's error and n's cancel
+      // near the window's field: the absolute level is far better than that (the set baseline
+      // is 30-120 nT; without the offset the mean difference would be about that).
+      EXPECT_LT(std::abs(mean(j)), 1.0) << "calibration " << c << ", component " << j;
+    }
     std::printf("[ result ] %zu samples corrected with calibration %zu: offset %.2f %.2f %.2f nT "
                 "(1 sigma %.2f %.2f %.2f nT), rms about it %.4f %.4f %.4f nT (test noise %.4f %.4f %.4f nT)\n",
                 errors[c].size(), c, mean(0), mean(1), mean(2), std::sqrt(out.back().covariance_nT2(0, 0)),
@@ -882,6 +931,192 @@ TEST(Calibration, BadParameters) {
     EXPECT_NE(r.output.find(c.expected), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("FATAL"), std::string::npos) << r.output;
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Calibration, ChangeDetected) {
+  // Windows of 1 h every 30 min (test_calibration_change.test). 5 h of pairs; from 3 h on the test
+  // instrument's x scale ratio is 2 % larger (1-h windows give it +- 0.3 %; the same field and noise: a second simulation with
+  // the same seed spliced in). The accepted calibration is the first window's; every window is
+  // checked against it: no change before the step, a WARN with the check's text after it.
+  const std::size_t samples = 18000, change_index = 10800;
+  mic::SimulationSettings before = simulation(static_cast<double>(samples), 23);
+  mic::SimulationSettings after = before;
+  after.scale_ratio(0) += 0.02;
+  Harness h(before);
+  const mic::SimulatedPair changed = mic::simulate_pair(after);
+  ASSERT_TRUE(changed.reference.values_nT.isApprox(h.pair().reference.values_nT)) << "not the same field";
+  h.splice_test(changed, change_index);
+  const double change_s = h.pair().reference.time_s[change_index];
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  const ros::WallTime started = ros::WallTime::now();
+  h.publish(0, samples, true, true);
+  // Every window that ends inside the data estimated; the diagnostics report the latest.
+  const std::size_t expected_windows = 9;  // starts 0, 0.5, ..., 4 h (if t0 is on the 30-min grid)
+  const bool done = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("calibration_chg: chg");
+    return h.calibrations().size() >= expected_windows - 1 && d != nullptr &&
+           value_of(d, "windows estimated") == h.calibrations().size();
+  }, 60.0);
+  h.tick_clock(120.0);
+  ros::WallDuration(0.3).sleep();
+  std::lock_guard<std::mutex> lock(h.mutex());
+  EXPECT_TRUE(done) << "timed out waiting for the windows";
+  std::printf("[ timing ] %zu pairs, %zu windows in %.2f s wall\n", samples, h.calibrations().size(),
+              (ros::WallTime::now() - started).toSec());
+  for (const auto& c : h.calibrations()) {
+    std::printf("[ result ] window %.0f .. %.0f s: accepted %d, scale x %.6f +- %.6f\n", c.window_start.toSec() - h.start_s(),
+                c.window_end.toSec() - h.start_s(), c.accepted, c.scale_ratio[0], c.scale_ratio_ci95[0]);
+  }
+  std::size_t warn_before = 0, warn_after = 0, checked_before = 0;
+  bool changed_reported = false;
+  for (const DiagnosticRecord* r : h.all_diagnostics("calibration_chg: chg")) {
+    const bool warn = r->level == 1 && r->message.find("calibration changed") != std::string::npos;
+    const auto status = r->values.find("change status");
+    if (r->sim_time_s < change_s) {
+      warn_before += warn;
+      checked_before += status != r->values.end() && status->second == "unchanged";
+      EXPECT_EQ(value_of(r, "calibration changes detected"), 0u) << "change reported at " << r->sim_time_s - h.start_s();
+    } else {
+      warn_after += warn;
+      changed_reported |= status != r->values.end() && status->second == "changed";
+    }
+  }
+  EXPECT_EQ(warn_before, 0u) << "change WARN before the step";
+  EXPECT_GT(checked_before, 0u) << "no window was checked (unchanged) before the step";
+  EXPECT_GT(warn_after, 0u) << "no change WARN after the step";
+  EXPECT_TRUE(changed_reported);
+  const DiagnosticRecord* last = h.latest_diagnostic("calibration_chg: chg");
+  ASSERT_NE(last, nullptr);
+  EXPECT_EQ(last->level, 1) << last->message;
+  EXPECT_NE(last->message.find("calibration changed"), std::string::npos) << last->message;
+  EXPECT_EQ(last->values.at("change status"), "changed");
+  EXPECT_EQ(last->values.at("accepted calibration source"), "first window accepted since start");
+  EXPECT_GE(value_of(last, "calibration changes detected"), 1u);
+  // The windows wholly after the step measure the new scale ratio.
+  const auto& last_window = h.calibrations().back();
+  EXPECT_GE(last_window.window_start.toSec(), change_s);
+  EXPECT_NEAR(last_window.scale_ratio[0], after.scale_ratio(0), 3.0 * last_window.scale_ratio_ci95[0] / 1.96 + 1e-12);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+/// Starts `program` with `arguments` (stdout/stderr shared with the test); returns its pid.
+pid_t spawn(const std::string& program, const std::vector<std::string>& arguments) {
+  std::vector<std::string> all{program};
+  all.insert(all.end(), arguments.begin(), arguments.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(&a[0]);
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::execv(program.c_str(), argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+/// SIGINT (as roslaunch does), then waits up to timeout_s wall seconds; SIGKILL if it hangs.
+/// Returns true when it exited by itself.
+bool stop_process(pid_t pid, double timeout_s = 15.0) {
+  if (pid <= 0) return false;
+  ::kill(pid, SIGINT);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  int status = 0;
+  while (ros::WallTime::now() < deadline) {
+    if (::waitpid(pid, &status, WNOHANG) == pid) return true;
+    ros::WallDuration(0.05).sleep();
+  }
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, &status, 0);
+  return false;
+}
+
+/// A spawned node, stopped when the test returns (also on a failed ASSERT).
+struct Child {
+  pid_t pid = -1;
+  ~Child() { stop(); }
+  bool stop() {
+    const bool clean = stop_process(pid);
+    pid = -1;
+    return clean;
+  }
+};
+
+}  // namespace
+
+TEST(Calibration, ResumeAfterRestart) {
+  // The test starts calibration_node itself (windows of 30 min every 15 min), feeds it 1 h of
+  // pairs until windows are accepted and written, stops it (SIGINT), and starts it again with the
+  // same parameters and no data: the restarted node publishes the persisted calibration (latched)
+  // at once, equal to the file and to the last one the first instance published, and reports it
+  // loaded from file.
+  const std::string file = param("calibration_file");
+  ASSERT_FALSE(file.empty());
+  std::remove(file.c_str());
+  const std::vector<std::string> arguments = {
+      "__name:=resume_calibration_node", "_reference_topic:=" + param("reference_topic"), "_test_topic:=" + param("test_topic"),
+      "_calibration_topic:=" + param("calibration_topic"), "_calibration_file:=" + file, "_test_name:=resume",
+      "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5"};
+  Harness h(simulation(3700.0, 31));
+  Child first{spawn(CALIBRATION_NODE_PATH, arguments)};
+  ASSERT_GT(first.pid, 0);
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "first calibration_node did not connect";
+  h.publish(0, h.pair().reference.size(), true, true);
+  const bool accepted = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+    return h.calibrations().size() >= 2 && d != nullptr && value_of(d, "windows estimated") == h.calibrations().size();
+  }, 60.0);
+  mic::MagnetometerCalibration last_published;
+  {
+    std::lock_guard<std::mutex> lock(h.mutex());
+    ASSERT_TRUE(accepted) << "the first instance accepted no calibration";
+    last_published = h.calibrations().back();
+  }
+  ASSERT_TRUE(last_published.accepted) << last_published.quality_text;
+  const bool first_stopped = first.stop();
+  EXPECT_TRUE(first_stopped) << "first instance did not exit on SIGINT";
+  mic::MagnetometerCalibration persisted;
+  ASSERT_NO_THROW(persisted = mic::load_calibration_file(file));
+  std::string difference;
+  EXPECT_TRUE(mic::calibrations_equal(persisted, last_published, &difference)) << "file differs in " << difference;
+
+  // Restart: no data, no clock advance until the calibration is in.
+  std::size_t before_restart = 0;
+  {
+    std::lock_guard<std::mutex> lock(h.mutex());
+    before_restart = h.calibrations().size();
+  }
+  const ros::WallTime restarted = ros::WallTime::now();
+  Child second{spawn(CALIBRATION_NODE_PATH, arguments)};
+  ASSERT_GT(second.pid, 0);
+  const bool resumed = h.wait([&] { return h.calibrations().size() > before_restart; }, 20.0);
+  const double resume_wall_s = (ros::WallTime::now() - restarted).toSec();
+  // Diagnostics of the restarted node (they run on /clock).
+  const bool diagnosed = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+    return d != nullptr && d->values.count("loaded from file") && d->values.at("loaded from file") == "True";
+  }, 20.0);
+  const bool second_stopped = second.stop();
+  std::lock_guard<std::mutex> lock(h.mutex());
+  std::printf("[ timing ] restarted node published the persisted calibration %.2f s (wall) after its start\n",
+              resume_wall_s);
+  ASSERT_TRUE(resumed) << "the restarted node published nothing";
+  EXPECT_LT(resume_wall_s, 10.0);
+  EXPECT_EQ(h.calibrations().size(), before_restart + 1) << "more than the persisted calibration";
+  const mic::MagnetometerCalibration& again = h.calibrations().back();
+  EXPECT_TRUE(mic::calibrations_equal(again, persisted, &difference)) << "differs from the file in " << difference;
+  EXPECT_TRUE(diagnosed) << "no 'loaded from file' diagnostic";
+  const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->values.at("resume at start"), "resumed from file");
+  EXPECT_EQ(d->values.at("accepted calibration source"), "file (loaded at start)");
+  EXPECT_EQ(value_of(d, "windows estimated"), 0u);
+  EXPECT_TRUE(second_stopped);
+  std::remove(file.c_str());
 }
 
 int main(int argc, char** argv) {

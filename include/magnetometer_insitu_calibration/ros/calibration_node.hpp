@@ -8,11 +8,17 @@
 //     -> StreamingDecimator, both instruments on the same epochs (only when ~input_period is
 //        shorter than ~output_period, e.g. LEMI-025 10 Hz -> 1 Hz)
 //     -> SlidingWindowBuffer: windows [k step, k step + window) in UNIX time
-//     -> worker thread (its own FdWlseEstimator): regularize_and_fill on the window copy, the
-//        estimate, gap flags
+//     -> worker thread (its own WindowEstimator, the offline CLI's: ~method robust | plain, auto
+//        band, EIV, delay): regularize_and_fill on the window copy, the estimate, gap flags, the
+//        offset at the window end, the change check against the accepted calibration (WARN)
 //     -> MagnetometerCalibration on the instrument's calibration topic (latched), every window,
 //        accepted=false with the failed quality rule when it is flagged; the latest accepted
 //        one also written atomically to the instrument's YAML file.
+// Resume: at start, a valid accepted calibration in the instrument's calibration file is
+// published (latched) at once and becomes the accepted calibration of the change check.
+// Change check: every window is compared (check_calibration_change) with the accepted
+// calibration: the first window accepted since start, or the file loaded at start; it is kept
+// (not replaced by later windows, so that a slow slide of the window over a change is seen).
 // Callbacks never wait for the estimator: windows are queued (at most ~max_pending_windows,
 // the oldest is dropped and counted when the worker falls behind).
 //
@@ -20,7 +26,9 @@
 // ROS time (wall clock, or /clock with /use_sim_time) between arrivals.
 #pragma once
 
+#include "magnetometer_insitu_calibration/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/ros/live_window.hpp"
 #include "magnetometer_insitu_calibration/stream_pairing.hpp"
@@ -62,7 +70,8 @@ struct CalibrationNodeSettings {
   double window_s = 86400.0;            ///< window length, s
   double step_s = 3600.0;               ///< step between window starts, s
   WindowGapRule gap_rule;               ///< max_fill_s (s) and max_filled_fraction
-  EstimatorSettings estimator;          ///< band (Hz), gamma, trend, quality rules
+  EstimatorSettings estimator;          ///< band (Hz), gamma, trend, quality rules, method, robust options
+  CalibrationChangeSettings change;     ///< change check: false-alarm probability, tolerances
   double silent_timeout_s = 10.0;       ///< ROS time without a message before a topic is "silent", s
   double time_jump_threshold_s = 60.0;  ///< stamp step counted as a time jump, s
   int queue_size = 10000;               ///< subscriber queue length, messages
@@ -102,7 +111,8 @@ class CalibrationNode {
   void reset_pipeline(Channel& channel);
   void enqueue(std::size_t channel, WindowData&& window);
   void run_worker();
-  void process(Job& job, FdWlseEstimator& estimator);
+  void process(Job& job, WindowEstimator& estimator);
+  void resume_from_file(Channel& channel);
   void diagnose_reference(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnose_channel(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status);
 

@@ -1,9 +1,12 @@
 // ROS-free part of correction_node: applying an accepted calibration matrix to test readings.
 //
-// Model (rows are samples): T = R n, so a test reading t (column vector, test frame) of the
-// field r (column vector, reference frame) is t = n^T r, and the corrected reading is
-//   r = n^-T t        (row form: r^T = t^T n^-1).
-// The unit does not matter (linear): tesla in, tesla out.
+// Model (rows are samples): T = R n + d, so a test reading t (column vector, test frame) of the
+// field r (column vector, reference frame) is t = n^T r + d, and the corrected reading is
+//   r = n^-T (t - d)        (row form: r^T = (t - d)^T n^-1).
+// d is the calibration's offset at its window end (offset_nT), held constant: the trend is NOT
+// extrapolated beyond the window (a drift estimated over one window is too uncertain to
+// extend; the next window brings the next offset). d = 0 gives the variations-only correction
+// r = n^-T t. Units: d in the unit of t (the node converts nT to tesla).
 #pragma once
 
 #include "magnetometer_insitu_calibration/decomposition.hpp"
@@ -18,10 +21,13 @@ class CorrectionModel {
  public:
   /// Checks n (finite, invertible, condition number <= max_condition) and the covariance
   /// (finite, non-negative diagonal). Throws std::invalid_argument with the reason otherwise.
-  CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covariance, double max_condition);
+  /// offset: d (test frame, unit of t; must be finite).
+  CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covariance, double max_condition,
+                  const Eigen::Vector3d& offset = Eigen::Vector3d::Zero());
 
-  /// r = n^-T t, same unit as t.
-  Eigen::Vector3d correct(const Eigen::Vector3d& test) const { return n_inverse_transpose_ * test; }
+  /// r = n^-T (t - d), same unit as t.
+  Eigen::Vector3d correct(const Eigen::Vector3d& test) const { return n_inverse_transpose_ * (test - offset_); }
+  const Eigen::Vector3d& offset() const { return offset_; }
 
   /// Covariance of r (unit^2) from the covariance of t: n^-T C_t n^-1, plus, when
   /// include_calibration, the uncertainty of n itself propagated to first order:
@@ -37,6 +43,7 @@ class CorrectionModel {
   Eigen::Matrix3d n_inverse_;
   Eigen::Matrix3d n_inverse_transpose_;
   Matrix9d covariance_;
+  Eigen::Vector3d offset_ = Eigen::Vector3d::Zero();
   double condition_number_ = 1.0;
 };
 

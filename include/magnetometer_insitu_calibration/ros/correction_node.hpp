@@ -1,10 +1,13 @@
 // correction_node: publishes the raw test magnetometer stream corrected into the reference
 // frame with the accepted calibration in use.
 //
-// Correction (rows are samples, T = R n): r = n^-T t for each reading t (column vectors), i.e.
-// r^T = t^T n^-1. Output sensor_msgs/MagneticField in tesla, header.stamp = the raw stamp,
+// Correction (rows are samples, T = R n + d): r = n^-T (t - d) for each reading t (column
+// vectors), d = the calibration's offset_nT at its window end, held constant (the trend is not
+// extrapolated); with ~apply_offset false, r = n^-T t (variations only, the old behaviour). Output sensor_msgs/MagneticField in tesla, header.stamp = the raw stamp,
 // header.frame_id = reference_frame_id of the calibration. Covariance: n^-T C_t n^-1, plus the
-// calibration's own uncertainty propagated to first order (~include_calibration_covariance);
+// calibration's own uncertainty propagated to first order (~include_calibration_covariance; the
+// offset's interval is not added: with the offset applied, the n term, computed with the full
+// field r, already bounds it, since d's uncertainty is mostly mean(R) times n's);
 // an all-zero (unknown) input covariance stays all zero.
 //
 // Which calibration is in use:
@@ -61,6 +64,7 @@ struct CorrectionNodeSettings {
   bool correct_samples_before_window = true;
   bool check_frame_id = true;
   bool include_calibration_covariance = true;
+  bool apply_offset = true;                     ///< r = n^-T (t - offset_nT at window end); false: r = n^-T t
   double max_matrix_condition = 100.0;          ///< largest accepted condition number of n
   double diagnostic_period_s = 1.0;             ///< ROS time between diagnostics, s
 

@@ -4,11 +4,14 @@
 
 #include "magnetometer_insitu_calibration/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/stream_pairing.hpp"
 #include "magnetometer_insitu_calibration/time_alignment.hpp"
 
 #include <cstddef>
 #include <deque>
+#include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -107,6 +110,18 @@ struct WindowResult {
   std::size_t interpolated = 0;       ///< epochs filled inside (regularize_and_fill)
   bool long_gap = false;              ///< a gap (inside or at an edge) longer than max_fill_s
   WindowEstimate estimate;            ///< quality kGaps when the gap rule fails
+  /// Baseline of the test relative to the reference (test frame, nT), model
+  /// T = R n + d + trend (t - t_c) + e with t_c the mean epoch of the window's samples (the trend
+  /// column is centred there, so d is the offset at the window centre):
+  ///   d = mean(T) - mean(R) n,   d_end = d + trend (end_s - t_c)   (trend in nT/s).
+  /// 95 % half-width of d_end per component l:
+  ///   1.96 sqrt( m^T C_l m + s_l^2 / N + (end_s - t_c)^2 se_trend_l^2 ),
+  /// m = mean(R) (reference frame, nT), C_l = Cov of column l of n (from n_covariance), s_l the
+  /// rms of the time-domain residual e_l, N the samples. The s_l^2 / N term treats the residual
+  /// as white (it is small next to m^T C_l m for a main field of tens of thousands of nT).
+  Eigen::Vector3d offset_centre_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d offset_end_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d offset_end_ci95_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
 
   /// Epochs without data: interpolated inside or missing at the edges.
   std::size_t missing() const { return leading_missing + trailing_missing + interpolated; }
@@ -121,5 +136,7 @@ struct WindowResult {
 /// estimator's text is appended). Throws InputError when the window cannot be put on a grid
 /// (e.g. no complete epoch; stamps off the grid).
 WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, const WindowGapRule& rule);
+/// The same with the estimator the offline CLI uses (plain or robust, auto band, delay, EIV).
+WindowResult estimate_window(WindowData window, WindowEstimator& estimator, const WindowGapRule& rule);
 
 }  // namespace magnetometer_insitu_calibration
