@@ -68,7 +68,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--min-coherence", settings.estimator.min_coherence, "quality rule")->capture_default_str();
   app.add_option("--max-condition", settings.estimator.max_condition_number, "quality rule")->capture_default_str();
-  std::string method = "robust";
+  std::string method = "robust", eiv = "ratio";
+  app.add_option("--eiv", eiv,
+                 "robust: errors-in-variables correction none | ratio (reference/test noise PSD ratio known)")
+      ->capture_default_str();
+  app.add_option("--eiv-ratio", settings.estimator.robust.eiv_noise_ratio,
+                 "robust, --eiv ratio: reference noise PSD / test noise PSD (1 for two instruments of one class)")
+      ->capture_default_str();
   app.add_option("--method", method, "estimator: robust (default) or plain (Eq. 2 as printed)")->capture_default_str();
   app.add_flag("--auto-band", settings.estimator.robust.auto_band,
                "choose the band from the coherence between the instruments (reported per window)");
@@ -79,6 +85,10 @@ int main(int argc, char** argv) {
     settings.estimator.trend = !no_trend;
     settings.preprocess.despike = !no_despike;
     settings.estimator.method = mic::parse_estimator_method(method, "--method");
+    settings.estimator.robust.eiv = mic::parse_eiv_correction(eiv, "--eiv");
+    if (settings.estimator.robust.eiv == mic::EivCorrection::kGiven) {
+      throw mic::InputError("--eiv", "'given' needs the reference noise spectrum, which the CLI does not take; use none or ratio");
+    }
     settings.validate();
     const auto [reference, test] = bag.records(reference_path, test_path);
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
