@@ -921,6 +921,11 @@ TEST(Calibration, BadParameters) {
       {calibration + " __name:=no_reference _test_topic:=/t _calibration_file:=/tmp/x.yaml", "parameter ~reference_topic: is required"},
       {calibration + " __name:=no_file _reference_topic:=/r _test_topic:=/t", "parameter ~calibration_file: is required"},
       {calibration + " __name:=bad_tolerance" + ok + " _pairing_tolerance:=0.7", "parameter ~pairing_tolerance:"},
+      {calibration + " __name:=bad_method" + ok + " _method:=fast", "parameter ~method:"},
+      {calibration + " __name:=bad_eiv" + ok + " _eiv:=given", "parameter ~eiv: 'given' needs the reference noise"},
+      {calibration + " __name:=bad_ratio" + ok + " _eiv_noise_ratio:=-1", "parameter ~eiv_noise_ratio:"},
+      {calibration + " __name:=bad_delay" + ok + " _estimate_delay:=false", "parameter ~correct_delay:"},
+      {correction + " __name:=bad_offset _test_topic:=/t _apply_offset:=maybe", "parameter ~apply_offset:"},
       {correction + " __name:=no_test_topic", "parameter ~test_topic: is required"},
       {correction + " __name:=bad_queue _test_topic:=/t _queue_size:=0", "parameter ~queue_size:"},
   };
