@@ -59,9 +59,17 @@ TEST(WicRecords, SixHourIntervalsAgreeWithTheWholeDay) {
   for (int i = 0; i < 4; ++i) {
     const auto& e = result.windows[i].estimate;
     EXPECT_EQ(e.quality, mic::Quality::kOk) << result.windows[i].label << ": " << e.quality_text;
-    const auto diff = (values(e.parameters) - values(day.parameters)).cwiseAbs();
-    const auto allowed = half_widths(e.parameters) + half_widths(day.parameters);
-    for (int k = 0; k < 9; ++k) disagreements += diff(k) > allowed(k);
+    // Evaluated into matrices: an Eigen expression held in `auto` would keep references to
+    // temporaries that are gone by the next line.
+    const Eigen::Matrix<double, 9, 1> diff = (values(e.parameters) - values(day.parameters)).cwiseAbs();
+    const Eigen::Matrix<double, 9, 1> allowed = half_widths(e.parameters) + half_widths(day.parameters);
+    for (int k = 0; k < 9; ++k) {
+      disagreements += diff(k) > allowed(k);
+      if (diff(k) > allowed(k)) {
+        ADD_FAILURE() << result.windows[i].label << " parameter " << k << ": " << values(e.parameters)(k)
+                      << " vs day " << values(day.parameters)(k) << ", allowed " << allowed(k);
+      }
+    }
     // The day is more precise than each of its quarters.
     EXPECT_LT(half_widths(day.parameters).sum(), half_widths(e.parameters).sum());
   }

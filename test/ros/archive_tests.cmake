@@ -56,6 +56,7 @@ if(TARGET rostest_replay)
   # add_rostest does not make the test depend on the nodes it launches, nor on the fixture.
   add_dependencies(rostest_replay ${PROJECT_NAME}_generate_messages_cpp ${PROJECT_NAME}_replay_fixture
     calibration_node correction_node)
+  add_dependencies(tests rostest_replay)  # EXCLUDE_FROM_ALL: built with the other tests
   add_rostest(test/ros/replay_agreement.test
     ARGS bag:=${_mic_replay}/pair.bag offline_json:=${_mic_replay}/offline.json
     DEPENDENCIES rostest_replay)
