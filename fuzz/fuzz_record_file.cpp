@@ -1,7 +1,9 @@
 // libFuzzer target: format detection and dispatch (record_file.hpp: detect_record_format,
-// read_record with LEMI options and warnings) over any of the five formats.
+// read_record) over any of the formats it knows (IAGA-2002, CSV and, with the LEMI detection,
+// LemiBin, compact flash and raw LEMI-025 streams with default options; the LEMI options and
+// warnings are fuzzed by the per-format targets).
 // Input: the file's bytes (written to an in-memory file; gzip inputs that inflate to more than
-// 1 MiB are declined). LEMI options from the input size (checksum size % 3, field size % 2).
+// 1 MiB are declined).
 // Checks: a value or InputError; detection is deterministic; finite, strictly increasing times
 // and one row per time (values are not range-checked: a compact-flash card has no plausibility
 // check, see fuzz_lemi_compact_flash.cpp).
@@ -23,14 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (...) {
     mic_fuzz::unexpected_exception(__FILE__, __LINE__);
   }
-  LemiReadOptions options;
-  options.checksum = size % 3 == 1 ? ChecksumMode::kSum8
-                     : size % 3 == 2 ? ChecksumMode::kXor8
-                                     : ChecksumMode::kNone;
-  options.field = size % 2 ? LemiFieldMode::kVariation : LemiFieldMode::kFullField;
-  std::vector<std::string> warnings;
   try {
-    const VectorRecord record = read_record(file.path(), options, &warnings);
+    const VectorRecord record = read_record(file.path());
     FUZZ_CHECK(record.values_nT.rows() == static_cast<Eigen::Index>(record.time_s.size()), "rows");
     for (std::size_t i = 0; i < record.time_s.size(); ++i) {
       FUZZ_CHECK(std::isfinite(record.time_s[i]), "time not finite");

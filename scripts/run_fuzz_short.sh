@@ -6,13 +6,14 @@
 # modified: new inputs go to a temporary directory). Exits non-zero if any target crashes,
 # leaks, hangs, or fails a check; the crashing input is kept under $MIC_FUZZ_OUT/artifacts.
 #
-# Environment: MIC_FUZZ_SECONDS (per target), MIC_FUZZ_PARALLEL (targets at once, default 1),
+# Environment: MIC_FUZZ_SECONDS (per target), MIC_FUZZ_PARALLEL (targets at once, default 2:
+# the machine has 2 cores; use 1 when something else runs),
 # MIC_FUZZ_BUILD_DIR (default <package>/build_fuzz), MIC_FUZZ_OUT (default a new temp dir),
 # MIC_FUZZ_TARGETS (space-separated subset, default all).
 set -uo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 seconds="${MIC_FUZZ_SECONDS:-15}"
-parallel="${MIC_FUZZ_PARALLEL:-1}"
+parallel="${MIC_FUZZ_PARALLEL:-2}"
 out="${MIC_FUZZ_OUT:-$(mktemp -d /tmp/mic_fuzz.XXXXXX)}"
 mkdir -p "$out/artifacts"
 start=$(date +%s)

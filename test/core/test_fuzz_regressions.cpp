@@ -39,9 +39,8 @@ const std::map<std::string, std::function<void(const fs::path&)>>& readers() {
       {"csv_record", [](const fs::path& p) { read_csv_record(p.string()); }},
       {"record_file",
        [](const fs::path& p) {
-         std::vector<std::string> warnings;
          detect_record_format(p.string());
-         read_record(p.string(), LemiReadOptions(), &warnings);
+         read_record(p.string());
        }},
       {"lemi_bin", [](const fs::path& p) { read_lemi_bin(p.string()); }},
       {"lemi_compact_flash", [](const fs::path& p) { read_lemi_compact_flash(p.string()); }},
