@@ -124,6 +124,13 @@ struct WindowEstimate {
   Eigen::Matrix3d n_stderr() const;
 };
 
+/// Quality figures and rules shared by every estimator: sets e.condition_number from the 3x3
+/// field block of A (strongest / weakest in-band signal direction), then e.quality and
+/// e.quality_text from `harmonics` (described as `harmonics_noun`, e.g. "harmonics"),
+/// e.condition_number and e.coherence against the settings' rules, first failure wins.
+void apply_quality_rules(WindowEstimate& e, const Eigen::Matrix3d& field_block_of_a, long harmonics,
+                         const char* harmonics_noun, const EstimatorSettings& settings);
+
 /// Estimates n from reference R and test T (N x 3, nT, regular sample period, no NaN).
 /// Holds FFTW plans and buffers; reuses them while N stays the same. One instance per thread.
 class FdWlseEstimator {

@@ -20,6 +20,11 @@ double parse_iso8601(const std::string& text);
 /// 0000..9999.
 std::string format_iso8601(double unix_s, int decimals = 3);
 
+/// A time for an error message: ISO 8601 when it has one (years 0000..9999 after rounding to
+/// the millisecond), else "<seconds> s (UNIX time)". Never throws, so an InputError being built
+/// is not replaced by format_iso8601's std::invalid_argument (found by fuzzing the readers).
+std::string time_for_message(double unix_s);
+
 /// Days since 1970-01-01 of a proleptic Gregorian date (month 1..12, day 1..31); no range checks.
 std::int64_t days_from_civil(std::int64_t year, int month, int day);
 

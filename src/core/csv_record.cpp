@@ -51,19 +51,6 @@ std::vector<std::string> split_fields(const std::string& line, char delimiter) {
   return fields;
 }
 
-/// A time for an error message: ISO 8601 when it has one (years 0000..9999 after rounding to
-/// the millisecond), else UNIX seconds. Never throws: the InputError being built must not be
-/// replaced by format_iso8601's std::invalid_argument (found by fuzz/fuzz_csv_record.cpp).
-std::string time_for_message(double time_s) {
-  try {
-    return format_iso8601(time_s);
-  } catch (const std::invalid_argument&) {
-    char buffer[40];
-    std::snprintf(buffer, sizeof buffer, "%.17g s (UNIX time)", time_s);
-    return buffer;
-  }
-}
-
 bool is_nan_text(const std::string& text) {
   return text.size() == 3 && (text[0] == 'n' || text[0] == 'N') &&
          (text[1] == 'a' || text[1] == 'A') && (text[2] == 'n' || text[2] == 'N');

@@ -292,35 +292,36 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   }
   result.parameters = decompose(result.n, result.n_covariance);
 
-  // Quality figures. Condition number of the field block of A: ratio of the strongest to the
-  // weakest in-band signal power among directions of the reference field.
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(a.topLeftCorner<3, 3>());
-  const Eigen::Vector3d ev = eig.eigenvalues();
-  result.condition_number = ev(0) > 0.0 ? ev(2) / ev(0) : std::numeric_limits<double>::infinity();
   result.coherence = (Eigen::Vector3d::Ones() - residual_power.cwiseQuotient(test_power));
   // Parseval for the unnormalised DFT: in-band variance = 2 sum_band |E_j|^2 / N^2.
   result.residual_rms_nT = (2.0 * residual_power).cwiseSqrt() / static_cast<double>(length);
+  apply_quality_rules(result, a.topLeftCorner<3, 3>(), harmonics, "harmonics", settings_);
+  return result;
+}
 
+void apply_quality_rules(WindowEstimate& e, const Eigen::Matrix3d& field_block_of_a, long harmonics,
+                         const char* harmonics_noun, const EstimatorSettings& settings) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(field_block_of_a);
+  const Eigen::Vector3d ev = eig.eigenvalues();
+  e.condition_number = ev(0) > 0.0 ? ev(2) / ev(0) : std::numeric_limits<double>::infinity();
   std::ostringstream text;
-  if (harmonics < static_cast<long>(settings_.min_harmonics)) {
-    result.quality = Quality::kTooFewHarmonics;
-    text << harmonics << " harmonics in the band, fewer than min_harmonics = " << settings_.min_harmonics;
-  } else if (!(result.condition_number <= settings_.max_condition_number)) {
-    result.quality = Quality::kIllConditioned;
-    text << "condition number " << result.condition_number << " above " << settings_.max_condition_number
+  if (harmonics < static_cast<long>(settings.min_harmonics)) {
+    e.quality = Quality::kTooFewHarmonics;
+    text << harmonics << " " << harmonics_noun << " in the band, fewer than min_harmonics = " << settings.min_harmonics;
+  } else if (!(e.condition_number <= settings.max_condition_number)) {
+    e.quality = Quality::kIllConditioned;
+    text << "condition number " << e.condition_number << " above " << settings.max_condition_number
          << ": too little signal in one direction of the band";
-  } else if (result.coherence.minCoeff() < settings_.min_coherence) {
+  } else if (e.coherence.minCoeff() < settings.min_coherence) {
     Eigen::Index worst;
-    result.coherence.minCoeff(&worst);
-    result.quality = Quality::kLowCoherence;
-    text << "coherence of component " << worst << " is " << result.coherence(worst) << ", below "
-         << settings_.min_coherence;
+    e.coherence.minCoeff(&worst);
+    e.quality = Quality::kLowCoherence;
+    text << "coherence of component " << worst << " is " << e.coherence(worst) << ", below " << settings.min_coherence;
   } else {
-    result.quality = Quality::kOk;
+    e.quality = Quality::kOk;
     text << "ok";
   }
-  result.quality_text = text.str();
-  return result;
+  e.quality_text = text.str();
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -89,19 +89,6 @@ int day_of_year(std::int64_t days_since_epoch) {
   return static_cast<int>(days_since_epoch - days_from_civil(year, 1, 1) + 1);
 }
 
-/// A time for an error message: ISO 8601 when it has one (years 0000..9999 after rounding to
-/// the millisecond), else UNIX seconds. Never throws: the InputError being built must not be
-/// replaced by format_iso8601's std::invalid_argument (found by fuzz/fuzz_iaga2002.cpp).
-std::string time_for_message(double time_s) {
-  try {
-    return format_iso8601(time_s);
-  } catch (const std::invalid_argument&) {
-    char buffer[40];
-    std::snprintf(buffer, sizeof buffer, "%.17g s (UNIX time)", time_s);
-    return buffer;
-  }
-}
-
 struct ColumnLayout {
   std::vector<std::string> names;  // element column names as in the file, e.g. "WICH"
 };

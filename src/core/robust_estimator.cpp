@@ -518,31 +518,9 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   }
 
   // Quality figures, as for Eq. 2 but over the weighted cells.
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(fit.a);
-  const Eigen::Vector3d ev = eig.eigenvalues();
-  result.condition_number = ev(0) > 0.0 ? ev(2) / ev(0) : std::numeric_limits<double>::infinity();
   result.coherence = Eigen::Vector3d::Ones() - residual_power.cwiseQuotient(test_power);
   result.residual_rms_nT = inband_variance.cwiseSqrt();
-  std::ostringstream text;
-  const std::size_t harmonics = cells.size();
-  if (harmonics < settings_.min_harmonics) {
-    result.quality = Quality::kTooFewHarmonics;
-    text << harmonics << " section harmonics in the band, fewer than min_harmonics = " << settings_.min_harmonics;
-  } else if (!(result.condition_number <= settings_.max_condition_number)) {
-    result.quality = Quality::kIllConditioned;
-    text << "condition number " << result.condition_number << " above " << settings_.max_condition_number
-         << ": too little signal in one direction of the band";
-  } else if (result.coherence.minCoeff() < settings_.min_coherence) {
-    Eigen::Index worst;
-    result.coherence.minCoeff(&worst);
-    result.quality = Quality::kLowCoherence;
-    text << "coherence of component " << worst << " is " << result.coherence(worst) << ", below "
-         << settings_.min_coherence;
-  } else {
-    result.quality = Quality::kOk;
-    text << "ok";
-  }
-  result.quality_text = text.str();
+  apply_quality_rules(result, fit.a, static_cast<long>(cells.size()), "section harmonics", settings_);
   return result;
 }
 

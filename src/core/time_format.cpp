@@ -171,4 +171,14 @@ std::string format_iso8601(double unix_s, int decimals) {
   return out;
 }
 
+std::string time_for_message(double unix_s) {
+  try {
+    return format_iso8601(unix_s);
+  } catch (const std::invalid_argument&) {
+    char buffer[40];
+    std::snprintf(buffer, sizeof buffer, "%.17g s (UNIX time)", unix_s);
+    return buffer;
+  }
+}
+
 }  // namespace magnetometer_insitu_calibration
