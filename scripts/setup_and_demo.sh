@@ -8,8 +8,8 @@ set -eo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
 bash scripts/build.sh
-source build/devel/setup.bash
-rosrun magnetometer_insitu_calibration calibrate_records \
+# Not rosrun: rosrun skips executables under <package>/build/, where this standalone build puts them.
+build/devel/lib/magnetometer_insitu_calibration/calibrate_records \
   --reference data/wic20250514_lemi036.sec.gz --test data/wic20250514_fge.sec.gz \
   --intervals 4 --eiv-ratio 0.03 --json build/wic20250514_calibration.json
 echo "JSON report: build/wic20250514_calibration.json"
