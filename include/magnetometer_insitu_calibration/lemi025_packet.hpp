@@ -29,6 +29,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -103,9 +104,33 @@ struct Lemi025Plausibility {
   bool check_status_bytes = true;
 };
 
-/// Structure check of 153 bytes (tag, BCD date/time, readings, status bytes), no checksum.
+/// The one plausibility rule of a LEMI reading, shared by the packet parser, the driver and the
+/// compact-flash reader: X, Y, Z variations (nT, relative to the bias field) all finite and
+/// |component| <= limits.max_abs_variation_nT.
+bool lemi_reading_plausible(double x_nT, double y_nT, double z_nT,
+                            const Lemi025Plausibility& limits = {});
+
+/// Sets every implausible reading (row: X, Y, Z variation, nT) of `variation_nT` to NaN in all
+/// three components (lemi_reading_plausible) and returns how many readings it set.
+template <int Rows>
+int lemi_mark_implausible_readings(Eigen::Matrix<double, Rows, 3>& variation_nT,
+                                   const Lemi025Plausibility& limits = {});
+
+/// Structure check of 153 bytes (tag, BCD date/time, EVERY reading plausible, status bytes), no
+/// checksum. Strict: used where an implausible reading must reject the whole packet (record-format
+/// detection, LemiBin records).
 Lemi025Problem check_lemi025_structure(const std::uint8_t* bytes,
                                        const Lemi025Plausibility& limits = {});
+
+/// Frame check of 153 bytes, the rule that finds packet boundaries in a stream: tag, BCD
+/// date/time and (limits.check_status_bytes) the status bytes, which a packet shortened or
+/// lengthened by lost/inserted bytes almost never passes. Readings do not decide the frame, so
+/// one implausible reading does not make an intact packet a "non-packet" -- EXCEPT when
+/// `checksum` is kNone and limits.check_status_bytes is false: then nothing else checks the tail
+/// of the packet and every reading must be plausible (as check_lemi025_structure).
+/// Never returns kBadChecksum (see lemi025_checksum_ok).
+Lemi025Problem check_lemi025_frame(const std::uint8_t* bytes, ChecksumMode checksum,
+                                   const Lemi025Plausibility& limits = {});
 
 /// The checksum byte that `mode` predicts for bytes 0..151 (0 for kNone).
 std::uint8_t lemi025_checksum(const std::uint8_t* bytes, ChecksumMode mode);
@@ -116,8 +141,9 @@ bool lemi025_checksum_ok(const std::uint8_t* bytes, ChecksumMode mode);
 /// valid decimal give a gps_time_s of NaN.
 Lemi025Packet decode_lemi025_packet_unchecked(const std::uint8_t* bytes);
 
-/// Decodes 153 bytes after the structure check and the checksum check of `mode`.
-/// Throws InputError("LEMI-025 packet", <problem>) if they fail.
+/// Decodes 153 bytes after the frame check (check_lemi025_frame) and the checksum check of
+/// `mode`; implausible readings become NaN (lemi_mark_implausible_readings), as the stream parser
+/// does. Throws InputError("LEMI-025 packet", <problem>) if the frame or checksum check fails.
 Lemi025Packet decode_lemi025_packet(const std::uint8_t* bytes,
                                     ChecksumMode mode = ChecksumMode::kNone,
                                     const Lemi025Plausibility& limits = {});
@@ -142,5 +168,20 @@ double lemi_utc_to_unix_s(int year, int month, int day, int hour, int minute, do
 std::array<int, 6> lemi_unix_to_utc(std::int64_t unix_s);
 /// Decodes six BCD bytes yy mm dd hh mm ss (year 2000 + yy) to UNIX seconds; NaN if invalid.
 double lemi_decode_bcd_time(const std::uint8_t* six_bytes);
+
+// ---- Template definitions ----------------------------------------------------------------------
+
+template <int Rows>
+int lemi_mark_implausible_readings(Eigen::Matrix<double, Rows, 3>& variation_nT,
+                                   const Lemi025Plausibility& limits) {
+  int marked = 0;
+  for (Eigen::Index k = 0; k < variation_nT.rows(); ++k) {
+    if (lemi_reading_plausible(variation_nT(k, 0), variation_nT(k, 1), variation_nT(k, 2), limits))
+      continue;
+    variation_nT.row(k).setConstant(std::numeric_limits<double>::quiet_NaN());
+    ++marked;
+  }
+  return marked;
+}
 
 }  // namespace magnetometer_insitu_calibration

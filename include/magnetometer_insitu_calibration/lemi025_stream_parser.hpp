@@ -1,19 +1,26 @@
 // Incremental parser of a raw LEMI-025 byte stream (serial port, or a capture of one): feed it
 // byte chunks of any size, it returns whole packets and keeps counters of what it skipped.
 //
-// Synchronisation rule. A packet is accepted at a position when
+// Synchronisation rule (the frame: check_lemi025_frame). A packet is accepted at a position when
 //   1. bytes 0-3 are "L025" or "L036",
 //   2. bytes 5-10 are a valid BCD date and time,
-//   3. all 30 readings are finite and within +-Lemi025Plausibility::max_abs_variation_nT,
-//   4. (default) mode is 1..3, flash free <= 100 %, GPS status is A, P, O or S,
-//   5. the checksum matches, if a ChecksumMode other than kNone is selected.
-// 1-4 are the "structure" of a packet: if they fail, the candidate is not a packet (a tag
-// inside garbage, or a packet shortened by dropped bytes whose tail has moved) and the parser
-// skips one byte and searches for the next tag. If only 5 fails, the 153 bytes are a packet
-// with a damaged byte: they are consumed and counted in checksum_errors (not in bytes_skipped).
+//   3. (default) mode is 1..3, flash free <= 100 %, GPS status is A, P, O or S,
+//   4. the checksum matches, if a ChecksumMode other than kNone is selected.
+// 1-3 are the frame of a packet: if they fail, the candidate is not a packet (a tag inside
+// garbage, or a packet shortened by dropped bytes whose tail -- status bytes -- has moved) and
+// the parser skips one byte and searches for the next tag. If only 4 fails, the 153 bytes are a
+// packet with a damaged byte: they are consumed and counted in checksum_errors (not in
+// bytes_skipped).
+// Readings do not decide the frame: a framed packet (and, with sum8/xor8, checksum-verified, i.e.
+// intact as sent) whose readings include implausible ones (not finite, or a component beyond
+// +-Lemi025Plausibility::max_abs_variation_nT, e.g. a failing ADC) is returned with those
+// readings -- all three components -- set to NaN (lemi_mark_implausible_readings), counted in
+// implausible_readings; its good readings are kept. Only with checksum kNone AND
+// check_status_bytes = false (nothing else checks the packet's tail) must every reading be
+// plausible for the frame, as before.
 // Time continuity is not a condition of acceptance (a real clock step or a lost packet must not
 // stall the stream); a packet whose GPS second is not the previous accepted packet's + 1 s is
-// accepted and counted in time_jumps.
+// accepted and counted in time_jumps (the driver decides what to publish).
 //
 // A partial packet at the end of a chunk waits for the next chunk; flush() declares the stream
 // ended (or interrupted, e.g. a serial disconnect) and counts what is left as skipped.
@@ -36,6 +43,7 @@ struct Lemi025ParserStats {
   std::uint64_t resyncs = 0;          ///< runs of skipped bytes (each loss of synchronisation)
   std::uint64_t bytes_skipped = 0;    ///< bytes that belonged to no packet
   std::uint64_t time_jumps = 0;       ///< accepted packets not 1 s after the previous one
+  std::uint64_t implausible_readings = 0;  ///< readings of accepted packets set to NaN (not finite / out of range)
   std::uint64_t bytes_fed = 0;        ///< bytes given to feed()
 };
 

@@ -105,15 +105,21 @@ std::string lemi025_problem_text(Lemi025Problem problem) {
   return "unknown problem";
 }
 
-Lemi025Problem check_lemi025_structure(const std::uint8_t* bytes,
-                                       const Lemi025Plausibility& limits) {
+bool lemi_reading_plausible(double x_nT, double y_nT, double z_nT,
+                            const Lemi025Plausibility& limits) {
+  // !(a <= b) rather than a > b: NaN is implausible too.
+  for (const double v : {x_nT, y_nT, z_nT})
+    if (!std::isfinite(v) || !(std::abs(v) <= limits.max_abs_variation_nT)) return false;
+  return true;
+}
+
+namespace {
+
+// Tag, BCD date/time, status bytes (the frame without the readings).
+Lemi025Problem check_header_time_status(const std::uint8_t* bytes,
+                                        const Lemi025Plausibility& limits) {
   if (!lemi_detail::is_lemi_tag(bytes)) return Lemi025Problem::kBadTag;
   if (std::isnan(lemi_decode_bcd_time(bytes + kTime))) return Lemi025Problem::kBadTime;
-  for (int i = 0; i < 3 * kLemi025ReadingsPerPacket; ++i) {
-    const double v_nT = 1000.0 * lemi_detail::read_f32(bytes + kReadings + 4 * i);
-    if (!std::isfinite(v_nT) || std::abs(v_nT) > limits.max_abs_variation_nT)
-      return Lemi025Problem::kBadReadings;
-  }
   if (limits.check_status_bytes) {
     const std::uint8_t mode = bytes[kMode];
     const char gps = static_cast<char>(bytes[kGpsStatus]);
@@ -121,6 +127,36 @@ Lemi025Problem check_lemi025_structure(const std::uint8_t* bytes,
         !(gps == 'A' || gps == 'P' || gps == 'O' || gps == 'S'))
       return Lemi025Problem::kBadStatusBytes;
   }
+  return Lemi025Problem::kOk;
+}
+
+bool all_readings_plausible(const std::uint8_t* bytes, const Lemi025Plausibility& limits) {
+  for (int k = 0; k < kLemi025ReadingsPerPacket; ++k) {
+    const std::uint8_t* r = bytes + kReadings + 12 * k;
+    if (!lemi_reading_plausible(1000.0 * lemi_detail::read_f32(r), 1000.0 * lemi_detail::read_f32(r + 4),
+                                1000.0 * lemi_detail::read_f32(r + 8), limits))  // uT -> nT
+      return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Lemi025Problem check_lemi025_structure(const std::uint8_t* bytes,
+                                       const Lemi025Plausibility& limits) {
+  if (!lemi_detail::is_lemi_tag(bytes)) return Lemi025Problem::kBadTag;
+  if (std::isnan(lemi_decode_bcd_time(bytes + kTime))) return Lemi025Problem::kBadTime;
+  if (!all_readings_plausible(bytes, limits)) return Lemi025Problem::kBadReadings;
+  return check_header_time_status(bytes, limits);
+}
+
+Lemi025Problem check_lemi025_frame(const std::uint8_t* bytes, ChecksumMode checksum,
+                                   const Lemi025Plausibility& limits) {
+  const Lemi025Problem problem = check_header_time_status(bytes, limits);
+  if (problem != Lemi025Problem::kOk) return problem;
+  if (checksum == ChecksumMode::kNone && !limits.check_status_bytes &&
+      !all_readings_plausible(bytes, limits))
+    return Lemi025Problem::kBadReadings;
   return Lemi025Problem::kOk;
 }
 
@@ -169,12 +205,14 @@ Lemi025Packet decode_lemi025_packet_unchecked(const std::uint8_t* bytes) {
 
 Lemi025Packet decode_lemi025_packet(const std::uint8_t* bytes, ChecksumMode mode,
                                     const Lemi025Plausibility& limits) {
-  Lemi025Problem problem = check_lemi025_structure(bytes, limits);
+  Lemi025Problem problem = check_lemi025_frame(bytes, mode, limits);
   if (problem == Lemi025Problem::kOk && !lemi025_checksum_ok(bytes, mode))
     problem = Lemi025Problem::kBadChecksum;
   if (problem != Lemi025Problem::kOk)
     throw InputError("LEMI-025 packet", lemi025_problem_text(problem));
-  return decode_lemi025_packet_unchecked(bytes);
+  Lemi025Packet packet = decode_lemi025_packet_unchecked(bytes);
+  lemi_mark_implausible_readings(packet.variation_nT, limits);
+  return packet;
 }
 
 std::array<std::uint8_t, kLemi025PacketSize> encode_lemi025_packet(const Lemi025Packet& p,

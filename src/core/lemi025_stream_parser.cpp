@@ -75,7 +75,7 @@ void Lemi025StreamParser::parse(std::vector<Lemi025StreamPacket>& out) {
     }
     if (avail < kLemi025PacketSize) return;  // wait for the rest of the packet
 
-    const Lemi025Problem problem = check_lemi025_structure(p, options_.plausibility);
+    const Lemi025Problem problem = check_lemi025_frame(p, options_.checksum, options_.plausibility);
     if (problem != Lemi025Problem::kOk) {
       // A tag that does not start a well-formed packet: garbage, or a packet cut short.
       skip(1, "tag at a non-packet: " + lemi025_problem_text(problem));
@@ -90,6 +90,12 @@ void Lemi025StreamParser::parse(std::vector<Lemi025StreamPacket>& out) {
       continue;
     }
     Lemi025StreamPacket found{decode_lemi025_packet_unchecked(p), offset_of(start_)};
+    const int implausible = lemi_mark_implausible_readings(found.packet.variation_nT, options_.plausibility);
+    if (implausible > 0) {
+      stats_.implausible_readings += static_cast<std::uint64_t>(implausible);
+      warn("stream byte " + std::to_string(found.offset) + ": " + std::to_string(implausible) +
+           " implausible readings set to NaN");
+    }
     if (have_previous_ && found.packet.gps_time_s != previous_time_s_ + 1.0) {
       ++stats_.time_jumps;
       warn("stream byte " + std::to_string(found.offset) + ": time jump of " +

@@ -117,6 +117,9 @@ LemiFlashBlock decode_lemi_flash_block(const std::uint8_t* b) {
     block.sensor_temperature_C[j] = read_i16(r + 12) / 100.0;
     block.electronics_temperature_C[j] = read_i16(r + 14) / 100.0;
   }
+  // The packet parser's plausibility rule (one function): a reading that is not finite or out
+  // of range becomes NaN in all three components, never a number.
+  lemi_mark_implausible_readings(block.variation_nT);
   return block;
 }
 

@@ -244,3 +244,71 @@ TEST(LemiBcdTime, BcdAndCalendar) {
   const std::uint8_t bcd[6] = {0x24, 0x03, 0x05, 0x12, 0x34, 0x56};
   EXPECT_EQ(lemi_decode_bcd_time(bcd), kT0);
 }
+
+// The one plausibility rule (parser, driver, compact flash): finite and |component| <= 100000 nT.
+TEST(Lemi025Packet, ReadingPlausibilityRule) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(lemi_reading_plausible(0.0, -99999.9, 100000.0));
+  EXPECT_FALSE(lemi_reading_plausible(100000.5, 0.0, 0.0));
+  EXPECT_FALSE(lemi_reading_plausible(0.0, -1.0e6, 0.0));
+  EXPECT_FALSE(lemi_reading_plausible(0.0, 0.0, nan));
+  EXPECT_FALSE(lemi_reading_plausible(-inf, 0.0, 0.0));
+  Lemi025Plausibility tight;
+  tight.max_abs_variation_nT = 500.0;
+  EXPECT_FALSE(lemi_reading_plausible(501.0, 0.0, 0.0, tight));
+  EXPECT_TRUE(lemi_reading_plausible(-500.0, 0.0, 0.0, tight));
+
+  Lemi025Readings r = Lemi025Readings::Constant(12.5);
+  r(2, 1) = 2.0e5;  // reading 2: Y absurd
+  r(6, 0) = nan;    // reading 6: X not finite
+  EXPECT_EQ(lemi_mark_implausible_readings(r), 2);
+  for (int k = 0; k < 10; ++k)
+    for (int c = 0; c < 3; ++c) {
+      if (k == 2 || k == 6) {
+        EXPECT_TRUE(std::isnan(r(k, c))) << k << "," << c;  // all three components
+      } else {
+        EXPECT_EQ(r(k, c), 12.5) << k << "," << c;
+      }
+    }
+}
+
+// A packet whose tag, time, status bytes and checksum are good but with implausible readings is
+// a packet (check_lemi025_frame), decoded with NaN for those readings only; the strict structure
+// check still calls it kBadReadings. Garbage header/time is still not a frame.
+TEST(Lemi025Packet, FrameKeepsPacketWithImplausibleReadings) {
+  std::vector<std::uint8_t> b = hand_packet();
+  put_f32(b, 28 + 12 * 4 + 8, 1.0e30f);                                    // reading 4, Z
+  put_f32(b, 28 + 12 * 7 + 0, std::numeric_limits<float>::infinity());     // reading 7, X
+  b[152] = lemi025_checksum(b.data(), ChecksumMode::kSum8);
+  EXPECT_EQ(check_lemi025_structure(b.data()), Lemi025Problem::kBadReadings);
+  for (ChecksumMode mode : {ChecksumMode::kNone, ChecksumMode::kSum8})
+    EXPECT_EQ(check_lemi025_frame(b.data(), mode), Lemi025Problem::kOk) << checksum_mode_name(mode);
+  // Checksum none and no status-byte check: nothing checks the tail, readings decide.
+  Lemi025Plausibility lenient;
+  lenient.check_status_bytes = false;
+  EXPECT_EQ(check_lemi025_frame(b.data(), ChecksumMode::kNone, lenient), Lemi025Problem::kBadReadings);
+  EXPECT_EQ(check_lemi025_frame(b.data(), ChecksumMode::kSum8, lenient), Lemi025Problem::kOk);
+
+  const Lemi025Packet p = decode_lemi025_packet(b.data(), ChecksumMode::kSum8);
+  EXPECT_EQ(p.gps_time_s, kT0);
+  for (int k = 0; k < 10; ++k) {
+    if (k == 4 || k == 7) {
+      EXPECT_TRUE(p.variation_nT.row(k).array().isNaN().all()) << "reading " << k;
+    } else {
+      for (int c = 0; c < 3; ++c) EXPECT_DOUBLE_EQ(p.variation_nT(k, c), 1000.0 * reading_uT(k, c)) << k;
+    }
+  }
+  EXPECT_THROW(decode_lemi025_packet(b.data(), ChecksumMode::kNone, lenient), InputError);
+
+  std::vector<std::uint8_t> garbage_time = b;
+  garbage_time[8] = 0x3A;  // hour nibble A: not BCD
+  garbage_time[152] = lemi025_checksum(garbage_time.data(), ChecksumMode::kSum8);
+  EXPECT_EQ(check_lemi025_frame(garbage_time.data(), ChecksumMode::kSum8), Lemi025Problem::kBadTime);
+  std::vector<std::uint8_t> garbage_tag = b;
+  garbage_tag[0] = 'X';
+  EXPECT_EQ(check_lemi025_frame(garbage_tag.data(), ChecksumMode::kNone), Lemi025Problem::kBadTag);
+  std::vector<std::uint8_t> bad_checksum = b;
+  bad_checksum[152] ^= 0x01;
+  EXPECT_THROW(decode_lemi025_packet(bad_checksum.data(), ChecksumMode::kSum8), InputError);
+}

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -272,4 +273,88 @@ TEST(Lemi025StreamParser, Lemi036PacketsInStream) {
   const auto packets = parser.feed(a.data(), a.size());
   ASSERT_EQ(packets.size(), 1u);
   EXPECT_EQ(packets[0].model, LemiModel::kLemi036);
+}
+
+// Bug A: a framed packet with implausible readings (failing ADC: 1e6 nT, NaN) is returned with
+// NaN for those readings only and counted; before, it was skipped byte by byte as garbage and
+// all 10 readings lost. Same with checksum none (status bytes frame the packet).
+TEST(Lemi025StreamParser, ImplausibleReadingsBecomeNaNAndPacketIsKept) {
+  for (ChecksumMode mode : {ChecksumMode::kSum8, ChecksumMode::kXor8, ChecksumMode::kNone}) {
+    Bytes bytes;
+    for (int i = 0; i < kPackets; ++i) {
+      Lemi025Packet p = make_packet(i);
+      if (i == 3) {
+        p.variation_nT(2, 0) = 1.0e6;                                      // absurd magnitude
+        p.variation_nT(5, 2) = -2.5e5;
+        p.variation_nT(8, 1) = std::numeric_limits<double>::quiet_NaN();  // not finite
+      }
+      const auto a = encode_lemi025_packet(p, mode);
+      bytes.insert(bytes.end(), a.begin(), a.end());
+    }
+    for (std::size_t chunk : {std::size_t{1}, std::size_t{77}, bytes.size()}) {
+      Lemi025StreamParser parser(mode);
+      const auto packets = feed_in_chunks(parser, bytes, chunk);
+      ASSERT_EQ(times(packets), (std::vector<double>{0, 1, 2, 3, 4, 5, 6, 7}))
+          << checksum_mode_name(mode) << " chunk " << chunk;
+      const Lemi025Packet& bad = packets[3];
+      for (int k = 0; k < 10; ++k) {
+        if (k == 2 || k == 5 || k == 8) {
+          EXPECT_TRUE(bad.variation_nT.row(k).array().isNaN().all()) << "reading " << k;
+        } else {
+          EXPECT_NEAR(bad.variation_nT(k, 0), 300.0 + k, 1e-3) << "reading " << k;
+          EXPECT_NEAR(bad.variation_nT(k, 1), -150.0 - k, 1e-3) << "reading " << k;
+          EXPECT_NEAR(bad.variation_nT(k, 2), 7.0 * k, 1e-3) << "reading " << k;
+        }
+      }
+      EXPECT_TRUE(packets[2].variation_nT.allFinite());
+      const Lemi025ParserStats& s = parser.stats();
+      EXPECT_EQ(s.packets, 8u);
+      EXPECT_EQ(s.implausible_readings, 3u);
+      EXPECT_EQ(s.resyncs, 0u);
+      EXPECT_EQ(s.bytes_skipped, 0u);
+      EXPECT_EQ(s.checksum_errors, 0u);
+      const auto warnings = parser.take_warnings();
+      ASSERT_EQ(warnings.size(), 1u);
+      EXPECT_EQ(warnings[0], "stream byte 459: 3 implausible readings set to NaN");
+    }
+  }
+}
+
+// Readings do not decide the frame, but header, time and tail still do: a packet whose BCD time
+// is garbage, or one shortened by 8 bytes (a multiple of 4: its floats stay plausible), is still
+// rejected by resynchronisation; the neighbours are kept. With checksum none and no status-byte
+// check, implausible readings still reject the packet (nothing else frames it).
+TEST(Lemi025StreamParser, GarbageHeaderStillRejectedWhenReadingsAreNot) {
+  {
+    Bytes bytes = stream(kPackets, ChecksumMode::kSum8);
+    bytes[2 * 153 + 9] = 0xC7;  // minute byte not BCD
+    Lemi025StreamParser parser(ChecksumMode::kSum8);
+    EXPECT_EQ(times(parser.feed(bytes)), (std::vector<double>{0, 1, 3, 4, 5, 6, 7}));
+    EXPECT_EQ(parser.stats().bytes_skipped, 153u);
+    EXPECT_EQ(parser.stats().resyncs, 1u);
+    EXPECT_EQ(parser.stats().implausible_readings, 0u);
+  }
+  {
+    Bytes bytes = stream(kPackets, ChecksumMode::kNone);
+    bytes.erase(bytes.begin() + 5 * 153 + 40, bytes.begin() + 5 * 153 + 48);
+    Lemi025StreamParser parser;
+    EXPECT_EQ(times(parser.feed(bytes)), (std::vector<double>{0, 1, 2, 3, 4, 6, 7}));
+    EXPECT_EQ(parser.stats().bytes_skipped, 145u);
+    EXPECT_EQ(parser.stats().resyncs, 1u);
+  }
+  {
+    Lemi025ParserOptions options;
+    options.plausibility.check_status_bytes = false;
+    Bytes bytes;
+    for (int i = 0; i < 3; ++i) {
+      Lemi025Packet p = make_packet(i);
+      if (i == 1) p.variation_nT(0, 0) = 1.0e6;
+      const auto a = encode_lemi025_packet(p, ChecksumMode::kNone);
+      bytes.insert(bytes.end(), a.begin(), a.end());
+    }
+    Lemi025StreamParser parser(options);
+    EXPECT_EQ(times(parser.feed(bytes)), (std::vector<double>{0, 2}));
+    EXPECT_EQ(parser.stats().bytes_skipped, 153u);
+    EXPECT_EQ(parser.stats().implausible_readings, 0u);
+  }
 }

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -448,6 +449,47 @@ TEST(LemiCompactFlash, PacketLikeGroupsOfTen) {
   EXPECT_EQ(t, (std::vector<double>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(source.stats().parser.time_jumps, 0u);
   EXPECT_EQ(source.stats().parser.bytes_skipped, 0u);
+}
+
+// The packet parser's plausibility rule (lemi_reading_plausible, one function) on the card:
+// a reading that is not finite or has a component beyond +-100000 nT becomes NaN in all three
+// components, in the decoded block and in the record; its neighbours and 99000 nT are kept.
+TEST(LemiCompactFlash, ImplausibleReadingsBecomeNaN) {
+  Bytes bad = hand_block(1);
+  auto put_reading = [&](int j, int c, float uT) { put_f32(bad, 32 + 16 * j + 4 * c, uT); };
+  put_reading(5, 0, 1000.0f);                                       // 1e6 nT
+  put_reading(12, 1, std::numeric_limits<float>::quiet_NaN());      // not finite
+  put_reading(20, 2, -150.0f);                                      // -150000 nT
+  put_reading(21, 2, 99.0f);                                        // 99000 nT: plausible
+  const LemiFlashBlock block = decode_lemi_flash_block(bad.data());
+  for (int j = 0; j < 30; ++j) {
+    if (j == 5 || j == 12 || j == 20) {
+      EXPECT_TRUE(block.variation_nT.row(j).array().isNaN().all()) << "reading " << j;
+    } else {
+      EXPECT_DOUBLE_EQ(block.variation_nT(j, 0), 1000.0 * (0.125 * j + 1)) << "reading " << j;
+    }
+  }
+  EXPECT_DOUBLE_EQ(block.variation_nT(21, 2), 99000.0);
+  EXPECT_DOUBLE_EQ(block.variation_nT(21, 1), 1000.0 * (-0.5 - 0.0625 * 21));
+
+  Bytes card = hand_block(0);
+  append(card, bad);
+  append(card, hand_block(2));
+  const VectorRecord r = read_lemi_compact_flash(write_file("implausible.img", card));
+  ASSERT_EQ(r.size(), 90u);
+  expect_block_rows(r, 0, 0);
+  expect_block_rows(r, 60, 2);
+  for (int j = 0; j < 30; ++j) {
+    const Eigen::Index n = 30 + j;
+    EXPECT_NEAR(r.time_s[30 + j], kT0 + 3 - 0.3 + 0.1 * j, 1e-6);
+    if (j == 5 || j == 12 || j == 20) {
+      EXPECT_TRUE(r.values_nT.row(n).array().isNaN().all()) << "reading " << j;
+    } else if (j != 21) {
+      EXPECT_DOUBLE_EQ(r.values_nT(n, 0), 20000.0 + 1000.0 * (0.125 * j + 1)) << "reading " << j;
+      EXPECT_DOUBLE_EQ(r.values_nT(n, 2), 42000.0) << "reading " << j;
+    }
+  }
+  EXPECT_DOUBLE_EQ(r.values_nT(51, 2), 40000.0 + 99000.0);  // bias + variation, nT
 }
 
 TEST(LemiCompactFlash, NoBlockAtAll) {
