@@ -25,6 +25,7 @@ constexpr double kTeslaPerNanotesla = 1e-9;
 constexpr double kBytesPerPacketSecond = static_cast<double>(kLemi025PacketSize);  // 1 packet/s live
 constexpr double kBiasChangeWarningHold_s = 60.0;  // wall s a bias change stays a WARN
 constexpr double kReadTimeout_s = 0.2;             // s, bounds the shutdown delay
+constexpr std::size_t kMaxHeldPackets = 3;         // packets held at once awaiting confirmation
 
 const std::vector<std::string> kKnownParameters = {
     "source", "device", "baud", "file", "rate", "checksum", "field", "frame_id", "noise_nT", "reopen_interval",
@@ -145,6 +146,10 @@ double PcPacketClock::first_reading_time(double arrival_s) {
       previous_s_ = predicted + 0.1 * difference;
       return previous_s_;
     }
+    // The PC clock stepped (NTP correction, operator, suspend) or packets stopped coming for
+    // a while: restart from the arrival time.
+    ++steps_;
+    last_step_s_ = difference;
   }
   have_previous_ = true;
   previous_s_ = measured;
@@ -295,6 +300,7 @@ void Lemi025Driver::run() {
       if (!last_warning.empty()) state_.last_warning = iso(wall_now_s()) + " " + last_warning;
     }
     if (at_end && !packet) {
+      release_held();
       if (!end_reported) {
         ROS_INFO("%s: end of recording %s after %llu packets", node_name_.c_str(), settings_.file.c_str(),
                  static_cast<unsigned long long>(packet_index_));
@@ -308,6 +314,92 @@ void Lemi025Driver::run() {
 
 void Lemi025Driver::handle(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s) {
   frequency_->tick();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++state_.packets_received;
+  }
+  // GPS-time screening (see "Isolated GPS time jumps" in the header). Packets on any other time
+  // source count as slots but are never held.
+  ++slots_since_reference_;
+  for (HeldPacket& h : held_) ++h.slots;
+  const double g = packet.gps_time_s;
+  if (packet.gps_status != 'A' || !std::isfinite(g)) {
+    drop_held(held_.size(), "a packet without GPS time came next");
+    publish_packet(packet, arrival_s, recorded_pc_s);
+    return;
+  }
+  // Consistent with x (a GPS second n packets ago): after it, and not further ahead than the n
+  // seconds that n packets take.
+  auto consistent = [g](double x, std::uint64_t n) { return g > x && g <= x + static_cast<double>(n); };
+  if (!have_gps_reference_ || consistent(gps_reference_s_, slots_since_reference_)) {
+    // First GPS packet, or the clock runs on from the reference: every held packet was an outlier.
+    drop_held(held_.size(), "the packets after it continue from the time before it");
+    accept_gps(packet, arrival_s, recorded_pc_s);
+    return;
+  }
+  for (std::size_t i = held_.size(); i-- > 0;) {
+    if (!consistent(held_[i].packet.gps_time_s, held_[i].slots)) continue;
+    // Confirmed: a real re-synchronisation (or lost packets). The other held packets were
+    // outliers; this one and the new packet are published, nothing of them lost.
+    HeldPacket confirmed = held_[i];
+    held_.erase(held_.begin() + static_cast<std::ptrdiff_t>(i));
+    drop_held(held_.size(), "another time was confirmed");
+    ROS_INFO("%s: GPS time jump of %s s to %s confirmed by the next packet", node_name_.c_str(),
+             text_of(confirmed.packet.gps_time_s - gps_reference_s_).c_str(), iso(confirmed.packet.gps_time_s).c_str());
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++state_.gps_jumps_confirmed;
+    }
+    accept_gps(confirmed.packet, confirmed.arrival_s, confirmed.recorded_pc_s);
+    accept_gps(packet, arrival_s, recorded_pc_s);
+    return;
+  }
+  if (g <= gps_reference_s_) {
+    // Backwards or repeated: never held (it cannot push the last stamp ahead); the stamp rule
+    // drops what is not after the last published reading. The reference stays.
+    publish_packet(packet, arrival_s, recorded_pc_s);
+    return;
+  }
+  // Ahead of what the packets since the reference allow: hold until a later packet says
+  // whether it is real. At most kMaxHeldPackets, the oldest dropped first.
+  held_.push_back(HeldPacket{packet, arrival_s, recorded_pc_s, 0});
+  if (held_.size() > kMaxHeldPackets) drop_held(1, "no packet confirmed it");
+}
+
+void Lemi025Driver::accept_gps(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s) {
+  have_gps_reference_ = true;
+  gps_reference_s_ = packet.gps_time_s;
+  slots_since_reference_ = 0;
+  publish_packet(packet, arrival_s, recorded_pc_s);
+}
+
+void Lemi025Driver::drop_held(std::size_t count, const std::string& why) {
+  for (std::size_t i = 0; i < count && !held_.empty(); ++i) {
+    const Lemi025Packet& h = held_.front().packet;
+    ROS_WARN("%s: packet with GPS time %s (%s s after the last accepted %s) dropped: isolated time jump, %s",
+             node_name_.c_str(), iso(h.gps_time_s).c_str(), text_of(h.gps_time_s - gps_reference_s_).c_str(),
+             iso(gps_reference_s_).c_str(), why.c_str());
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++state_.packets_dropped_unconfirmed;
+      state_.last_warning = iso(wall_now_s()) + " packet at GPS time " + iso(h.gps_time_s) +
+                            " dropped: isolated time jump (" + why + ")";
+    }
+    held_.pop_front();
+  }
+}
+
+void Lemi025Driver::release_held() {
+  while (!held_.empty()) {
+    ROS_INFO("%s: end of recording: the held packet at GPS time %s is published (no later packet)",
+             node_name_.c_str(), iso(held_.front().packet.gps_time_s).c_str());
+    const HeldPacket last = held_.front();
+    held_.pop_front();
+    accept_gps(last.packet, last.arrival_s, last.recorded_pc_s);
+  }
+}
+
+void Lemi025Driver::publish_packet(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s) {
   const Lemi025DriverSettings& s = settings_;
   const bool gps_ok = packet.gps_status == 'A';
   double first_s = 0.0;
@@ -331,8 +423,9 @@ void Lemi025Driver::handle(const Lemi025Packet& packet, double arrival_s, double
   // Bias (compensation) field changes: an event the observatory staff must see.
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    ++state_.packets_received;
     if (!gps_ok) ++state_.packets_without_gps;
+    state_.pc_clock_steps = pc_clock_.steps();
+    state_.last_pc_clock_step_s = pc_clock_.last_step_s();
     if (state_.have_packet && packet.bias_nT != state_.last.bias_nT) {
       ++state_.bias_changes;
       state_.last_bias_change_wall_s = wall_now_s();
@@ -357,7 +450,6 @@ void Lemi025Driver::handle(const Lemi025Packet& packet, double arrival_s, double
   std::uint64_t published = 0, invalid = 0, dropped_time = 0, dropped_gps = 0, bad_time = 0;
   const Lemi025Readings values = s.field == LemiFieldMode::kFullField ? packet.full_field_nT() : packet.variation_nT;
   const double variance = std::pow(s.noise_nT * kTeslaPerNanotesla, 2);
-  const double limit_nT = Lemi025Plausibility{}.max_abs_variation_nT;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (int k = 0; k < kLemi025ReadingsPerPacket; ++k) {
     if (s.gps_required && !gps_ok) {
@@ -385,8 +477,9 @@ void Lemi025Driver::handle(const Lemi025Packet& packet, double arrival_s, double
       ROS_INFO("%s: stamps after the last published one again from %s", node_name_.c_str(), iso(stamp_s).c_str());
       dropping_ = false;
     }
+    // The core's one plausibility rule (the parser has already set implausible readings to NaN).
     const auto variation = packet.variation_nT.row(k);
-    const bool valid = variation.allFinite() && values.row(k).allFinite() && variation.cwiseAbs().maxCoeff() <= limit_nT;
+    const bool valid = lemi_reading_plausible(variation(0), variation(1), variation(2)) && values.row(k).allFinite();
     sensor_msgs::MagneticField message;
     message.header.stamp = stamp;
     message.header.frame_id = s.frame_id;
@@ -451,6 +544,10 @@ void Lemi025Driver::diagnose_link(DiagnosticStatusWrapper& status) {
   status.add("readings dropped (stamp not after the previous)", st.readings_dropped_time);
   status.add("readings dropped (no GPS, gps_required)", st.readings_dropped_gps);
   status.add("readings dropped (no usable time)", st.readings_bad_time);
+  status.add("packets dropped (isolated GPS time jump)", st.packets_dropped_unconfirmed);
+  status.add("GPS time jumps confirmed", st.gps_jumps_confirmed);
+  status.add("PC clock steps", st.pc_clock_steps);
+  status.add("last PC clock step (s)", st.pc_clock_steps > 0 ? text_of(st.last_pc_clock_step_s) : std::string("none"));
   status.add("last published stamp", st.readings_published > 0 ? iso(st.last_stamp_s) : std::string("none"));
   status.add("last warning", st.last_warning);
 
@@ -468,6 +565,8 @@ void Lemi025Driver::diagnose_link(DiagnosticStatusWrapper& status) {
   report(p.time_jumps, reported_time_jumps_, "time jumps");
   if (st.connected) report(st.stats.disconnects, reported_disconnects_, "disconnects (reconnected)");
   report(st.readings_dropped_time, reported_dropped_, "readings dropped: stamp not after the previous");
+  report(st.packets_dropped_unconfirmed, reported_unconfirmed_, "packets dropped: isolated GPS time jump");
+  report(st.pc_clock_steps, reported_pc_steps_, "PC clock steps (stamps restarted from the PC clock)");
 }
 
 void Lemi025Driver::diagnose_instrument(DiagnosticStatusWrapper& status) {

@@ -10,33 +10,41 @@
 //                                 appears; the half packet is not published (nor glued to the
 //                                 next bytes), every later packet is; disconnect/reconnect counted
 //   LineStallsMidPacket           the line stays up but the rest of a packet never comes (power
-//                                 glitch of the instrument): the next whole packet is published
+//                                 glitch of the instrument): the next whole packet is published,
+//                                 one packet late (a GPS second after a lost one waits for the next
+//                                 packet to confirm it: the driver's documented 1-packet delay)
 //   BytesDroppedInsidePacket      30 bytes missing from the middle of a packet: that packet is
 //                                 lost (unavoidable), the following one (whose header then sits
 //                                 inside the parser's 152-byte frame) is NOT lost; resync counted
 //   GarbageInsertedInsidePacket   5 noise bytes inside a packet: same
-//   ImplausibleReadingsLiveNeverPublishedAsNumbers  readings of +-1e6 nT over the live line:
-//                                 never published as numbers, neighbours exact, loss counted;
-//   DISABLED_ImplausibleReadingsLiveAreNaN  what the driver documents (NaN for the bad readings
-//                                 only, counted): NODE BUG, the whole packet is lost (see the test)
+//   ImplausibleReadingsLiveAreNaN a checksum-valid packet with 4 readings of +-1e6 nT (failing
+//                                 ADC): those 4 published as NaN (x, y, z) and counted, its 6 other
+//                                 readings and the neighbours exact, no resync
 //   DuplicatedPacketPublishedOnce the same packet twice (repeater/buffer replay): its 10 readings
 //                                 published once, 10 counted as dropped, WARN
 //   ClockJumpsForwardThenContinues GPS time steps forward 1 h and runs on (real re-synchronisation):
-//                                 everything published, time jump counted
-//   DISABLED_SingleForwardGlitchDoesNotBlockData  one packet with a GPS second 1 day ahead
-//                                 (valid checksum), then the correct seconds again: the driver
-//                                 publishes the glitch and then DROPS every reading for a day (node
-//                                 bug, see the test). Last, since it poisons the shared driver.
+//                                 everything published (the jump confirmed by the next packet),
+//                                 time jump and confirmation counted, nothing dropped
+//   SingleForwardGlitchDoesNotBlockData  one packet with a GPS second 1 day ahead (valid checksum)
+//                                 between correct seconds: the glitch is dropped and counted, every
+//                                 good packet published with its GPS stamp
+// DriverPcClock.* runs from test/ros/test_faults_driver_pc_clock.test (~suite), on a driver with
+// /use_sim_time, whose PC clock (ros::Time::now, the /clock this test publishes) it steps:
+//   PcClockStepsBackwardsAndForwards  GPS lost ('P'): stamps from the PC clock; the clock steps
+//                                 back 4.55 s (the 45 readings stamped before the last published one
+//                                 are dropped and counted, nothing goes backwards), then forward
+//                                 100 s (a gap in the stamps, nothing dropped); both steps counted
 #include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "pty_link.hpp"
+
+#include <rosgraph_msgs/Clock.h>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>
 
-#include <fcntl.h>
 #include <stdlib.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -59,6 +67,9 @@ constexpr double kNanotesla = 1e-9;
 constexpr double kT0 = 1709251200.0;  // 2024-03-01T00:00:00Z
 const Eigen::Vector3d kBias_nT(21500.0, 502.5, 43000.0);
 const char* const kDropped = "readings dropped (stamp not after the previous)";
+const char* const kInvalid = "readings published as NaN (invalid)";
+const char* const kUnconfirmed = "packets dropped (isolated GPS time jump)";
+const char* const kConfirmed = "GPS time jumps confirmed";
 
 std::string param(const std::string& name, const std::string& fallback = "") {
   std::string value;
@@ -73,49 +84,6 @@ bool wait_for(const std::function<bool()>& done, double timeout_s) {
   }
   return done();
 }
-
-class FakeSerialPort {
- public:
-  explicit FakeSerialPort(std::string link) : link_(std::move(link)) {}
-  ~FakeSerialPort() {
-    close();
-    ::unlink(link_.c_str());
-  }
-  std::string open() {
-    master_ = ::posix_openpt(O_RDWR | O_NOCTTY);
-    if (master_ < 0 || ::grantpt(master_) != 0 || ::unlockpt(master_) != 0) return std::strerror(errno);
-    const std::string slave_name = ::ptsname(master_);
-    slave_ = ::open(slave_name.c_str(), O_RDWR | O_NOCTTY);
-    if (slave_ < 0) return slave_name + ": " + std::strerror(errno);
-    termios tio{};
-    ::tcgetattr(slave_, &tio);
-    ::cfmakeraw(&tio);
-    ::tcsetattr(slave_, TCSANOW, &tio);
-    const std::string tmp = link_ + ".tmp";
-    ::unlink(tmp.c_str());
-    if (::symlink(slave_name.c_str(), tmp.c_str()) != 0 || ::rename(tmp.c_str(), link_.c_str()) != 0) {
-      return "cannot point " + link_ + " at " + slave_name;
-    }
-    return "";
-  }
-  void close() {
-    if (slave_ >= 0) ::close(slave_);
-    if (master_ >= 0) ::close(master_);
-    slave_ = master_ = -1;
-  }
-  void write(const std::vector<std::uint8_t>& bytes) {
-    std::size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::write(master_, bytes.data() + done, bytes.size() - done);
-      ASSERT_GT(n, 0) << std::strerror(errno);
-      done += static_cast<std::size_t>(n);
-    }
-  }
-
- private:
-  std::string link_;
-  int master_ = -1, slave_ = -1;
-};
 
 mic::Lemi025Packet make_packet(double gps_s) {
   mic::Lemi025Packet p;
@@ -239,7 +207,7 @@ class Inbox {
   ros::Subscriber fields_sub_, diagnostics_sub_;
 };
 
-FakeSerialPort* g_port = nullptr;
+mic::test::PtyLink* g_port = nullptr;
 Inbox* g_inbox = nullptr;
 
 class DriverFaults : public testing::Test {
@@ -251,7 +219,7 @@ class DriverFaults : public testing::Test {
         << "driver not connected to the pty: " << g_inbox->value("link", "last warning");
   }
   Inbox& inbox() { return *g_inbox; }
-  FakeSerialPort& port() { return *g_port; }
+  mic::test::PtyLink& port() { return *g_port; }
 
   /// Writes `bytes`, waits for `expected` readings, then 0.3 s more for anything extra.
   std::vector<sensor_msgs::MagneticField> write_and_collect(const std::vector<std::uint8_t>& bytes,
@@ -321,10 +289,14 @@ TEST_F(DriverFaults, LineStallsMidPacket) {
   const std::size_t before = inbox().count();
   port().write(half);
   ros::WallDuration(1.0).sleep();  // silence: the rest never comes
-  write_and_collect(encode(kT0 + 6), 10);
+  // kT0 + 6 follows the lost kT0 + 5: ahead of the packet count, so held until the next packet
+  // confirms it (documented 1-packet delay), then published with it; nothing is lost.
+  port().write(encode(kT0 + 6));
+  ros::WallDuration(1.5).sleep();
+  EXPECT_EQ(inbox().count(), before) << "a packet after a lost one is published before it is confirmed";
   std::vector<std::uint8_t> more = encode(kT0 + 7);
   append(more, encode(kT0 + 8));
-  write_and_collect(more, 20);
+  write_and_collect(more, 30);
   expect_packets(inbox().from(before), {kT0 + 6, kT0 + 7, kT0 + 8});
   inbox().fresh();
   // The half packet is skipped (flushed at the read gap or resynchronised): never a packet.
@@ -378,23 +350,36 @@ std::vector<mic::Lemi025Packet> packets_with_bad_burst(double first) {
   return sent;
 }
 
-// What the live path does today: the core parser (check_lemi025_structure, used to find packet
-// boundaries) takes a packet with an implausible reading for a non-packet and skips it byte by
-// byte, so the WHOLE packet is lost (its 6 good readings too) and counted as a resync, not as
-// NaN readings. Asserted here: no implausible value is ever published as a number, the
-// neighbouring packets are exact, the loss is visible in the diagnostics.
-TEST_F(DriverFaults, ImplausibleReadingsLiveNeverPublishedAsNumbers) {
+// Bug A (fixed): the core parser frames packets by tag, BCD time and status bytes (and the sum8
+// checksum of this driver), not by their readings; a packet whose checksum verifies is intact, so
+// its 4 implausible readings are published as NaN (all three components, never a number) and
+// counted, and its 6 good readings and the neighbours are published exactly. No resync.
+TEST_F(DriverFaults, ImplausibleReadingsLiveAreNaN) {
+  const long long invalid0 = inbox().counter("link", kInvalid);
   const long long resyncs0 = inbox().counter("link", "resyncs");
-  const auto sent = packets_with_bad_burst(kT0 + 15);
+  const long long published0 = inbox().counter("link", "readings published");
+  const double first = kT0 + 15;
+  const auto sent = packets_with_bad_burst(first);
   std::vector<std::uint8_t> bytes;
   for (const auto& p : sent) append(bytes, encode(p));
-  const auto fields = write_and_collect(bytes, 20);
-  expect_packets(fields, {kT0 + 15, kT0 + 17});
-  for (const auto& f : fields) {
-    EXPECT_LT(std::abs(f.magnetic_field.x), 1e-4) << "implausible value published as a number";
-    EXPECT_LT(std::abs(f.magnetic_field.z), 1e-4) << "implausible value published as a number";
+  const auto fields = write_and_collect(bytes, 30);
+  ASSERT_EQ(fields.size(), 30u);
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const std::size_t j = i / 10;
+    const int k = static_cast<int>(i % 10);
+    EXPECT_EQ(fields[i].header.stamp, gps_stamp(first + static_cast<double>(j), k)) << "reading " << i;
+    const auto& f = fields[i].magnetic_field;
+    if (j == 1 && k >= 3 && k < 7) {
+      EXPECT_TRUE(std::isnan(f.x) && std::isnan(f.y) && std::isnan(f.z)) << "reading " << i;
+    } else {
+      EXPECT_NEAR(f.x, (kBias_nT(0) + sent[j].variation_nT(k, 0)) * kNanotesla, 1e-4 * kNanotesla) << i;
+      EXPECT_NEAR(f.y, (kBias_nT(1) + sent[j].variation_nT(k, 1)) * kNanotesla, 1e-4 * kNanotesla) << i;
+      EXPECT_NEAR(f.z, (kBias_nT(2) + sent[j].variation_nT(k, 2)) * kNanotesla, 1e-4 * kNanotesla) << i;
+    }
   }
-  EXPECT_GE(inbox().wait_counter("link", "resyncs", resyncs0 + 1), resyncs0 + 1);
+  EXPECT_EQ(inbox().wait_counter("link", kInvalid, invalid0 + 4), invalid0 + 4);
+  EXPECT_EQ(inbox().wait_counter("link", "readings published", published0 + 30), published0 + 30);
+  EXPECT_EQ(inbox().counter("link", "resyncs"), resyncs0);
   expect_all_increasing();
 }
 
@@ -418,6 +403,8 @@ TEST_F(DriverFaults, DuplicatedPacketPublishedOnce) {
 TEST_F(DriverFaults, ClockJumpsForwardThenContinues) {
   const long long jumps0 = inbox().counter("link", "time jumps");
   const long long dropped0 = inbox().counter("link", kDropped);
+  const long long confirmed0 = inbox().counter("link", kConfirmed);
+  const long long unconfirmed0 = inbox().counter("link", kUnconfirmed);
   const double later = kT0 + 3600.0 + 21;
   std::vector<std::uint8_t> bytes = encode(kT0 + 21);
   append(bytes, encode(later));
@@ -426,48 +413,23 @@ TEST_F(DriverFaults, ClockJumpsForwardThenContinues) {
   const auto fields = write_and_collect(bytes, 40);
   expect_packets(fields, {kT0 + 21, later, later + 1, later + 2});
   EXPECT_GE(inbox().wait_counter("link", "time jumps", jumps0 + 1), jumps0 + 1);
+  EXPECT_EQ(inbox().wait_counter("link", kConfirmed, confirmed0 + 1), confirmed0 + 1);
   inbox().fresh();
   EXPECT_EQ(inbox().counter("link", kDropped), dropped0);
+  EXPECT_EQ(inbox().counter("link", kUnconfirmed), unconfirmed0);
   expect_all_increasing();
 }
 
-// NODE BUG (lemi025_driver + core Lemi025StreamParser): the driver documents "a reading that is
-// not finite or outside the plausible range is published as NaN and counted", but on the serial
-// path a packet with one such reading never reaches the driver (see the test above): 10
-// readings (1 s) are lost per bad reading instead of 1 NaN, and "readings published as NaN" stays
-// 0. With a checksum (sum8/xor8) that verifies, the packet is intact and should be published
-// with NaN for its bad readings only. Expected behaviour below; enable when fixed.
-TEST_F(DriverFaults, DISABLED_ImplausibleReadingsLiveAreNaN) {
-  const long long invalid0 = inbox().counter("link", "readings published as NaN (invalid)");
-  const double first = kT0 + 3600.0 + 100;  // after every other test
-  const auto sent = packets_with_bad_burst(first);
-  std::vector<std::uint8_t> bytes;
-  for (const auto& p : sent) append(bytes, encode(p));
-  const auto fields = write_and_collect(bytes, 30);
-  ASSERT_EQ(fields.size(), 30u);
-  for (std::size_t i = 0; i < fields.size(); ++i) {
-    const std::size_t j = i / 10;
-    const int k = static_cast<int>(i % 10);
-    EXPECT_EQ(fields[i].header.stamp, gps_stamp(first + static_cast<double>(j), k)) << "reading " << i;
-    const auto& f = fields[i].magnetic_field;
-    if (j == 1 && k >= 3 && k < 7) {
-      EXPECT_TRUE(std::isnan(f.x) && std::isnan(f.y) && std::isnan(f.z)) << "reading " << i;
-    } else {
-      EXPECT_NEAR(f.y, (kBias_nT(1) + sent[j].variation_nT(k, 1)) * kNanotesla, 1e-4 * kNanotesla) << i;
-    }
-  }
-  EXPECT_EQ(inbox().wait_counter("link", "readings published as NaN (invalid)", invalid0 + 4), invalid0 + 4);
-}
-
-// NODE BUG (lemi025_driver, "stamps never go backwards"): a single packet whose GPS second is
-// wrong but whose checksum is right (a GPS receiver glitch, or any corruption with checksum
-// none, the default) sets last_published_ a day ahead; every correct reading after it is
-// "not after the last published one" and dropped until the real time passes the glitch: a day
-// of good data lost, and the calibration node sees the glitch as a stray stamp. Expected: the
-// isolated outlier is dropped (or the driver resynchronises on the next two consistent packets)
-// and the good packets are published. Enable when the driver is fixed. Last test: it leaves the
-// shared driver's last stamp a day ahead.
-TEST_F(DriverFaults, DISABLED_SingleForwardGlitchDoesNotBlockData) {
+// Bug B (fixed): a single packet whose GPS second is a day ahead but whose checksum is right (a
+// GPS receiver glitch, or any corruption with checksum none) used to set the last published stamp
+// a day ahead and block every correct reading for a day. Now a GPS second ahead of what the
+// packets since the last accepted one allow is held until the next packet: base (itself a 1 h
+// jump from the previous test) and the glitch are both held; base + 2 continues from base (one
+// slot for the glitch), which confirms base and drops the glitch.
+TEST_F(DriverFaults, SingleForwardGlitchDoesNotBlockData) {
+  const long long unconfirmed0 = inbox().counter("link", kUnconfirmed);
+  const long long dropped0 = inbox().counter("link", kDropped);
+  const std::size_t mark = inbox().history_size();
   const double base = kT0 + 7200.0;
   std::vector<std::uint8_t> bytes = encode(base);
   append(bytes, encode(base + 86400.0));  // one bad GPS second
@@ -475,11 +437,135 @@ TEST_F(DriverFaults, DISABLED_SingleForwardGlitchDoesNotBlockData) {
   append(bytes, encode(base + 3));
   append(bytes, encode(base + 4));
   const auto fields = write_and_collect(bytes, 40);
-  std::size_t good = 0;
+  expect_packets(fields, {base, base + 2, base + 3, base + 4});
   for (const auto& f : fields)
-    if (f.header.stamp < ros::Time(static_cast<std::uint32_t>(base + 10))) ++good;
-  EXPECT_EQ(good, 40u) << "good readings after a single forward glitch were dropped (" << fields.size()
-                       << " published in all)";
+    EXPECT_LT(f.header.stamp, ros::Time(static_cast<std::uint32_t>(base + 10))) << "the glitch was published";
+  EXPECT_EQ(inbox().wait_counter("link", kUnconfirmed, unconfirmed0 + 1), unconfirmed0 + 1);
+  EXPECT_TRUE(wait_for(
+      [&] {
+        return inbox().any_since(mark, "link", diagnostic_msgs::DiagnosticStatus::WARN, "isolated GPS time jump");
+      },
+      3.0))
+      << "no WARN 'isolated GPS time jump' in the link diagnostics";
+  inbox().fresh();
+  EXPECT_EQ(inbox().counter("link", kDropped), dropped0) << "good readings dropped after the glitch";
+  // The driver is not poisoned: the next second is published at once.
+  const auto next = write_and_collect(encode(base + 5), 10);
+  expect_packets(next, {base + 5});
+  expect_all_increasing();
+}
+
+// ---- PC clock steps (test_faults_driver_pc_clock.test: the driver runs on /use_sim_time) ------
+
+/// The driver's PC clock is ros::Time::now(); with /use_sim_time it is the /clock published here.
+class DriverPcClock : public testing::Test {
+ protected:
+  static constexpr double kP0 = 1700000000.0;  // PC clock (UNIX s) of the first packet: 2023-11-14
+
+  void SetUp() override {
+    ASSERT_NE(g_port, nullptr);
+    ASSERT_TRUE(ros::Time::isSimTime()) << "needs /use_sim_time (test_faults_driver_pc_clock.test)";
+    clock_pub_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10);
+    ASSERT_TRUE(wait_for([&] { return clock_pub_.getNumSubscribers() > 0 && g_inbox->connected(); }, 20.0));
+    // Diagnostics run on the driver's ROS timer: advance the clock until it reports the link.
+    double t = kP0 - 30.0;
+    ASSERT_TRUE(wait_for(
+        [&] {
+          set_clock(t += 0.25);
+          return g_inbox->value("link", "connected") == "True";
+        },
+        20.0))
+        << "driver not connected to the pty";
+  }
+  void set_clock(double t_s) {
+    rosgraph_msgs::Clock clock;
+    clock.clock = ros::Time(t_s);
+    clock_pub_.publish(clock);
+    ros::WallDuration(0.05).sleep();
+  }
+  /// Sets the PC clock to `t_s`, lets the driver see it, writes one 'P' packet (no GPS fix) and
+  /// gives the driver time to handle it at that clock reading (it stamps on arrival).
+  void packet_at(double t_s, double gps_s) {
+    set_clock(t_s);
+    ros::WallDuration(0.3).sleep();
+    mic::Lemi025Packet p = make_packet(gps_s);
+    p.gps_status = 'P';
+    const std::size_t before = g_inbox->count();
+    port().write(encode(p));
+    // A published packet shows up on the topic; a dropped one cannot: wait a generous while.
+    wait_for([&] { return g_inbox->count() >= before + 10; }, 1.5);
+    ros::WallDuration(0.2).sleep();
+  }
+  /// Advances the clock in steps of 0.25 s until diagnostics newer than now have arrived.
+  void fresh_diagnostics(double from_s) {
+    const std::size_t mark = g_inbox->history_size();
+    double t = from_s;
+    wait_for(
+        [&] {
+          set_clock(t += 0.25);
+          return g_inbox->history_size() >= mark + 6;
+        },
+        10.0);
+  }
+  mic::test::PtyLink& port() { return *g_port; }
+  ros::Publisher clock_pub_;
+};
+
+// GPS lost: the packet stamps come from the PC clock at arrival, the arrival taken as the time of
+// the packet's last reading (first reading 0.9 s before). Truth, with P0 = kP0 and packets
+// arriving at P0, P0 + 1, P0 + 2: first readings at P0 - 0.9 + j, last published P0 + 2.0.
+// The PC clock then steps BACK 4.55 s (NTP correction): packets j = 0..5 arrive at
+// P0 - 1.55 + j, first readings at P0 - 2.45 + j. Readings not after P0 + 2.0 are dropped and
+// counted: packets 0..3 (40 readings) and readings k = 0..4 of packet 4 (P0 + 1.55 .. + 1.95);
+// its k = 5..9 (P0 + 2.05 ..) and packet 5 are published. Then the clock steps FORWARD 100 s:
+// stamps restart at the new arrival - 0.9 s, nothing dropped. Both steps counted, WARN.
+TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
+  const std::size_t mark = g_inbox->history_size();
+  const std::size_t before = g_inbox->count();
+  const double gps0 = kT0 + 500.0;  // the instrument's (untrusted) clock runs on regardless
+  for (int j = 0; j < 3; ++j) packet_at(kP0 + j, gps0 + j);
+  ASSERT_EQ(g_inbox->count(), before + 30);
+  fresh_diagnostics(kP0 + 2);
+  const long long dropped0 = g_inbox->counter("link", kDropped);
+  const long long steps0 = g_inbox->counter("link", "PC clock steps");
+  EXPECT_EQ(steps0, 0) << "no step yet";
+  EXPECT_EQ(g_inbox->value("instrument", "time source"), "PC clock (GPS status P)");
+
+  const double back = kP0 + 3.0 - 4.55;  // arrival of the first packet after the step back
+  for (int j = 0; j < 6; ++j) packet_at(back + j, gps0 + 3 + j);
+  const double forward = back + 6.0 + 100.0;  // then the clock jumps 100 s ahead
+  for (int j = 0; j < 2; ++j) packet_at(forward + j, gps0 + 9 + j);
+
+  const auto fields = g_inbox->from(before);
+  std::vector<double> expected;  // truth, UNIX s
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 10; ++k) expected.push_back(kP0 + j - 0.9 + 0.1 * k);
+  for (int k = 5; k < 10; ++k) expected.push_back(back + 4 - 0.9 + 0.1 * k);
+  for (int k = 0; k < 10; ++k) expected.push_back(back + 5 - 0.9 + 0.1 * k);
+  for (int j = 0; j < 2; ++j)
+    for (int k = 0; k < 10; ++k) expected.push_back(forward + j - 0.9 + 0.1 * k);
+  ASSERT_EQ(fields.size(), expected.size());
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    EXPECT_NEAR(fields[i].header.stamp.toSec(), expected[i], 1e-5) << "reading " << i;
+    EXPECT_TRUE(std::isfinite(fields[i].magnetic_field.x)) << "reading " << i;
+    if (i > 0) {
+      EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp) << "reading " << i << " goes backwards";
+    }
+  }
+  fresh_diagnostics(forward + 1);
+  EXPECT_EQ(g_inbox->counter("link", kDropped), dropped0 + 45) << "readings stamped before the last published one";
+  EXPECT_EQ(g_inbox->counter("link", "PC clock steps"), steps0 + 2);
+  EXPECT_EQ(g_inbox->value("link", "last PC clock step (s)"), "100");
+  EXPECT_EQ(g_inbox->counter("link", kUnconfirmed), 0) << "PC-clock packets are never held";
+  EXPECT_TRUE(g_inbox->any_since(mark, "link", diagnostic_msgs::DiagnosticStatus::WARN, "PC clock steps"))
+      << "no WARN 'PC clock steps' in the link diagnostics";
+  EXPECT_TRUE(g_inbox->any_since(mark, "link", diagnostic_msgs::DiagnosticStatus::WARN, "readings dropped"))
+      << "no WARN 'readings dropped' in the link diagnostics";
+  diagnostic_msgs::DiagnosticStatus instrument;
+  ASSERT_TRUE(g_inbox->status("instrument", instrument));
+  EXPECT_EQ(instrument.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_NE(instrument.message.find("GPS status P"), std::string::npos) << instrument.message;
+  EXPECT_EQ(g_inbox->counter("instrument", "packets without GPS"), 3 + 6 + 2);
 }
 
 }  // namespace
@@ -488,6 +574,9 @@ int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_faults_driver");
   ros::NodeHandle nh;
+  // One binary, two launch files: ~suite picks the fixture (DriverFaults: wall clock; DriverPcClock:
+  // /use_sim_time). An explicit --gtest_filter wins.
+  if (testing::GTEST_FLAG(filter) == "*") testing::GTEST_FLAG(filter) = param("suite", "DriverFaults") + ".*";
   ros::AsyncSpinner spinner(2);
   spinner.start();
   const std::string link = param("link");
@@ -495,7 +584,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "test_faults_driver: ~link not set\n");
     return 1;
   }
-  auto port = std::make_unique<FakeSerialPort>(link);
+  auto port = std::make_unique<mic::test::PtyLink>(link);
   const std::string error = port->open();
   if (!error.empty()) {
     std::fprintf(stderr, "test_faults_driver: %s\n", error.c_str());

@@ -6,7 +6,9 @@
 // the driver has published only grow, so each test uses later GPS seconds than the previous):
 //   PublishesTeslaWithGpsStamps    values in T (bias + variation), stamps t_gps - 0.3 + 0.1 k to
 //                                  the nanosecond, frame_id, covariance, temperatures
-//   CorruptedPacketIsSkippedAndCounted  a damaged packet and garbage bytes: skipped, counted
+//   CorruptedPacketIsSkippedAndCounted  a damaged packet and garbage bytes: skipped, counted; the
+//                                  packet after the lost second is published once the next
+//                                  packet confirms its time (the driver's 1-packet delay)
 //   TimeJumpBackwardsIsDropped     the clock steps back: nothing published goes backwards
 //   SerialDisconnectIsSurvived     the pty master closes, a new pty appears under the symlink
 //   GpsNotActiveUsesPcTime         GPS status 'P': PC-clock stamps and a diagnostic warning;
@@ -21,6 +23,7 @@
 // parameters and checks the exit code and the fatal message naming the parameter.
 // SimulatedStation.* (test_simulated_station.cpp) runs from test_simulated_station.test.
 #include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "pty_link.hpp"
 #include "magnetometer_insitu_calibration/lemi_archive.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
@@ -29,11 +32,9 @@
 #include <sensor_msgs/MagneticField.h>
 #include <sensor_msgs/Temperature.h>
 
-#include <fcntl.h>
 #include <stdlib.h>
 #include <signal.h>
 #include <sys/wait.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -72,59 +73,6 @@ bool wait_for(const std::function<bool()>& done, double timeout_s) {
   }
   return done();
 }
-
-// ---- The pseudo-terminal playing the instrument's serial port --------------------------------
-
-class FakeSerialPort {
- public:
-  explicit FakeSerialPort(std::string link) : link_(std::move(link)) {}
-  ~FakeSerialPort() {
-    close();
-    ::unlink(link_.c_str());
-  }
-
-  /// Creates a pty, keeps its slave open (raw: bytes wait in its queue until the driver reads)
-  /// and points the symlink at it atomically. Returns "" or what failed.
-  std::string open() {
-    master_ = ::posix_openpt(O_RDWR | O_NOCTTY);
-    if (master_ < 0 || ::grantpt(master_) != 0 || ::unlockpt(master_) != 0) {
-      return std::string("cannot create a pty: ") + std::strerror(errno);
-    }
-    const std::string slave_name = ::ptsname(master_);
-    slave_ = ::open(slave_name.c_str(), O_RDWR | O_NOCTTY);
-    if (slave_ < 0) return slave_name + ": " + std::strerror(errno);
-    termios tio{};
-    ::tcgetattr(slave_, &tio);
-    ::cfmakeraw(&tio);
-    ::tcsetattr(slave_, TCSANOW, &tio);
-    const std::string tmp = link_ + ".tmp";
-    ::unlink(tmp.c_str());
-    if (::symlink(slave_name.c_str(), tmp.c_str()) != 0 || ::rename(tmp.c_str(), link_.c_str()) != 0) {
-      return "cannot point " + link_ + " at " + slave_name + ": " + std::strerror(errno);
-    }
-    return "";
-  }
-
-  /// Closes master and slave: a reader of the slave sees a hang-up (serial unplug).
-  void close() {
-    if (slave_ >= 0) ::close(slave_);
-    if (master_ >= 0) ::close(master_);
-    slave_ = master_ = -1;
-  }
-
-  void write(const std::vector<std::uint8_t>& bytes) {
-    std::size_t done = 0;
-    while (done < bytes.size()) {
-      const ssize_t n = ::write(master_, bytes.data() + done, bytes.size() - done);
-      ASSERT_GT(n, 0) << std::strerror(errno);
-      done += static_cast<std::size_t>(n);
-    }
-  }
-
- private:
-  std::string link_;
-  int master_ = -1, slave_ = -1;
-};
 
 // ---- Packets ------------------------------------------------------------------------------------
 
@@ -255,7 +203,7 @@ class Inbox {
 };
 
 // One pty and one inbox for the whole run (the driver of the .test file keeps running).
-FakeSerialPort* g_port = nullptr;
+mic::test::PtyLink* g_port = nullptr;
 Inbox* g_inbox = nullptr;
 
 class Lemi025DriverOnPty : public testing::Test {
@@ -266,7 +214,7 @@ class Lemi025DriverOnPty : public testing::Test {
     ASSERT_TRUE(wait_for([] { return g_inbox->value("link", "connected") == "True"; }, 20.0))
         << "driver not connected to the pty: " << g_inbox->value("link", "last warning");
   }
-  FakeSerialPort& port() { return *g_port; }
+  mic::test::PtyLink& port() { return *g_port; }
   Inbox& inbox() { return *g_inbox; }
 
   /// Writes packets of the given GPS seconds and waits for their 10 readings each.
@@ -356,17 +304,21 @@ TEST_F(Lemi025DriverOnPty, CorruptedPacketIsSkippedAndCounted) {
   std::vector<std::uint8_t> damaged = encode(make_packet(kT0 + 4));
   damaged[12] ^= 0x10;  // sensor temperature byte: still a packet, checksum wrong
   bytes.insert(bytes.end(), damaged.begin(), damaged.end());
-  const auto good = encode(make_packet(kT0 + 5));
-  bytes.insert(bytes.end(), good.begin(), good.end());
+  // kT0 + 5 comes after a lost second: the driver holds it until kT0 + 6 confirms its time.
+  for (double s : {kT0 + 5, kT0 + 6}) {
+    const auto good = encode(make_packet(s));
+    bytes.insert(bytes.end(), good.begin(), good.end());
+  }
   port().write(bytes);
 
-  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 20; }, 10.0));
+  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 30; }, 10.0));
   ros::WallDuration(0.3).sleep();
   const auto fields = inbox().fields_from(before);
-  ASSERT_EQ(fields.size(), 20u) << "the damaged packet must not be published";
+  ASSERT_EQ(fields.size(), 30u) << "the damaged packet must not be published";
   for (int k = 0; k < 10; ++k) {
     EXPECT_EQ(fields[static_cast<std::size_t>(k)].header.stamp, gps_stamp(kT0 + 3, k));
     EXPECT_EQ(fields[static_cast<std::size_t>(10 + k)].header.stamp, gps_stamp(kT0 + 5, k));
+    EXPECT_EQ(fields[static_cast<std::size_t>(20 + k)].header.stamp, gps_stamp(kT0 + 6, k));
   }
   EXPECT_EQ(inbox().wait_counter("link", "checksum errors", checksum0 + 1), checksum0 + 1);
   EXPECT_EQ(inbox().wait_counter("link", "resyncs", resyncs0 + 1), resyncs0 + 1);
@@ -375,13 +327,13 @@ TEST_F(Lemi025DriverOnPty, CorruptedPacketIsSkippedAndCounted) {
 }
 
 TEST_F(Lemi025DriverOnPty, TimeJumpBackwardsIsDropped) {
-  ASSERT_GE(inbox().wait_counter("link", "packets", 5), 5);
+  ASSERT_GE(inbox().wait_counter("link", "packets", 6), 6);
   const long long dropped0 = inbox().counter("link", "readings dropped (stamp not after the previous)");
   const long long jumps0 = inbox().counter("link", "time jumps");
-  // 6, 7, then the clock steps back 27 s (-20, -19), then 8: only 6, 7, 8 are published.
-  const auto fields = send({kT0 + 6, kT0 + 7, kT0 - 20, kT0 - 19, kT0 + 8}, 30);
+  // 7, 8, then the clock steps back 28 s (-20, -19), then 9: only 7, 8, 9 are published.
+  const auto fields = send({kT0 + 7, kT0 + 8, kT0 - 20, kT0 - 19, kT0 + 9}, 30);
   ASSERT_EQ(fields.size(), 30u);
-  const double expected[3] = {kT0 + 6, kT0 + 7, kT0 + 8};
+  const double expected[3] = {kT0 + 7, kT0 + 8, kT0 + 9};
   for (std::size_t i = 0; i < fields.size(); ++i) {
     EXPECT_EQ(fields[i].header.stamp, gps_stamp(expected[i / 10], static_cast<int>(i % 10)));
   }
@@ -403,10 +355,10 @@ TEST_F(Lemi025DriverOnPty, SerialDisconnectIsSurvived) {
   EXPECT_EQ(inbox().wait_counter("link", "disconnects", disconnects0 + 1), disconnects0 + 1);
 
   ASSERT_EQ(port().open(), "");  // plugged in again: a new pty under the same symlink
-  const auto fields = send({kT0 + 9, kT0 + 10, kT0 + 11}, 30);
+  const auto fields = send({kT0 + 10, kT0 + 11, kT0 + 12}, 30);
   ASSERT_EQ(fields.size(), 30u) << "no data after the reconnection";
-  EXPECT_EQ(fields.front().header.stamp, gps_stamp(kT0 + 9, 0));
-  EXPECT_EQ(fields.back().header.stamp, gps_stamp(kT0 + 11, 9));
+  EXPECT_EQ(fields.front().header.stamp, gps_stamp(kT0 + 10, 0));
+  EXPECT_EQ(fields.back().header.stamp, gps_stamp(kT0 + 12, 9));
   EXPECT_GE(inbox().wait_counter("link", "reconnects", reconnects0 + 1), reconnects0 + 1);
   EXPECT_EQ(inbox().counter("link", "disconnects"), disconnects0 + 1);
   EXPECT_EQ(inbox().value("link", "connected"), "True");
@@ -725,11 +677,11 @@ int main(int argc, char** argv) {
   ros::NodeHandle nh;
   ros::AsyncSpinner spinner(2);
   spinner.start();
-  std::unique_ptr<FakeSerialPort> port;
+  std::unique_ptr<mic::test::PtyLink> port;
   std::unique_ptr<Inbox> inbox;
   const std::string link = param("link");
   if (!link.empty()) {  // the driver tests: the .test file names the symlink the driver reads
-    port = std::make_unique<FakeSerialPort>(link);
+    port = std::make_unique<mic::test::PtyLink>(link);
     const std::string error = port->open();
     if (!error.empty()) {
       std::fprintf(stderr, "test_lemi025_driver: %s\n", error.c_str());

@@ -31,6 +31,31 @@
 //  * Stamps never go backwards: a reading whose stamp is not after the last published one (a
 //    clock step backwards, a repeated packet) is dropped and counted; publishing resumes when
 //    the stamps pass the last published one.
+//  * Isolated GPS time jumps. Reference R = the GPS second of the newest packet accepted on GPS
+//    time, n = packets received since (any time source; an outlier that was dropped keeps its
+//    one-second slot). A GPS packet with R < t <= R + n runs on from R and is published at
+//    once. One AHEAD of R + n (a day-ahead receiver glitch, a corrupted time byte that passed the
+//    checksum or checksum none, but also a real re-synchronisation or a lost packet) is held, not
+//    published, until a later packet decides:
+//      - a packet consistent with a held one in the same way (t_held < t <= t_held + packets
+//        since it): the held packet is real; it and then the new one are published, nothing
+//        lost, counted in "GPS time jumps confirmed";
+//      - a packet consistent with R: the held packets were outliers; they are dropped and
+//        counted in "packets dropped (isolated GPS time jump)" (10 readings each), WARN;
+//      - neither: it is held too (at most 3 held; the oldest is dropped and counted beyond).
+//    Cost: a packet after a forward discontinuity is published ONE packet later (1 s live, the
+//    next packet confirms it); while the GPS seconds run on, nothing is held. A packet held
+//    when a packet without GPS time comes, or older than a confirmed one (a real jump, then a
+//    gap, then another real jump), is dropped and counted: the one case of a lost good packet.
+//    A backwards or repeated second is never held (it cannot push the last stamp ahead): the
+//    rule above drops what is not after the last published reading. The first GPS packet
+//    after start is the reference without confirmation. Held packets are published at the end
+//    of a recording.
+//  * PC clock steps (GPS not active): a packet arriving more than 0.5 s off the 1 s prediction
+//    restarts the stamps from the arrival time and is counted in "PC clock steps" (WARN). A
+//    forward step leaves a gap in the stamps and loses nothing; after a backward step of D s the
+//    readings stamped before the last published one (about D s of data) are dropped and counted
+//    as "readings dropped (stamp not after the previous)": stamps never go backwards.
 //
 // Threads: a reading thread waits on the packet source and publishes; the main thread
 // (ros::spin) runs the diagnostics. Shared counters are under a mutex. The serial port is
@@ -50,6 +75,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -92,10 +118,17 @@ class PcPacketClock {
   double first_reading_time(double arrival_s);
   /// The next packet starts a new sequence (after a GPS-stamped packet or a disconnection).
   void reset() { have_previous_ = false; }
+  /// Restarts from the arrival time because it differed from the 1 s prediction by more than
+  /// 0.5 s (a PC clock step, or packets not arriving for a while), since construction.
+  std::uint64_t steps() const { return steps_; }
+  /// Arrival minus prediction at the newest step, s (negative: the PC clock went backwards).
+  double last_step_s() const { return last_step_s_; }
 
  private:
   bool have_previous_ = false;
   double previous_s_ = 0.0;
+  std::uint64_t steps_ = 0;
+  double last_step_s_ = 0.0;
 };
 
 class Lemi025Driver {
@@ -123,6 +156,10 @@ class Lemi025Driver {
     std::uint64_t readings_bad_time = 0;      ///< no usable time at all
     std::uint64_t packets_without_gps = 0;    ///< GPS status not 'A'
     std::uint64_t bias_changes = 0;
+    std::uint64_t packets_dropped_unconfirmed = 0;  ///< isolated GPS time jumps not confirmed
+    std::uint64_t gps_jumps_confirmed = 0;          ///< GPS time jumps confirmed by the next packet
+    std::uint64_t pc_clock_steps = 0;               ///< PcPacketClock::steps()
+    double last_pc_clock_step_s = 0.0;              ///< PcPacketClock::last_step_s(), s
     bool have_packet = false;
     Lemi025Packet last;                       ///< newest packet (readings not used)
     std::string time_source = "none yet";
@@ -132,8 +169,25 @@ class Lemi025Driver {
     std::string last_warning;
   };
 
+  /// A GPS-stamped packet held until the next packet confirms its time (see the file comment).
+  struct HeldPacket {
+    Lemi025Packet packet;
+    double arrival_s = 0.0;      ///< PC (ROS) time of its arrival, s
+    double recorded_pc_s = 0.0;  ///< LemiBin PC time, s, or NaN
+    std::uint64_t slots = 0;     ///< packets received after it
+  };
+
   void run();
+  /// Every packet from the source: GPS-time screening, then publish_packet (or hold / drop).
   void handle(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s);
+  /// Publishes a GPS-stamped packet and makes its GPS second the reference.
+  void accept_gps(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s);
+  /// Drops the `count` oldest held packets (unconfirmed outliers), counts them and says why.
+  void drop_held(std::size_t count, const std::string& why);
+  /// End of a recording: the held packets are published (no later packet can confirm them).
+  void release_held();
+  /// Stamps and publishes the packet's readings and temperatures, updates the diagnostics state.
+  void publish_packet(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s);
   bool pace(std::uint64_t index);
   void diagnose_link(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnose_instrument(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -158,12 +212,17 @@ class Lemi025Driver {
   double last_temperature_s_ = 0.0;
   bool dropping_ = false;
   std::uint64_t packet_index_ = 0;
+  bool have_gps_reference_ = false;
+  double gps_reference_s_ = 0.0;           ///< GPS second of the newest packet accepted on GPS time, UNIX s
+  std::uint64_t slots_since_reference_ = 0;  ///< packets received after it (held, dropped, non-GPS)
+  std::deque<HeldPacket> held_;            ///< oldest first, at most 3
   std::chrono::steady_clock::time_point pace_start_;  ///< wall time of the first replayed packet
 
   std::mutex mutex_;
   State state_;
   std::uint64_t reported_checksum_ = 0, reported_resyncs_ = 0, reported_time_jumps_ = 0,
-                reported_disconnects_ = 0, reported_dropped_ = 0;  ///< diagnostics thread only
+                reported_disconnects_ = 0, reported_dropped_ = 0, reported_unconfirmed_ = 0,
+                reported_pc_steps_ = 0;  ///< diagnostics thread only
 
   std::mutex stop_mutex_;
   std::condition_variable stop_cv_;
