@@ -19,13 +19,10 @@ rm -f "$out"/calibration.yaml
 source "$build/devel/setup.bash"
 set -u
 source "$here/scripts/bench_build_publisher.sh"
-port=$((20000 + RANDOM % 20000))
-export ROS_MASTER_URI="http://127.0.0.1:$port" ROS_IP=127.0.0.1 ROS_HOME="$out/ros_home"
-roscore -p "$port" >"$out/roscore.log" 2>&1 &
-core_pid=$!
+bench_start_roscore "$out"  # scripts/bench_ros_common.sh
+core_pid=$bench_core_pid
 cleanup() { kill ${cal_pid:-} ${cor_pid:-} 2>/dev/null || true; kill "$core_pid" 2>/dev/null || true; wait 2>/dev/null || true; }
 trap cleanup EXIT
-for i in $(seq 50); do rosparam list >/dev/null 2>&1 && break; sleep 0.2; done
 lib="$build/devel/lib/magnetometer_insitu_calibration"
 share="$here/config"
 rosparam load "$share/calibration.yaml" /soak_calibration
