@@ -19,6 +19,9 @@
 //                                      published as NaN, the others as recorded
 //   LemiBinWithoutGpsUsesRecordedPcTime  LemiBin records with GPS status 'P': stamped from the
 //                                      PC time stored in each record
+//   StreamFileGpsGlitchDroppedAndLastHeldPacketReleased  a stream recording with a day-ahead GPS
+//                                      second (dropped) and a final jump (held, then published at
+//                                      the end of the recording)
 // Lemi025DriverParameters.BadParametersExitNonZero starts the driver itself with impossible
 // parameters and checks the exit code and the fatal message naming the parameter.
 // SimulatedStation.* (test_simulated_station.cpp) runs from test_simulated_station.test.
@@ -619,6 +622,57 @@ TEST(Lemi025DriverRecordings, LemiBinWithoutGpsUsesRecordedPcTime) {
     }
   }
   EXPECT_EQ(passive_readings, 100u);
+  ::unlink(path.c_str());
+}
+
+// A raw stream recording (~source stream_file) through the driver's GPS-time screening: a packet
+// whose GPS second is a day ahead (in the slot of t0 + 2) is dropped, the seconds around it are
+// published; the last packet jumps 46 s ahead and has no later packet to confirm it: it is held,
+// then published at the end of the recording. 4 lead packets (2 s at rate 2) let the subscription
+// connect; from t0 on every reading is checked against the truth.
+TEST(Lemi025DriverRecordings, StreamFileGpsGlitchDroppedAndLastHeldPacketReleased) {
+  const std::string path = temporary_path("lemi025_driver_test_glitch.stream");
+  const double t0 = 1709251200.0 + 3 * 86400.0;
+  const std::vector<double> written = {t0 - 4, t0 - 3, t0 - 2, t0 - 1, t0, t0 + 1, t0 + 86400.0, t0 + 3, t0 + 4, t0 + 50};
+  {
+    std::ofstream out(path, std::ios::binary);
+    for (double s : written) {
+      const auto bytes = encode(make_packet(s));
+      out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    }
+  }
+  const std::string ns = "/replay_glitch";
+  FieldRecorder recorder(ns);
+  DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=glitch"});
+  ASSERT_TRUE(driver.started());
+  const ros::Time last_stamp = gps_stamp(t0 + 50, 9);
+  ASSERT_TRUE(wait_for(
+      [&] {
+        const auto f = recorder.fields();
+        return !f.empty() && f.back().header.stamp >= last_stamp;
+      },
+      30.0))
+      << recorder.count() << " readings; the held last packet was not released at the end";
+  ros::WallDuration(0.3).sleep();
+  const auto fields = recorder.fields();
+  std::vector<sensor_msgs::MagneticField> from_t0;
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    if (i > 0) {
+      EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp) << "reading " << i;
+    }
+    EXPECT_LT(fields[i].header.stamp, gps_stamp(t0 + 51, 0)) << "the day-ahead glitch was published";
+    if (fields[i].header.stamp >= gps_stamp(t0, 0)) from_t0.push_back(fields[i]);
+  }
+  const std::vector<double> truth = {t0, t0 + 1, t0 + 3, t0 + 4, t0 + 50};
+  ASSERT_EQ(from_t0.size(), 10 * truth.size());
+  for (std::size_t i = 0; i < from_t0.size(); ++i) {
+    const double s = truth[i / 10];
+    const int k = static_cast<int>(i % 10);
+    EXPECT_EQ(from_t0[i].header.stamp, gps_stamp(s, k)) << "reading " << i;
+    EXPECT_NEAR(from_t0[i].magnetic_field.y, (kBias_nT(1) + make_packet(s).variation_nT(k, 1)) * kNanotesla,
+                1e-4 * kNanotesla)
+        << "reading " << i;
+  }
   ::unlink(path.c_str());
 }
 
