@@ -201,10 +201,10 @@ header() {
   echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 }
 
-header "Simulated 10 Hz pair (LEMI-025-like), $hours h, window 3600 s step 600 s, input_period 0.1: $sim_bag"
+header "Simulated 10 Hz pair (LEMI-025-like), $hours h, window 3600 s step 600 s, input_period 0.1: $(basename "$sim_bag")"
 for r in $rates; do run_rate sim10 "$sim_bag" 0.1 3600 600 "$r"; done
 if [ -n "$wic_rates" ]; then
-  header "Real WIC pair 2025-05-14 (1 Hz, LEMI-036 / DTU FGE), window 21600 s step 3600 s: $wic_bag"
+  header "Real WIC pair 2025-05-14 (1 Hz, LEMI-036 / DTU FGE), window 21600 s step 3600 s: $(basename "$wic_bag")"
   for r in $wic_rates; do run_rate wic "$wic_bag" 1.0 21600 3600 "$r"; done
 fi
 echo
