@@ -21,7 +21,10 @@ namespace {
 
 bool same_packet(const Lemi025Packet& a, const Lemi025Packet& b) {
   return a.model == b.model && a.station == b.station && a.gps_time_s == b.gps_time_s &&
-         a.variation_nT == b.variation_nT && a.bias_nT == b.bias_nT && a.checksum == b.checksum &&
+         ((a.variation_nT.array() == b.variation_nT.array()) ||
+          (a.variation_nT.array().isNaN() && b.variation_nT.array().isNaN()))
+             .all() &&
+         a.bias_nT == b.bias_nT && a.checksum == b.checksum &&
          a.mode == b.mode && a.gps_status == b.gps_status && a.supply_V == b.supply_V;
 }
 
