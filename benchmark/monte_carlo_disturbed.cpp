@@ -2,7 +2,9 @@
 // estimators side by side on the real WIC pair. A program, not a test (minutes of run time);
 // its figures are quoted in the README ("Robust estimation").
 //
-//   monte_carlo_disturbed disturbed [seeds=50] [days=5]   disturbed station, both estimators
+//   monte_carlo_disturbed disturbed [seeds=50] [days=5] [first_seed=1000]
+//                                                       disturbed station, both estimators
+//                                                       (MC_ROBUST_ONLY=1: robust only)
 //   monte_carlo_disturbed eiv [seeds=200] [days=1]        quiet station, reference noise x10
 //   monte_carlo_disturbed wic [data_dir=data]             real pair, 4 intervals + the day
 //
@@ -96,16 +98,33 @@ mic::StationDisturbanceSettings disturbances(std::uint64_t seed) {
   return d;
 }
 
-int run_disturbed(int seeds, double days) {
-  std::printf("# disturbed station: %d seeds, %.1f days at 1 Hz, whole record as one window\n", seeds, days);
+/// Coverage (of the 9 parameters) that the interval from covariance `cov` gives.
+int covered_with(const mic::WindowEstimate& e, const mic::Matrix9d& cov, const Eigen::Matrix3d& truth) {
+  mic::WindowEstimate copy = e;
+  copy.parameters = mic::decompose(e.n, cov);
+  return errors_of(copy, truth).covered;
+}
+
+double student_t975(double dof) {
+  const double z = 1.959963985;
+  const double z2 = z * z, z3 = z2 * z, z5 = z3 * z2, z7 = z5 * z2, z9 = z7 * z2;
+  return z + (z3 + z) / (4.0 * dof) + (5 * z5 + 16 * z3 + 3 * z) / (96.0 * dof * dof) +
+         (3 * z7 + 19 * z5 + 17 * z3 - 15 * z) / (384.0 * dof * dof * dof) +
+         (79 * z9 + 776 * z7 + 1482 * z5 - 1920 * z3 - 945 * z) / (92160.0 * dof * dof * dof * dof);
+}
+
+int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
+  std::printf("# disturbed station: %d seeds from %llu, %.1f days at 1 Hz, whole record as one window\n", seeds,
+              static_cast<unsigned long long>(first_seed), days);
   std::printf("# seed  method  dscale_x%%  dscale_y%%  dscale_z%%  max|dangle|deg  covered/9  delay_ms  screened%%\n");
   mic::CalibrationSettings base;
   std::vector<double> max_scale[2], max_angle[2];
   int covered[2] = {0, 0}, checked[2] = {0, 0}, within_aim[2] = {0, 0};
+  int variant_covered[5] = {0, 0, 0, 0, 0}, variant_checked = 0;
   std::mt19937_64 rng(2025);
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < seeds; ++k) {
-    const std::uint64_t seed = 1000 + static_cast<std::uint64_t>(k);
+    const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
     mic::SimulationSettings s = station(seed, days, rng);
     mic::SimulatedPair pair = mic::simulate_pair(s);
     const mic::StationDisturbanceReport report = mic::add_station_disturbances(pair, disturbances(seed));
@@ -115,6 +134,7 @@ int run_disturbed(int seeds, double days) {
     }
     const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, base.preprocess);
     for (int m = 0; m < 2; ++m) {
+      if (m == 0 && knob("MC_ROBUST_ONLY", 0) > 0) continue;
       mic::EstimatorSettings es = base.estimator;
       es.method = m == 0 ? mic::EstimatorMethod::kPlain : mic::EstimatorMethod::kRobust;
       es.robust.screen_baseline_s = knob("MC_BASELINE", es.robust.screen_baseline_s);
@@ -132,6 +152,39 @@ int run_disturbed(int seeds, double days) {
         for (double w : d->section_weights) std::printf(" %.2f", w);
         std::printf("\n  downweighted %.3f\n", e.downweighted_fraction);
       }
+      if (const auto* d = estimator.robust_diagnostics()) {
+        // Coverage the other covariance choices would give (sandwich, jackknife, jackknife
+        // with Student-t width, per-entry max of the sandwich and the (t-scaled) jackknife).
+        const mic::Matrix9d& sw = d->covariance_sandwich;
+        const mic::Matrix9d& jk = d->covariance_jackknife;
+        if (jk.allFinite() && d->jackknife_sections >= 2) {
+          const double t = student_t975(static_cast<double>(d->jackknife_sections - 1)) / 1.959963985;
+          auto dmax = [&](const mic::Matrix9d& j) {
+            Eigen::Matrix<double, 9, 1> f;
+            for (int q = 0; q < 9; ++q) f(q) = std::sqrt(std::max(1.0, j(q, q) / sw(q, q)));
+            return mic::Matrix9d(f.asDiagonal() * sw * f.asDiagonal());
+          };
+          const mic::Matrix9d variants[5] = {sw, jk, t * t * jk, dmax(jk), dmax(t * t * jk)};
+          for (int v = 0; v < 5; ++v) variant_covered[v] += covered_with(e, variants[v], pair.n_true);
+          variant_checked += 9;
+        }
+        // Which parameter fails, by how many of its own standard errors, and what the station had.
+        const mic::CalibrationParameters t = mic::decompose(pair.n_true);
+        Eigen::Matrix<double, 9, 1> z;
+        for (int l = 0; l < 3; ++l) {
+          z(l) = (e.parameters.scale_ratio(l) - t.scale_ratio(l)) / (e.parameters.scale_ratio_ci95(l) / 1.959964);
+          z(3 + l) = err.nonorth_deg(l) / (e.parameters.nonorthogonality_ci95_deg(l) / 1.959964);
+          z(6 + l) = err.misalign_deg(l) / (e.parameters.misalignment_ci95_deg(l) / 1.959964);
+        }
+        std::printf("detail %4llu errs %% %.4f %.4f %.4f nonorth %.4f %.4f %.4f mis %.4f %.4f %.4f | z", static_cast<unsigned long long>(seed),
+                    err.scale_pct(0), err.scale_pct(1), err.scale_pct(2), err.nonorth_deg(0), err.nonorth_deg(1),
+                    err.nonorth_deg(2), err.misalign_deg(0), err.misalign_deg(1), err.misalign_deg(2));
+        for (int q = 0; q < 9; ++q) std::printf(" %.1f", z(q));
+        std::printf(" | parked %zu steps %zu maxref %.1f tilt %.4f sections %zu rejected %d screened %.2f%%\n",
+                    report.parked, report.steps, report.max_vehicle_reference_nT, s.tilt_rate_deg_per_day, d->sections,
+                    static_cast<int>(std::count(d->section_weights.begin(), d->section_weights.end(), 0.0)),
+                    100.0 * e.screened_fraction);
+      }
       max_scale[m].push_back(err.max_scale_pct());
       max_angle[m].push_back(err.max_angle_deg());
       covered[m] += err.covered;
@@ -147,10 +200,15 @@ int run_disturbed(int seeds, double days) {
   std::printf("\n| estimator | 95th pct max scale-ratio error | 95th pct max angle error | seeds within 0.05 %% and 0.03 deg | median max scale error | median max angle error | interval coverage (9 parameters x seeds) |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   for (int m = 0; m < 2; ++m) {
+    if (max_scale[m].empty()) continue;
     std::printf("| %s | %.4f %% | %.4f deg | %d / %d | %.4f %% | %.4f deg | %.1f %% |\n", m == 0 ? "plain Eq. 2" : "robust (default)",
                 percentile(max_scale[m], 0.95), percentile(max_angle[m], 0.95), within_aim[m], seeds,
                 percentile(max_scale[m], 0.5), percentile(max_angle[m], 0.5), 100.0 * covered[m] / std::max(1, checked[m]));
   }
+  std::printf("# robust coverage by covariance: sandwich %.1f %%, jackknife %.1f %%, jackknife t %.1f %%, max(sandwich, jackknife) %.1f %%, max(sandwich, jackknife t) %.1f %%\n",
+              100.0 * variant_covered[0] / std::max(1, variant_checked), 100.0 * variant_covered[1] / std::max(1, variant_checked),
+              100.0 * variant_covered[2] / std::max(1, variant_checked), 100.0 * variant_covered[3] / std::max(1, variant_checked),
+              100.0 * variant_covered[4] / std::max(1, variant_checked));
   std::printf("# %.0f s for %d seeds\n", elapsed, seeds);
   return 0;
 }
@@ -237,7 +295,9 @@ int run_wic(const std::string& dir) {
 int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "disturbed";
   try {
-    if (mode == "disturbed") return run_disturbed(argc > 2 ? std::atoi(argv[2]) : 50, argc > 3 ? std::atof(argv[3]) : 5.0);
+    if (mode == "disturbed")
+      return run_disturbed(argc > 2 ? std::atoi(argv[2]) : 50, argc > 3 ? std::atof(argv[3]) : 5.0,
+                           argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 1000);
     if (mode == "eiv") return run_eiv(argc > 2 ? std::atoi(argv[2]) : 200, argc > 3 ? std::atof(argv[3]) : 1.0);
     if (mode == "wic") return run_wic(argc > 2 ? argv[2] : "data");
   } catch (const std::exception& e) {

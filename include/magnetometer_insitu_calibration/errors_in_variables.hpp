@@ -23,10 +23,14 @@
 //  - from the residual with a known ratio rho = S_r / S_t of the two instruments' noise PSDs
 //    (e.g. 1 for two instruments of the same type, as in the paper): the residual e = T - R n
 //    has the spectrum S_t + n^T S_r n, which for axes that are nearly aligned (|n - I| << 1, the
-//    in-situ case) is S_t,k + S_r,k per axis, so S_r,k = rho / (1 + rho) S_e,k. S_e,k is taken
-//    from the robust, frequency-resolved residual scale of the robust estimator, so an outlier
-//    cannot inflate it. This is circular in n (the residual depends on n), so the robust
-//    estimator iterates it with its IRLS; the fixed point is the Deming solution.
+//    in-situ case) is S_t,k + S_r,k per axis, so S_r,k = rho / (1 + rho) S_e,k. The robust
+//    estimator takes E|X_noise|^2 of each cell from that cell's own residual power, capped at
+//    9 times the robust (median) scale of its frequency bin and divided by 1 - e^-9, so that an
+//    outlier cannot inflate it much while clean cells keep their own level (a per-bin level
+//    misses the 1/f change of the noise inside a bin, and a median has twice the variance of
+//    a mean). This is circular in n (the residual depends on n), so the robust estimator
+//    iterates it to its fixed point, the Deming solution; the uncertainty of the estimated
+//    noise enters the intervals through the robust estimator's section jackknife.
 // The correction is refused (flag, no correction) when A - N_r is not positive definite,
 // i.e. when the noise would be as large as the signal in some direction of the band.
 #pragma once

@@ -37,13 +37,24 @@
 //     is repeated, so that a timing offset cannot leak into n through the imaginary part of
 //     the cross-spectra (first order when the field's components are not in phase).
 //  5. Errors in variables (errors_in_variables.hpp): N_r = sum w g E|X_noise|^2 is subtracted
-//     from A at every iteration (mode given or ratio).
-//  6. Covariance: the frequency-domain sandwich of fd_wlse.cpp over cells with the final
-//     weights, Cov(vec n) = c (I (x) A^-1) [sum_c s_c s_c^T] (I (x) A^-1), s_c,l = w g
-//     (Re(X conj(e_l)) + D_c n_l) (the D_c term centres the score when the EIV term is used),
-//     c = 2M / (2M - 3), M = sum of cell weights. Cells of different harmonics or sections are
-//     asymptotically uncorrelated; the robust weights stay fixed (the Huber part changes few
-//     clean cells, so the missing psi' term is small; the coverage is measured in the README).
+//     from A at every iteration (mode given or ratio). In ratio mode each cell's E|X_noise|^2
+//     is share x its own residual power, capped at 9 robust sigmas^2 of its frequency bin, and
+//     the fixed point n = (A - N_r(n))^-1 C is iterated to convergence with the final weights.
+//  6. Covariance, from the final weights:
+//     a. the frequency-domain sandwich of fd_wlse.cpp over cells, Cov(vec n) =
+//        c (I (x) A^-1) [sum_c s_c s_c^T] (I (x) A^-1), s_c,l = w g (Re(X conj(e_l)) + D_c n_l)
+//        (the D_c term centres the score when the EIV term is used), c = 2M / (2M - 3),
+//        M = sum of cell weights; it assumes independent cells and fixed weights;
+//     b. the delete-one-section jackknife: n refitted without each weighted section (same
+//        weights, EIV fixed point re-solved), J = (K-1)/K sum (v_s - mean)(v_s - mean)^T over
+//        the K weighted sections, which sees what the sandwich cannot: transients left by the
+//        screen that are coherent over a section's harmonics, steps, tilt, the data-chosen
+//        weights and the uncertainty of the EIV correction;
+//     c. reported: Cov = D S D, D_kk = sqrt(max(1, J_kk / S_kk)) (the sandwich raised to the
+//        jackknife entry by entry, its correlations kept); the sandwich alone when fewer than 6
+//        sections carry weight (windows under 18 h at the default band).
+//     Measured coverage and the reasoning: robust_estimator.cpp (combine_covariances) and
+//     docs/robust_estimation.md.
 //
 // The plain estimator (FdWlseEstimator, Eq. 2 on the whole window) stays available through
 // EstimatorSettings::method = kPlain, with unchanged results.
@@ -70,6 +81,9 @@ struct RobustDiagnostics {
   Eigen::Matrix3d eiv_noise = Eigen::Matrix3d::Zero();  ///< N_r subtracted from A (nT^2 units of A)
   Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Zero();  ///< same weights, no EIV term
   bool delay_corrected = false;
+  Matrix9d covariance_sandwich = Matrix9d::Zero();   ///< step 6a, row-major vec(n)
+  Matrix9d covariance_jackknife = Matrix9d::Zero();  ///< step 6b (NaN with fewer than 2 sections)
+  std::size_t jackknife_sections = 0;    ///< sections with weight: the jackknife's groups
   BandSelection band;                    ///< when auto_band
   DelayEstimate delay;
 };
