@@ -19,6 +19,7 @@
 #                      gaps, no spikes; a LEMI-025 pair: decimated 10 Hz -> 1 Hz by the node)
 #        WIC_RATES="500 2000"  rates for the 1 Hz bag of the real WIC pair in data/ ("" = skip)
 #        CORRECTION=1  also run correction_node on the test stream (0: calibration_node only)
+#        CAL_PARAMS="pairing_max_wait=3600"  more calibration_node parameters (name=value ...)
 #        OUT=/tmp/bench_replay  bags (kept and reused), logs, per-run summaries
 # Windows: 10 Hz bag window 3600 s step 600 s (a 4-hour bag completes 18 windows), WIC day window
 # 21600 s step 3600 s (18 windows); a window is complete when the first sample after its end
@@ -33,6 +34,7 @@ wall="${WALL:-120}"
 hours="${HOURS:-4}"
 wic_rates="${WIC_RATES-500 2000}"
 correction="${CORRECTION:-1}"
+cal_params="${CAL_PARAMS:-}"
 out="${OUT:-/tmp/bench_replay}"
 mkdir -p "$out"
 source "$build/devel/setup.bash"
@@ -91,6 +93,8 @@ print(('%.3f' % b) if s >= b else ('%d' % s) if s < $window + $step else '%d' % 
   rosparam set /bench_calibration/input_period "$period"
   rosparam set /bench_calibration/window "$window"
   rosparam set /bench_calibration/step "$step"
+  local kv
+  for kv in $cal_params; do rosparam set "/bench_calibration/${kv%%=*}" "${kv#*=}"; done
   "$lib/calibration_node" __name:=bench_calibration >"$out/calibration_$tag.log" 2>&1 &
   cal_pid=$!
   local pids="--pid calibration=$cal_pid"
