@@ -25,12 +25,6 @@ const std::vector<std::string> kKnownParameters = {
     "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
     "max_matrix_condition", "diagnostic_period", "apply_offset"};
 
-void check_topic(const std::string& parameter, const std::string& topic) {
-  if (topic.empty()) throw ParameterError(parameter, "must not be empty");
-  std::string error;
-  if (!ros::names::validate(topic, error)) throw ParameterError(parameter, "'" + topic + "' is not a valid topic name: " + error);
-}
-
 std::string iso(const ros::Time& t) {
   try {
     return format_iso8601(t.toSec(), 3);
@@ -46,11 +40,11 @@ std::string window_text(const MagnetometerCalibration& c) { return iso(c.window_
 CorrectionNodeSettings CorrectionNodeSettings::load(const ros::NodeHandle& p) {
   CorrectionNodeSettings s;
   s.test_topic = required_string(p, "test_topic");
-  check_topic("test_topic", s.test_topic);
+  require_topic_name("test_topic", s.test_topic);
   s.corrected_topic = param_string(p, "corrected_topic", s.corrected_topic);
-  check_topic("corrected_topic", s.corrected_topic);
+  require_topic_name("corrected_topic", s.corrected_topic);
   s.calibration_topic = param_string(p, "calibration_topic", s.calibration_topic);
-  check_topic("calibration_topic", s.calibration_topic);
+  require_topic_name("calibration_topic", s.calibration_topic);
   if (s.corrected_topic == s.test_topic) throw ParameterError("corrected_topic", "must differ from ~test_topic");
   s.calibration_file = param_string(p, "calibration_file", s.calibration_file);
   s.reload_period_s = param_double(p, "reload_period", s.reload_period_s);

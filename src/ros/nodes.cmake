@@ -25,6 +25,6 @@ macro(mic_add_node name)
   install(TARGETS ${name} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endmacro()
 
-mic_add_node(calibration_node)
+mic_add_node(calibration_node src/ros/calibration_node_settings.cpp)
 mic_add_node(correction_node)
 mic_add_node(lemi025_driver)

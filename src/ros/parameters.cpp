@@ -1,6 +1,8 @@
 // Private parameter reading with errors that name the parameter.
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
+#include <ros/names.h>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -17,13 +19,19 @@ T read(const ros::NodeHandle& nh, const std::string& name, const T& fallback, co
   return value;
 }
 
+}  // namespace
+
 std::string number_text(double value) {
   std::ostringstream out;
   out << value;
   return out.str();
 }
 
-}  // namespace
+void require_topic_name(const std::string& name, const std::string& topic) {
+  if (topic.empty()) throw ParameterError(name, "must not be empty");
+  std::string error;
+  if (!ros::names::validate(topic, error)) throw ParameterError(name, "'" + topic + "' is not a valid topic name: " + error);
+}
 
 double param_double(const ros::NodeHandle& nh, const std::string& name, double fallback) {
   const double value = read<double>(nh, name, fallback, "a number");

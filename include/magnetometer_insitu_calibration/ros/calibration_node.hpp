@@ -84,7 +84,9 @@ struct CalibrationNodeSettings {
   double estimation_period_s() const { return decimating() ? decimation.output_period_s : input_period_s; }
 
   /// Reads every private parameter; throws ParameterError naming the first impossible one.
-  static CalibrationNodeSettings load(const ros::NodeHandle& private_nh);
+  static CalibrationNodeSettings load(const ros::NodeHandle& private_nh);  // calibration_node_settings.cpp
+  /// Every private parameter load() reads (others draw a start-up warning).
+  static const std::vector<std::string>& known_parameters();
 };
 
 class CalibrationNode {

@@ -32,6 +32,12 @@ std::string param_string(const ros::NodeHandle& private_nh, const std::string& n
 /// A string that must be set and not empty (topic names, file names).
 std::string required_string(const ros::NodeHandle& private_nh, const std::string& name);
 
+/// Throws ParameterError naming ~name unless `topic` is a non-empty, valid ROS graph name.
+void require_topic_name(const std::string& name, const std::string& topic);
+
+/// A number as text for messages, e.g. 0.25 or 1e-06.
+std::string number_text(double value);
+
 /// Range checks that throw ParameterError naming the parameter.
 void require_positive(const std::string& name, double value, const std::string& unit);
 void require_non_negative(const std::string& name, double value, const std::string& unit);

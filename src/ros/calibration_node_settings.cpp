@@ -1,0 +1,237 @@
+// Parameters of calibration_node: read and validated once at start-up (calibration_node.hpp,
+// config/calibration.yaml). Every error names the parameter; nothing falls back silently.
+#include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
+
+#include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/ros/parameters.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+// Every private parameter of the node (others draw a start-up warning).
+const std::vector<std::string> kKnownParameters = {
+    "reference_topic", "test_topic", "test_name", "calibration_topic", "calibration_file", "tests",
+    "input_period", "output_period", "decimation_sigma", "decimation_half_width", "pairing_tolerance",
+    "pairing_max_wait", "window", "step", "max_filled_fraction", "max_fill", "band_low", "band_high",
+    "gamma", "trend", "min_harmonics", "max_condition_number", "min_coherence", "silent_timeout",
+    "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
+    "eiv_noise_ratio", "estimate_delay", "correct_delay", "change_false_alarm_probability", "change_scale_tolerance",
+    "change_angle_tolerance"};
+
+// Core field names (InputError::where) -> the parameter that sets them.
+const std::map<std::string, std::string> kCoreFieldToParameter = {
+    {"band_low_hz", "band_low"}, {"band_high_hz", "band_high"}, {"gamma", "gamma"},
+    {"min_harmonics", "min_harmonics"}, {"max_condition_number", "max_condition_number"},
+    {"min_coherence", "min_coherence"}, {"output_period_s", "output_period"}, {"sigma_s", "decimation_sigma"},
+    {"half_width_sigmas", "decimation_half_width"}, {"input_period_s", "input_period"},
+    {"tolerance_s", "pairing_tolerance"}, {"max_wait_s", "pairing_max_wait"}, {"window", "window"},
+    {"step", "step"}, {"max_fill_s", "max_fill"}, {"max_filled_fraction", "max_filled_fraction"},
+    {"eiv_noise_ratio", "eiv_noise_ratio"}, {"false_alarm_probability", "change_false_alarm_probability"},
+    {"scale_tolerance", "change_scale_tolerance"}, {"angle_tolerance_deg", "change_angle_tolerance"}};
+
+std::string struct_string(XmlRpc::XmlRpcValue& entry, const std::string& key, const std::string& where, bool required,
+                          const std::string& fallback) {
+  if (!entry.hasMember(key)) {
+    if (required) throw ParameterError(where + "." + key, "is required and not set");
+    return fallback;
+  }
+  if (entry[key].getType() != XmlRpc::XmlRpcValue::TypeString) throw ParameterError(where + "." + key, "must be a string");
+  const std::string value = static_cast<std::string>(entry[key]);
+  if (value.empty()) throw ParameterError(where + "." + key, "must not be empty");
+  return value;
+}
+
+}  // namespace
+
+const std::vector<std::string>& CalibrationNodeSettings::known_parameters() { return kKnownParameters; }
+
+CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) {
+  CalibrationNodeSettings s;
+  s.reference_topic = required_string(p, "reference_topic");
+  require_topic_name("reference_topic", s.reference_topic);
+
+  const bool has_list = p.hasParam("tests"), has_single = p.hasParam("test_topic");
+  if (has_list && has_single) throw ParameterError("tests", "give either ~tests (a list) or ~test_topic, not both");
+  if (!has_list && !has_single) throw ParameterError("test_topic", "is required and not set (or give a ~tests list)");
+  if (has_single) {
+    TestInstrumentSettings t;
+    t.topic = required_string(p, "test_topic");
+    t.name = param_string(p, "test_name", "test");
+    if (t.name.empty()) throw ParameterError("test_name", "must not be empty");
+    t.calibration_topic = param_string(p, "calibration_topic", "calibration");
+    if (t.calibration_topic.empty()) throw ParameterError("calibration_topic", "must not be empty");
+    t.calibration_file = required_string(p, "calibration_file");
+    require_topic_name("test_topic", t.topic);
+    require_topic_name("calibration_topic", t.calibration_topic);
+    s.tests.push_back(t);
+  } else {
+    for (const char* single_only : {"test_name", "calibration_topic", "calibration_file"}) {
+      if (p.hasParam(single_only)) {
+        throw ParameterError(single_only, "belongs to the single-instrument form (~test_topic); with ~tests give it per entry");
+      }
+    }
+    XmlRpc::XmlRpcValue list;
+    p.getParam("tests", list);
+    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0) {
+      throw ParameterError("tests", "must be a non-empty list of {name, topic, calibration_file, calibration_topic (optional)}");
+    }
+    for (int i = 0; i < list.size(); ++i) {
+      const std::string where = "tests[" + std::to_string(i) + "]";
+      XmlRpc::XmlRpcValue& entry = list[i];
+      if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+        throw ParameterError(where, "must be a map {name, topic, calibration_file, calibration_topic (optional)}");
+      }
+      for (const auto& member : entry) {
+        if (member.first != "name" && member.first != "topic" && member.first != "calibration_topic" &&
+            member.first != "calibration_file") {
+          throw ParameterError(where + "." + member.first, "unknown key (name, topic, calibration_topic, calibration_file)");
+        }
+      }
+      TestInstrumentSettings t;
+      t.name = struct_string(entry, "name", where, true, "");
+      t.topic = struct_string(entry, "topic", where, true, "");
+      t.calibration_topic = struct_string(entry, "calibration_topic", where, false, t.name + "/calibration");
+      t.calibration_file = struct_string(entry, "calibration_file", where, true, "");
+      require_topic_name(where + ".topic", t.topic);
+      require_topic_name(where + ".calibration_topic", t.calibration_topic);
+      s.tests.push_back(t);
+    }
+  }
+  std::set<std::string> names, topics{s.reference_topic}, outputs, files;
+  for (std::size_t i = 0; i < s.tests.size(); ++i) {
+    const std::string where = has_list ? "tests[" + std::to_string(i) + "]." : "";
+    const TestInstrumentSettings& t = s.tests[i];
+    if (!names.insert(t.name).second) throw ParameterError(where + "name", "'" + t.name + "' is used twice");
+    if (!topics.insert(t.topic).second) {
+      throw ParameterError(where + (has_list ? "topic" : "test_topic"), "'" + t.topic + "' is the reference topic or used twice");
+    }
+    if (!outputs.insert(t.calibration_topic).second) {
+      throw ParameterError(where + "calibration_topic", "'" + t.calibration_topic + "' is used twice");
+    }
+    if (!files.insert(t.calibration_file).second) {
+      throw ParameterError(where + "calibration_file", "'" + t.calibration_file + "' is used twice");
+    }
+  }
+
+  // Periods and decimation.
+  s.input_period_s = param_double(p, "input_period", s.input_period_s);
+  require_positive("input_period", s.input_period_s, "s");
+  s.decimation.output_period_s = param_double(p, "output_period", s.decimation.output_period_s);
+  require_positive("output_period", s.decimation.output_period_s, "s");
+  s.decimation.sigma_s = param_double(p, "decimation_sigma", s.decimation.sigma_s);
+  require_non_negative("decimation_sigma", s.decimation.sigma_s, "s (0 = default)");
+  s.decimation.half_width_sigmas = param_double(p, "decimation_half_width", s.decimation.half_width_sigmas);
+  require_positive("decimation_half_width", s.decimation.half_width_sigmas, "sigmas");
+  const double period = s.estimation_period_s();
+
+  // Pairing.
+  s.pairing_tolerance_s = param_double(p, "pairing_tolerance", s.pairing_tolerance_s);
+  require_non_negative("pairing_tolerance", s.pairing_tolerance_s, "s");
+  if (!(s.pairing_tolerance_s < 0.5 * s.input_period_s)) {
+    throw ParameterError("pairing_tolerance", "must be below half of ~input_period (" + number_text(0.5 * s.input_period_s) +
+                                                  " s): a sample could pair with its partner's neighbour");
+  }
+  s.pairing_max_wait_s = param_double(p, "pairing_max_wait", s.pairing_max_wait_s);
+  require_non_negative("pairing_max_wait", s.pairing_max_wait_s, "s");
+
+  // Windows.
+  s.window_s = param_double(p, "window", s.window_s);
+  require_positive("window", s.window_s, "s");
+  s.step_s = param_double(p, "step", s.step_s);
+  require_positive("step", s.step_s, "s");
+  if (s.step_s > s.window_s) {
+    throw ParameterError("step", "(" + number_text(s.step_s) + " s) is longer than ~window (" + number_text(s.window_s) +
+                                     " s): samples between windows would never be used");
+  }
+  if (s.step_s < period) throw ParameterError("step", "must be at least one sample period (" + number_text(period) + " s)");
+  s.gap_rule.max_filled_fraction = param_double(p, "max_filled_fraction", s.gap_rule.max_filled_fraction);
+  require_in_range("max_filled_fraction", s.gap_rule.max_filled_fraction, 0.0, 1.0);
+  s.gap_rule.gaps.max_fill_s = param_double(p, "max_fill", s.gap_rule.gaps.max_fill_s);
+  require_non_negative("max_fill", s.gap_rule.gaps.max_fill_s, "s");
+
+  // Estimator.
+  s.estimator.band_low_hz = param_double(p, "band_low", s.estimator.band_low_hz);
+  require_positive("band_low", s.estimator.band_low_hz, "Hz");
+  s.estimator.band_high_hz = param_double(p, "band_high", s.estimator.band_high_hz);
+  if (!(s.estimator.band_high_hz > s.estimator.band_low_hz)) {
+    throw ParameterError("band_high", "(" + number_text(s.estimator.band_high_hz) + " Hz) must be above ~band_low (" +
+                                          number_text(s.estimator.band_low_hz) + " Hz): the band is empty");
+  }
+  if (s.estimator.band_high_hz > 0.5 / period) {
+    throw ParameterError("band_high", "(" + number_text(s.estimator.band_high_hz) + " Hz) is above the Nyquist frequency " +
+                                          number_text(0.5 / period) + " Hz of the " + number_text(period) + " s estimation period");
+  }
+  s.estimator.gamma = param_double(p, "gamma", s.estimator.gamma);
+  s.estimator.trend = param_bool(p, "trend", s.estimator.trend);
+  const int min_harmonics = param_int(p, "min_harmonics", static_cast<int>(s.estimator.min_harmonics));
+  if (min_harmonics < 1) throw ParameterError("min_harmonics", "must be >= 1");
+  s.estimator.min_harmonics = static_cast<std::size_t>(min_harmonics);
+  s.estimator.max_condition_number = param_double(p, "max_condition_number", s.estimator.max_condition_number);
+  s.estimator.min_coherence = param_double(p, "min_coherence", s.estimator.min_coherence);
+  // The offline CLI's estimator (robust_estimator.hpp): method and the options that matter live.
+  try {
+    s.estimator.method = parse_estimator_method(param_string(p, "method", "robust"), "method");
+    s.estimator.robust.eiv = parse_eiv_correction(param_string(p, "eiv", "ratio"), "eiv");
+  } catch (const InputError& e) {
+    throw ParameterError(e.where(), e.problem());
+  }
+  if (s.estimator.robust.eiv == EivCorrection::kGiven) {
+    throw ParameterError("eiv", "'given' needs the reference noise spectrum, which the node does not take: use none or ratio");
+  }
+  s.estimator.robust.auto_band = param_bool(p, "auto_band", s.estimator.robust.auto_band);
+  s.estimator.robust.eiv_noise_ratio = param_double(p, "eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio);
+  require_non_negative("eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio, "(PSD ratio reference / test)");
+  s.estimator.robust.estimate_delay = param_bool(p, "estimate_delay", s.estimator.robust.estimate_delay);
+  s.estimator.robust.correct_delay = param_bool(p, "correct_delay", s.estimator.robust.correct_delay);
+  if (s.estimator.robust.correct_delay && !s.estimator.robust.estimate_delay) {
+    throw ParameterError("correct_delay", "is true but ~estimate_delay is false (nothing to correct)");
+  }
+  // Calibration change check against the accepted calibration.
+  s.change.false_alarm_probability =
+      param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);
+  s.change.scale_tolerance = param_double(p, "change_scale_tolerance", s.change.scale_tolerance);
+  s.change.angle_tolerance_deg = param_double(p, "change_angle_tolerance", s.change.angle_tolerance_deg);
+  // A window must be able to hold min_harmonics harmonics j / window inside the band.
+  const double harmonics = std::floor(s.estimator.band_high_hz * s.window_s) -
+                           std::ceil(s.estimator.band_low_hz * s.window_s) + 1.0;
+  if (harmonics < static_cast<double>(s.estimator.min_harmonics)) {
+    throw ParameterError("window", "(" + number_text(s.window_s) + " s) holds only " + number_text(std::max(0.0, harmonics)) +
+                                       " DFT harmonics in [~band_low, ~band_high], fewer than ~min_harmonics (" +
+                                       std::to_string(s.estimator.min_harmonics) + "): every window would be flagged");
+  }
+
+  // Monitoring and queues.
+  s.silent_timeout_s = param_double(p, "silent_timeout", s.silent_timeout_s);
+  require_positive("silent_timeout", s.silent_timeout_s, "s");
+  s.time_jump_threshold_s = param_double(p, "time_jump_threshold", s.time_jump_threshold_s);
+  if (!(s.time_jump_threshold_s > s.input_period_s)) {
+    throw ParameterError("time_jump_threshold", "must be longer than ~input_period (" + number_text(s.input_period_s) + " s)");
+  }
+  s.queue_size = param_int(p, "queue_size", s.queue_size);
+  if (s.queue_size < 1) throw ParameterError("queue_size", "must be >= 1 message");
+  s.max_pending_windows = param_int(p, "max_pending_windows", s.max_pending_windows);
+  if (s.max_pending_windows < 1) throw ParameterError("max_pending_windows", "must be >= 1");
+  s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
+  require_positive("diagnostic_period", s.diagnostic_period_s, "s");
+
+  // The core's own checks, reported under the parameter's name.
+  try {
+    s.estimator.validate();
+    s.change.validate();
+    s.decimation.validate();
+    WindowLayout{0, s.window_s, s.step_s}.validate();
+  } catch (const InputError& e) {
+    const auto it = kCoreFieldToParameter.find(e.where());
+    throw ParameterError(it != kCoreFieldToParameter.end() ? it->second : e.where(), e.problem());
+  }
+  return s;
+}
+
+}  // namespace magnetometer_insitu_calibration
