@@ -4,8 +4,7 @@
 set -eo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
-bash scripts/build.sh
-make -C build -j"$(nproc)" tests
+bash scripts/build.sh all tests  # one make: the test binaries build alongside the programs
 source build/devel/setup.bash
 # rostest needs a writable ROS_HOME and a host name that resolves (ros1-on-debian.md).
 export ROS_HOME="${ROS_HOME:-$(mktemp -d)}"

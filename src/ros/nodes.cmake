@@ -22,6 +22,7 @@ macro(mic_add_node name)
   target_link_libraries(${name} ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
   target_compile_options(${name} PRIVATE -Wall -Wextra)
   add_dependencies(${name} ${PROJECT_NAME}_generate_messages_cpp)
+  mic_use_precompiled_headers(${name} EXE_ROS)
   install(TARGETS ${name} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endmacro()
 

@@ -28,6 +28,7 @@ add_executable(benchmark_bag_read src/tools/benchmark_bag_read.cpp)
 target_link_libraries(benchmark_bag_read ${PROJECT_NAME}_bag)
 
 foreach(program records_to_bag export_corrected benchmark_bag_read)
+  mic_use_precompiled_headers(${program} EXE_ROS)
   target_compile_options(${program} PRIVATE -Wall -Wextra)
   install(TARGETS ${program} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endforeach()

@@ -69,3 +69,10 @@ catkin_run_tests_target(python plot_calibration python-plot_calibration.xml
 if(TARGET tests)
   add_dependencies(tests calibrate_records)
 endif()
+
+# Precompiled roscpp/message/Eigen headers (cmake/precompiled_headers.cmake).
+foreach(_mic_test test_bag_records rostest_replay)
+  if(TARGET ${_mic_test})
+    mic_use_precompiled_headers(${_mic_test} EXE_ROS)
+  endif()
+endforeach()
