@@ -55,3 +55,12 @@ foreach(_mic_test test_ros_layer rostest_calibration test_lemi025_driver test_fa
   endif()
 endforeach()
 
+# Every launch file parses, resolves its includes, args and $(find) paths, and names executables
+# that exist (roslaunch-check; replay.launch needs its bag argument).
+find_package(roslaunch REQUIRED)
+# The script's shebang is `/usr/bin/env python3`; Debian's rospkg lives only under /usr/bin/python3.
+set(roslaunch_check_script "/usr/bin/python3 ${roslaunch_DIR}/../scripts/roslaunch-check")
+foreach(_mic_launch calibration network network_example simulated_station station)
+  roslaunch_add_file_check(launch/${_mic_launch}.launch USE_TEST_DEPENDENCIES)
+endforeach()
+roslaunch_add_file_check(launch/replay.launch bag:=/tmp/any.bag USE_TEST_DEPENDENCIES)
