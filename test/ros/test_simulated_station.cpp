@@ -12,8 +12,15 @@
 //    covariance (the calibration's uncertainty times the main field dominates it), and its
 //    scatter within 1.5 times the scatter of the simulated noise alone (the two instruments'
 //    noise, recomputed here with the core simulator from the same seed and settings).
+// SimulatedNetwork.EveryPairRecoversTruthAndCorrects (test/ros/test_simulated_network.test,
+// launch/simulated_network.launch: two stations on one master through launch/network.launch,
+// station a with one reference and two test instruments, station b with one of each) asserts
+// the same for every pair, all running at once.
 // Private parameters (strings): seed, start, duration (as given to the simulators),
-// pairs (corrected samples to compare), timeout (s).
+// pairs (corrected samples to compare per pair), timeout (s); for SimulatedStation optionally
+// the topics and frame ids; for SimulatedNetwork `network`, the pairs as STATION/TEST:SEED
+// separated by spaces (topics /STATION/reference/magnetic_field, /STATION/TEST/calibration,
+// /STATION/TEST/corrected; frame ids STATION_reference, STATION_TEST as network.launch sets).
 #include "magnetometer_insitu_calibration/simulator.hpp"
 #include "magnetometer_insitu_calibration/time_format.hpp"
 
@@ -28,7 +35,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
+#include <functional>
 #include <map>
+#include <memory>
+#include <sstream>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -49,16 +59,21 @@ struct Sample {
   Eigen::Vector3d variance_nT2;  ///< covariance diagonal
 };
 
+/// The topics and frame ids of one reference/test pair, and the seed of its simulators.
+struct PairUnderTest {
+  std::string label;  ///< for messages, e.g. "a/t1"
+  std::string reference_topic, calibration_topic, corrected_topic;
+  std::string reference_frame_id, test_frame_id;
+  std::uint64_t seed = 1;
+};
+
 class StationRecorder {
  public:
-  StationRecorder() {
+  explicit StationRecorder(const PairUnderTest& pair) {
     ros::NodeHandle nh;
-    calibration_sub_ = nh.subscribe(station_param("calibration_topic", "/test/calibration"), 100,
-                                    &StationRecorder::on_calibration, this);
-    reference_sub_ = nh.subscribe(station_param("reference_topic", "/reference/magnetic_field"), 100000,
-                                  &StationRecorder::on_reference, this);
-    corrected_sub_ = nh.subscribe(station_param("corrected_topic", "/test/corrected"), 100000,
-                                  &StationRecorder::on_corrected, this);
+    calibration_sub_ = nh.subscribe(pair.calibration_topic, 100, &StationRecorder::on_calibration, this);
+    reference_sub_ = nh.subscribe(pair.reference_topic, 100000, &StationRecorder::on_reference, this);
+    corrected_sub_ = nh.subscribe(pair.corrected_topic, 100000, &StationRecorder::on_corrected, this);
   }
 
   std::size_t corrected_count() {
@@ -118,54 +133,48 @@ class StationRecorder {
   ros::Subscriber calibration_sub_, reference_sub_, corrected_sub_;
 };
 
-TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
-  const ros::WallTime started = ros::WallTime::now();
-  // The simulators' record (lemi025_simulator: 10 Hz, sample 10 i + k at start - 0.3 + 0.1 (10 i + k)).
+/// The simulators' record (lemi025_simulator: 10 Hz, sample 10 i + k at start - 0.3 + 0.1 (10 i + k)).
+mic::SimulationSettings simulator_settings(std::uint64_t seed) {
   mic::SimulationSettings settings;
-  settings.seed = std::stoull(station_param("seed", "1"));
-  const double start_s = mic::parse_iso8601(station_param("start", "2025-05-13T23:55:00Z"));
-  settings.start_time_s = start_s - 0.3;
+  settings.seed = seed;
+  settings.start_time_s = mic::parse_iso8601(station_param("start", "2025-05-13T23:55:00Z")) - 0.3;
   settings.duration_s = std::stod(station_param("duration", "3000"));
   settings.sample_period_s = 0.1;
   settings.variation_rms_nT = 5.0;
   settings.keep_clean_field = true;
-  const mic::SimulatedPair truth = mic::simulate_pair(settings);
-  const std::size_t wanted_pairs = std::stoul(station_param("pairs", "3000"));
-  const double timeout_s = std::stod(station_param("timeout", "80"));
+  return settings;
+}
 
-  StationRecorder recorder;
-  mic::MagnetometerCalibration calibration;
-  auto remaining = [&] { return timeout_s - (ros::WallTime::now() - started).toSec(); };
-  while (ros::ok() && remaining() > 0 && !recorder.accepted(calibration)) ros::WallDuration(0.05).sleep();
-  ASSERT_TRUE(recorder.accepted(calibration)) << recorder.calibrations().size()
-                                              << " calibrations published, none accepted, within " << timeout_s << " s";
-  const double calibrated_after_s = (ros::WallTime::now() - started).toSec();
-  while (ros::ok() && remaining() > 0 && recorder.pairs().size() < wanted_pairs) ros::WallDuration(0.05).sleep();
-  const auto pairs = recorder.pairs();
-  const double finished_after_s = (ros::WallTime::now() - started).toSec();
-
-  // ---- The calibration against the truth -----------------------------------------------------
-  EXPECT_EQ(calibration.reference_frame_id, "lemi025_sim_reference");
-  EXPECT_EQ(calibration.test_frame_id, "lemi025_sim_test");
-  EXPECT_EQ(calibration.quality, mic::MagnetometerCalibration::QUALITY_OK) << calibration.quality_text;
+/// Every element of the accepted calibration within 3 standard errors of n_true; returns the
+/// largest |n - n_true| / se.
+double expect_calibration_recovers_truth(const mic::MagnetometerCalibration& calibration,
+                                         const mic::SimulatedPair& truth, const PairUnderTest& pair) {
+  EXPECT_EQ(calibration.reference_frame_id, pair.reference_frame_id) << pair.label;
+  EXPECT_EQ(calibration.test_frame_id, pair.test_frame_id) << pair.label;
+  EXPECT_EQ(calibration.quality, mic::MagnetometerCalibration::QUALITY_OK) << pair.label << ": " << calibration.quality_text;
   Eigen::Matrix3d n;
   for (int k = 0; k < 9; ++k) n(k / 3, k % 3) = calibration.matrix[static_cast<std::size_t>(k)];
-  std::fprintf(stderr, "simulated station: (n - n_true) / standard error, row-major:");
-  for (int k = 0; k < 9; ++k) {
-    std::fprintf(stderr, " %.2f", (n(k / 3, k % 3) - truth.n_true(k / 3, k % 3)) /
-                                      std::sqrt(calibration.matrix_covariance[static_cast<std::size_t>(10 * k)]));
-  }
-  std::fprintf(stderr, "\n");
+  double worst = 0.0;
+  std::fprintf(stderr, "%s: (n - n_true) / standard error, row-major:", pair.label.c_str());
   for (int k = 0; k < 9; ++k) {
     const double se = std::sqrt(calibration.matrix_covariance[static_cast<std::size_t>(10 * k)]);
     const double error = n(k / 3, k % 3) - truth.n_true(k / 3, k % 3);
-    EXPECT_GT(se, 0.0);
-    EXPECT_LE(std::abs(error), 3.0 * se) << "n(" << k / 3 << "," << k % 3 << ") = " << n(k / 3, k % 3) << ", true "
-                                         << truth.n_true(k / 3, k % 3) << ", standard error " << se;
+    std::fprintf(stderr, " %.2f", error / se);
+    worst = std::max(worst, std::abs(error) / se);
+    EXPECT_GT(se, 0.0) << pair.label;
+    EXPECT_LE(std::abs(error), 3.0 * se) << pair.label << ": n(" << k / 3 << "," << k % 3 << ") = " << n(k / 3, k % 3)
+                                         << ", true " << truth.n_true(k / 3, k % 3) << ", standard error " << se;
   }
+  std::fprintf(stderr, "\n");
+  return worst;
+}
 
-  // ---- The corrected stream against the reference ------------------------------------------------
-  ASSERT_GE(pairs.size(), wanted_pairs) << "corrected samples paired with reference samples";
+/// Corrected minus reference at identical stamps: mean within 3 corrected sd, scatter within
+/// 1.5 times that of the simulated noise alone. Returns the number of samples compared.
+std::size_t expect_corrected_matches_reference(const std::map<std::uint64_t, std::pair<Sample, Sample>>& pairs,
+                                               const mic::SimulatedPair& truth,
+                                               const mic::SimulationSettings& settings, const PairUnderTest& pair,
+                                               std::size_t wanted_pairs) {
   const Eigen::Matrix3d n_true_inverse = truth.n_true.inverse();
   Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero();
   Eigen::Vector3d noise_sum = Eigen::Vector3d::Zero(), noise_sum2 = Eigen::Vector3d::Zero();
@@ -188,7 +197,8 @@ TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
     variance_sum += entry.second.second.variance_nT2;
     ++used;
   }
-  ASSERT_GE(used, wanted_pairs);
+  EXPECT_GE(used, wanted_pairs) << pair.label << ": corrected samples paired with reference samples";
+  if (used == 0) return 0;
   const double count = static_cast<double>(used);
   const Eigen::Vector3d mean = sum / count;
   const Eigen::Vector3d scatter = (sum2 / count - mean.cwiseProduct(mean)).cwiseMax(0.0).cwiseSqrt();
@@ -198,28 +208,92 @@ TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
   const Eigen::Vector3d corrected_sd = (variance_sum / count).cwiseSqrt();
   for (int c = 0; c < 3; ++c) {
     EXPECT_LE(std::abs(mean(c)), 3.0 * corrected_sd(c))
-        << "component " << c << ": corrected - reference = " << mean(c) << " nT on average, corrected sd "
-        << corrected_sd(c) << " nT";
+        << pair.label << ", component " << c << ": corrected - reference = " << mean(c)
+        << " nT on average, corrected sd " << corrected_sd(c) << " nT";
     EXPECT_LE(scatter(c), 1.5 * noise_scatter(c))
-        << "component " << c << ": scatter of corrected - reference " << scatter(c)
+        << pair.label << ", component " << c << ": scatter of corrected - reference " << scatter(c)
         << " nT, of the simulated noise alone " << noise_scatter(c) << " nT";
   }
   std::fprintf(stderr,
-      "simulated station: first accepted window %s .. %s after %.1f s (wall), %zu samples compared after %.1f s;\n"
-      "  max |n - n_true| / se = %.2f; corrected - reference: mean %.4f %.4f %.4f nT (corrected sd %.4f %.4f %.4f nT),\n"
+      "%s: %zu samples compared; corrected - reference: mean %.4f %.4f %.4f nT (corrected sd %.4f %.4f %.4f nT),\n"
       "  scatter %.4f %.4f %.4f nT (simulated noise alone %.4f %.4f %.4f nT)\n",
-      mic::format_iso8601(calibration.window_start.toSec(), 0).c_str(),
-      mic::format_iso8601(calibration.window_end.toSec(), 0).c_str(), calibrated_after_s, used, finished_after_s,
-      [&] {
-        double worst = 0.0;
-        for (int k = 0; k < 9; ++k) {
-          worst = std::max(worst, std::abs(n(k / 3, k % 3) - truth.n_true(k / 3, k % 3)) /
-                                      std::sqrt(calibration.matrix_covariance[static_cast<std::size_t>(10 * k)]));
-        }
-        return worst;
-      }(),
-      mean(0), mean(1), mean(2), corrected_sd(0), corrected_sd(1), corrected_sd(2), scatter(0), scatter(1), scatter(2),
-      noise_scatter(0), noise_scatter(1), noise_scatter(2));
+      pair.label.c_str(), used, mean(0), mean(1), mean(2), corrected_sd(0), corrected_sd(1), corrected_sd(2),
+      scatter(0), scatter(1), scatter(2), noise_scatter(0), noise_scatter(1), noise_scatter(2));
+  return used;
+}
+
+/// Waits (up to the `timeout` parameter, wall time) until every pair has an accepted
+/// calibration and `pairs` corrected samples matched to the reference, then checks each.
+void check_pairs_live(const std::vector<PairUnderTest>& pairs) {
+  const ros::WallTime started = ros::WallTime::now();
+  const std::size_t wanted_pairs = std::stoul(station_param("pairs", "3000"));
+  const double timeout_s = std::stod(station_param("timeout", "80"));
+  std::vector<std::unique_ptr<StationRecorder>> recorders;
+  for (const auto& pair : pairs) recorders.push_back(std::make_unique<StationRecorder>(pair));
+  auto remaining = [&] { return timeout_s - (ros::WallTime::now() - started).toSec(); };
+  auto all = [&](const std::function<bool(StationRecorder&)>& done) {
+    return std::all_of(recorders.begin(), recorders.end(), [&](const auto& r) { return done(*r); });
+  };
+  mic::MagnetometerCalibration scratch;
+  while (ros::ok() && remaining() > 0 && !all([&](StationRecorder& r) { return r.accepted(scratch); })) {
+    ros::WallDuration(0.05).sleep();
+  }
+  const double calibrated_after_s = (ros::WallTime::now() - started).toSec();
+  while (ros::ok() && remaining() > 0 && !all([&](StationRecorder& r) { return r.pairs().size() >= wanted_pairs; })) {
+    ros::WallDuration(0.05).sleep();
+  }
+  std::fprintf(stderr, "%zu pair(s): every calibration accepted after %.1f s (wall), compared after %.1f s\n",
+               pairs.size(), calibrated_after_s, (ros::WallTime::now() - started).toSec());
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const mic::SimulationSettings settings = simulator_settings(pairs[i].seed);
+    const mic::SimulatedPair truth = mic::simulate_pair(settings);
+    mic::MagnetometerCalibration calibration;
+    if (!recorders[i]->accepted(calibration)) {
+      ADD_FAILURE() << pairs[i].label << ": " << recorders[i]->calibrations().size()
+                    << " calibrations published, none accepted, within " << timeout_s << " s";
+      continue;
+    }
+    std::fprintf(stderr, "%s: first accepted window %s .. %s\n", pairs[i].label.c_str(),
+                 mic::format_iso8601(calibration.window_start.toSec(), 0).c_str(),
+                 mic::format_iso8601(calibration.window_end.toSec(), 0).c_str());
+    const double worst = expect_calibration_recovers_truth(calibration, truth, pairs[i]);
+    std::fprintf(stderr, "%s: max |n - n_true| / se = %.2f\n", pairs[i].label.c_str(), worst);
+    expect_corrected_matches_reference(recorders[i]->pairs(), truth, settings, pairs[i], wanted_pairs);
+  }
+}
+
+TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
+  PairUnderTest pair;
+  pair.label = "simulated station";
+  pair.reference_topic = station_param("reference_topic", "/reference/magnetic_field");
+  pair.calibration_topic = station_param("calibration_topic", "/test/calibration");
+  pair.corrected_topic = station_param("corrected_topic", "/test/corrected");
+  pair.reference_frame_id = station_param("reference_frame_id", "lemi025_sim_reference");
+  pair.test_frame_id = station_param("test_frame_id", "lemi025_sim_test");
+  pair.seed = std::stoull(station_param("seed", "1"));
+  check_pairs_live({pair});
+}
+
+TEST(SimulatedNetwork, EveryPairRecoversTruthAndCorrects) {
+  const std::string network = station_param("network", "");
+  ASSERT_FALSE(network.empty()) << "private parameter ~network (STATION/TEST:SEED ...) not set";
+  std::vector<PairUnderTest> pairs;
+  std::istringstream words(network);
+  for (std::string word; words >> word;) {
+    const auto slash = word.find('/'), colon = word.find(':');
+    ASSERT_TRUE(slash != std::string::npos && colon != std::string::npos && slash < colon) << "bad ~network entry " << word;
+    const std::string station = word.substr(0, slash), test = word.substr(slash + 1, colon - slash - 1);
+    PairUnderTest pair;
+    pair.label = station + "/" + test;
+    pair.reference_topic = "/" + station + "/reference/magnetic_field";
+    pair.calibration_topic = "/" + station + "/" + test + "/calibration";
+    pair.corrected_topic = "/" + station + "/" + test + "/corrected";
+    pair.reference_frame_id = station + "_reference";
+    pair.test_frame_id = station + "_" + test;
+    pair.seed = std::stoull(word.substr(colon + 1));
+    pairs.push_back(pair);
+  }
+  check_pairs_live(pairs);
 }
 
 }  // namespace

@@ -33,6 +33,7 @@ add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros
 target_link_libraries(test_lemi025_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 add_dependencies(test_lemi025_driver lemi025_driver lemi025_simulator calibration_node correction_node)
 add_rostest(test/ros/test_simulated_station.test DEPENDENCIES test_lemi025_driver)
+add_rostest(test/ros/test_simulated_network.test DEPENDENCIES test_lemi025_driver)
 # Fault injection (test/ros/test_faults_*.test): the driver's serial line.
 add_rostest_gtest(test_faults_driver test/ros/test_faults_driver.test test/ros/test_faults_driver.cpp test/ros/pty_link.cpp)
 target_link_libraries(test_faults_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
@@ -60,7 +61,8 @@ endforeach()
 find_package(roslaunch REQUIRED)
 # The script's shebang is `/usr/bin/env python3`; Debian's rospkg lives only under /usr/bin/python3.
 set(roslaunch_check_script "/usr/bin/python3 ${roslaunch_DIR}/../scripts/roslaunch-check")
-foreach(_mic_launch calibration network network_example simulated_station station)
+# launch/include/*.launch are checked through the files that include them.
+foreach(_mic_launch calibration network network_example simulated_network simulated_station station)
   roslaunch_add_file_check(launch/${_mic_launch}.launch USE_TEST_DEPENDENCIES)
 endforeach()
 roslaunch_add_file_check(launch/replay.launch bag:=/tmp/any.bag USE_TEST_DEPENDENCIES)
