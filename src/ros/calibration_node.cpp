@@ -36,14 +36,6 @@ static_assert(static_cast<int>(Quality::kOk) == MagnetometerCalibration::QUALITY
                   static_cast<int>(Quality::kNotFinite) == MagnetometerCalibration::QUALITY_NOT_FINITE,
               "Quality and the message's QUALITY_* constants must agree");
 
-std::string iso(double unix_s) {
-  try {
-    return format_iso8601(unix_s, 3);
-  } catch (const std::exception&) {
-    return number_text(unix_s);
-  }
-}
-
 void add_counters(PairingCounters& total, const PairingCounters& more) {
   total.paired += more.paired;
   total.unpaired_reference += more.unpaired_reference;
@@ -183,7 +175,7 @@ void CalibrationNode::on_reference(const sensor_msgs::MagneticField::ConstPtr& m
                                        settings_.time_jump_threshold_s);
   if (jump != StreamMonitor::Jump::kNone) {
     ROS_WARN("%s: reference stamps jumped %s to %s", node_name_.c_str(),
-             jump == StreamMonitor::Jump::kForward ? "forward" : "backward", iso(t).c_str());
+             jump == StreamMonitor::Jump::kForward ? "forward" : "backward", time_for_message(t).c_str());
   }
   if (jump == StreamMonitor::Jump::kBackward) {
     for (auto& ch : channels_) reset_pipeline(*ch);
@@ -202,7 +194,7 @@ void CalibrationNode::on_test(std::size_t index, const sensor_msgs::MagneticFiel
                                     settings_.time_jump_threshold_s);
   if (jump != StreamMonitor::Jump::kNone) {
     ROS_WARN("%s: test '%s' stamps jumped %s to %s", node_name_.c_str(), ch.settings.name.c_str(),
-             jump == StreamMonitor::Jump::kForward ? "forward" : "backward", iso(t).c_str());
+             jump == StreamMonitor::Jump::kForward ? "forward" : "backward", time_for_message(t).c_str());
   }
   if (jump == StreamMonitor::Jump::kBackward) reset_pipeline(ch);
   ch.pairer.push_test(t, nanotesla(*message));
@@ -293,12 +285,12 @@ void CalibrationNode::resume_from_file(Channel& ch) {
     e->quality = Quality::kOk;
     e->method = m.method;
     e->parameters = decompose(e->n, e->n_covariance);
-    const std::string window = iso(m.window_start.toSec()) + " .. " + iso(m.window_end.toSec());
+    const std::string window = time_for_message(m.window_start.toSec()) + " .. " + time_for_message(m.window_end.toSec());
     ch.baseline = std::move(e);
     ch.baseline_window = window;
     ch.baseline_source = "file (loaded at start)";
     ch.last_accepted_window = window;
-    ch.last_accepted_stamp = iso(m.header.stamp.toSec());
+    ch.last_accepted_stamp = time_for_message(m.header.stamp.toSec());
     ch.resume_state = "resumed from file";
     ch.publisher.publish(m);  // latched: subscribers get the persisted calibration at once
     ROS_INFO("%s: test '%s': resumed the accepted calibration of window %s from %s", node_name_.c_str(),
@@ -329,7 +321,7 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   const TestInstrumentSettings& t = ch.settings;
   const double period = job.window.period_s;
   const double nominal_start = job.window.start_s, nominal_end = job.window.end_s();
-  const std::string window_text = iso(nominal_start) + " .. " + iso(nominal_end);
+  const std::string window_text = time_for_message(nominal_start) + " .. " + time_for_message(nominal_end);
   const auto started = std::chrono::steady_clock::now();
   WindowResult result;
   try {
@@ -455,7 +447,7 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   if (m.accepted) {
     ++ch.accepted;
     ch.last_accepted_window = window_text;
-    ch.last_accepted_stamp = iso(m.header.stamp.toSec());
+    ch.last_accepted_stamp = time_for_message(m.header.stamp.toSec());
     ch.file_error = file_error;
     if (file_error.empty()) ++ch.files_written;
   } else {
@@ -473,7 +465,7 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   status.add("topic", nh_.resolveName(reference_.topic));
   status.add("frame_id", reference_.frame_id);
   status.add("messages", reference_.messages);
-  status.add("newest stamp", reference_.messages > 0 ? iso(reference_.newest_stamp_s) : std::string("none"));
+  status.add("newest stamp", reference_.messages > 0 ? time_for_message(reference_.newest_stamp_s) : std::string("none"));
   status.add("stamp jumps forward", reference_.jumps_forward);
   status.add("stamp jumps backward", reference_.jumps_backward);
   status.add("stray stamps", reference_.stray);
@@ -498,7 +490,7 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   status.add("calibration file", ch.settings.calibration_file);
   status.add("test frame_id", ch.test.frame_id);
   status.add("test messages", ch.test.messages);
-  status.add("test newest stamp", ch.test.messages > 0 ? iso(ch.test.newest_stamp_s) : std::string("none"));
+  status.add("test newest stamp", ch.test.messages > 0 ? time_for_message(ch.test.newest_stamp_s) : std::string("none"));
   status.add("test stamp jumps forward", ch.test.jumps_forward);
   status.add("test stamp jumps backward", ch.test.jumps_backward);
   status.add("test stray stamps", ch.test.stray);

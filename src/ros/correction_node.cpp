@@ -25,15 +25,9 @@ const std::vector<std::string> kKnownParameters = {
     "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
     "max_matrix_condition", "diagnostic_period", "apply_offset"};
 
-std::string iso(const ros::Time& t) {
-  try {
-    return format_iso8601(t.toSec(), 3);
-  } catch (const std::exception&) {
-    return std::to_string(t.toSec());
-  }
+std::string window_text(const MagnetometerCalibration& c) {
+  return time_for_message(c.window_start.toSec()) + " .. " + time_for_message(c.window_end.toSec());
 }
-
-std::string window_text(const MagnetometerCalibration& c) { return iso(c.window_start) + " .. " + iso(c.window_end); }
 
 }  // namespace
 
@@ -248,7 +242,7 @@ void CorrectionNode::diagnose(DiagnosticStatusWrapper& status) {
     const MagnetometerCalibration& c = active_->calibration;
     status.add("calibration source", active_->source);
     status.add("calibration window", window_text(c));
-    status.add("calibration stamp", iso(c.header.stamp));
+    status.add("calibration stamp", time_for_message(c.header.stamp.toSec()));
     status.add("calibration test name", c.test_name);
     status.add("calibration frames", c.test_frame_id + " -> " + c.reference_frame_id);
     std::ostringstream matrix;

@@ -31,20 +31,6 @@ const std::vector<std::string> kKnownParameters = {
     "source", "device", "baud", "file", "rate", "checksum", "field", "frame_id", "noise_nT", "reopen_interval",
     "gps_required", "expected_packet_rate", "min_supply", "publisher_queue_size", "diagnostic_period"};
 
-std::string text_of(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
-
-std::string iso(double unix_s) {
-  try {
-    return format_iso8601(unix_s, 3);
-  } catch (const std::exception&) {
-    return text_of(unix_s);
-  }
-}
-
 std::string gps_status_text(char status) {
   switch (status) {
     case 'A': return "A (active: GPS time)";
@@ -245,7 +231,7 @@ Lemi025Driver::Lemi025Driver(ros::NodeHandle nh, ros::NodeHandle private_nh)
   ROS_INFO("%s: %s -> %s in frame '%s' (%s field, noise %g nT%s)", node_name_.c_str(), description_.c_str(),
            nh_.resolveName("magnetic_field").c_str(), s.frame_id.c_str(),
            s.field == LemiFieldMode::kFullField ? "full" : "variation", s.noise_nT,
-           s.recorded() ? (", replay rate " + text_of(s.rate)).c_str() : "");
+           s.recorded() ? (", replay rate " + number_text(s.rate)).c_str() : "");
   reader_ = std::thread([this] { run(); });
 }
 
@@ -297,7 +283,7 @@ void Lemi025Driver::run() {
       state_.stats = source_->stats();
       state_.connected = source_->connected();
       state_.at_end = at_end;
-      if (!last_warning.empty()) state_.last_warning = iso(wall_now_s()) + " " + last_warning;
+      if (!last_warning.empty()) state_.last_warning = time_for_message(wall_now_s()) + " " + last_warning;
     }
     if (at_end && !packet) {
       release_held();
@@ -345,7 +331,7 @@ void Lemi025Driver::handle(const Lemi025Packet& packet, double arrival_s, double
     held_.erase(held_.begin() + static_cast<std::ptrdiff_t>(i));
     drop_held(held_.size(), "another time was confirmed");
     ROS_INFO("%s: GPS time jump of %s s to %s confirmed by the next packet", node_name_.c_str(),
-             text_of(confirmed.packet.gps_time_s - gps_reference_s_).c_str(), iso(confirmed.packet.gps_time_s).c_str());
+             number_text(confirmed.packet.gps_time_s - gps_reference_s_).c_str(), time_for_message(confirmed.packet.gps_time_s).c_str());
     {
       std::lock_guard<std::mutex> lock(mutex_);
       ++state_.gps_jumps_confirmed;
@@ -377,12 +363,12 @@ void Lemi025Driver::drop_held(std::size_t count, const std::string& why) {
   for (std::size_t i = 0; i < count && !held_.empty(); ++i) {
     const Lemi025Packet& h = held_.front().packet;
     ROS_WARN("%s: packet with GPS time %s (%s s after the last accepted %s) dropped: isolated time jump, %s",
-             node_name_.c_str(), iso(h.gps_time_s).c_str(), text_of(h.gps_time_s - gps_reference_s_).c_str(),
-             iso(gps_reference_s_).c_str(), why.c_str());
+             node_name_.c_str(), time_for_message(h.gps_time_s).c_str(), number_text(h.gps_time_s - gps_reference_s_).c_str(),
+             time_for_message(gps_reference_s_).c_str(), why.c_str());
     {
       std::lock_guard<std::mutex> lock(mutex_);
       ++state_.packets_dropped_unconfirmed;
-      state_.last_warning = iso(wall_now_s()) + " packet at GPS time " + iso(h.gps_time_s) +
+      state_.last_warning = time_for_message(wall_now_s()) + " packet at GPS time " + time_for_message(h.gps_time_s) +
                             " dropped: isolated time jump (" + why + ")";
     }
     held_.pop_front();
@@ -392,7 +378,7 @@ void Lemi025Driver::drop_held(std::size_t count, const std::string& why) {
 void Lemi025Driver::release_held() {
   while (!held_.empty()) {
     ROS_INFO("%s: end of recording: the held packet at GPS time %s is published (no later packet)",
-             node_name_.c_str(), iso(held_.front().packet.gps_time_s).c_str());
+             node_name_.c_str(), time_for_message(held_.front().packet.gps_time_s).c_str());
     const HeldPacket last = held_.front();
     held_.pop_front();
     accept_gps(last.packet, last.arrival_s, last.recorded_pc_s);
@@ -430,7 +416,7 @@ void Lemi025Driver::publish_packet(const Lemi025Packet& packet, double arrival_s
       ++state_.bias_changes;
       state_.last_bias_change_wall_s = wall_now_s();
       state_.last_bias_change = vector_text(state_.last.bias_nT) + " -> " + vector_text(packet.bias_nT) + " nT at " +
-                                iso(first_s);
+                                time_for_message(first_s);
       ROS_WARN("%s: bias (compensation) field changed: %s", node_name_.c_str(), state_.last_bias_change.c_str());
     }
     if (state_.have_packet && gps_ok != (state_.last.gps_status == 'A')) {
@@ -468,13 +454,13 @@ void Lemi025Driver::publish_packet(const Lemi025Packet& packet, double arrival_s
       if (!dropping_) {
         ROS_WARN("%s: reading stamped %s is not after the last published one (%s): dropping readings until the "
                  "stamps pass it",
-                 node_name_.c_str(), iso(stamp_s).c_str(), iso(last_published_.toSec()).c_str());
+                 node_name_.c_str(), time_for_message(stamp_s).c_str(), time_for_message(last_published_.toSec()).c_str());
         dropping_ = true;
       }
       continue;
     }
     if (dropping_) {
-      ROS_INFO("%s: stamps after the last published one again from %s", node_name_.c_str(), iso(stamp_s).c_str());
+      ROS_INFO("%s: stamps after the last published one again from %s", node_name_.c_str(), time_for_message(stamp_s).c_str());
       dropping_ = false;
     }
     // The core's one plausibility rule (the parser has already set implausible readings to NaN).
@@ -547,13 +533,13 @@ void Lemi025Driver::diagnose_link(DiagnosticStatusWrapper& status) {
   status.add("packets dropped (isolated GPS time jump)", st.packets_dropped_unconfirmed);
   status.add("GPS time jumps confirmed", st.gps_jumps_confirmed);
   status.add("PC clock steps", st.pc_clock_steps);
-  status.add("last PC clock step (s)", st.pc_clock_steps > 0 ? text_of(st.last_pc_clock_step_s) : std::string("none"));
-  status.add("last published stamp", st.readings_published > 0 ? iso(st.last_stamp_s) : std::string("none"));
+  status.add("last PC clock step (s)", st.pc_clock_steps > 0 ? number_text(st.last_pc_clock_step_s) : std::string("none"));
+  status.add("last published stamp", st.readings_published > 0 ? time_for_message(st.last_stamp_s) : std::string("none"));
   status.add("last warning", st.last_warning);
 
   if (st.at_end) status.summary(DiagnosticStatus::OK, "end of recording");
   if (!st.connected && !st.at_end) {
-    status.mergeSummary(DiagnosticStatus::ERROR, "disconnected: reopening every " + text_of(settings_.reopen_interval_s) +
+    status.mergeSummary(DiagnosticStatus::ERROR, "disconnected: reopening every " + number_text(settings_.reopen_interval_s) +
                                                      " s");
   }
   auto report = [&status](std::uint64_t now, std::uint64_t& reported, const std::string& what) {
@@ -586,7 +572,7 @@ void Lemi025Driver::diagnose_instrument(DiagnosticStatusWrapper& status) {
   status.add("GPS status", gps_status_text(last.gps_status));
   status.add("time source", st.time_source);
   status.add("packets without GPS", st.packets_without_gps);
-  status.add("last GPS time", iso(last.gps_time_s));
+  status.add("last GPS time", time_for_message(last.gps_time_s));
   status.add("supply voltage (V)", last.supply_V);
   status.add("sensor temperature (degC)", last.sensor_temperature_C);
   status.add("electronics temperature (degC)", last.electronics_temperature_C);
@@ -609,8 +595,8 @@ void Lemi025Driver::diagnose_instrument(DiagnosticStatusWrapper& status) {
     status.mergeSummary(DiagnosticStatus::WARN, "bias field changed: " + st.last_bias_change);
   }
   if (settings_.min_supply_V > 0.0 && last.supply_V < settings_.min_supply_V) {
-    status.mergeSummary(DiagnosticStatus::WARN, "supply voltage " + text_of(last.supply_V) + " V below " +
-                                                    text_of(settings_.min_supply_V) + " V");
+    status.mergeSummary(DiagnosticStatus::WARN, "supply voltage " + number_text(last.supply_V) + " V below " +
+                                                    number_text(settings_.min_supply_V) + " V");
   }
 }
 
