@@ -359,6 +359,7 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   m.delay_s = e.delay_s;
   m.delay_ci95_s = e.delay_ci95_s;
   copy3(m.offset_nT, result.offset_end_nT);
+  copy3(m.reference_mean_nT, result.reference_mean_nT);
   copy3(m.offset_ci95_nT, result.offset_end_ci95_nT);
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) m.matrix[vec_index(r, c)] = e.n(r, c);

@@ -20,7 +20,7 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-constexpr int kFormatVersion = 2;  // 2: method, band used, delay, offset (1 still loads)
+constexpr int kFormatVersion = 3;  // 3: reference mean; 2: method, band used, delay, offset (1 and 2 still load)
 
 std::string number(double value) {
   if (std::isnan(value)) return ".nan";
@@ -160,6 +160,7 @@ std::string calibration_to_yaml(const MagnetometerCalibration& c, const std::str
   y << "trend_ci95_nT_per_day: " << list(c.trend_ci95_nT_per_day) << "\n";
   y << "offset_nT: " << list(c.offset_nT) << "  # test relative to reference at window_end, test frame\n";
   y << "offset_ci95_nT: " << list(c.offset_ci95_nT) << "\n";
+  y << "reference_mean_nT: " << list(c.reference_mean_nT) << "  # mean(R) over the window, reference frame\n";
   y << "scale_ratio: " << list(c.scale_ratio) << "\n";
   y << "scale_ratio_ci95: " << list(c.scale_ratio_ci95) << "\n";
   y << "nonorthogonality_deg: " << list(c.nonorthogonality_deg) << "  # xy, xz, yz\n";
@@ -187,7 +188,7 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
   if (!root.IsMap()) throw CalibrationFileError(source + ": not a calibration file (expected a YAML map)");
   const Reader r{root, source};
   const long long version = r.integer("format_version", 0, 1000);
-  if (version != kFormatVersion && version != 1) {
+  if (version < 1 || version > kFormatVersion) {
     throw CalibrationFileError(source + ": format_version " + std::to_string(version) + " is not supported (expected " +
                                std::to_string(kFormatVersion) + ")");
   }
@@ -233,6 +234,10 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
     r.array("offset_nT", c.offset_nT);
     r.array("offset_ci95_nT", c.offset_ci95_nT);
   }
+  // Formats 1 and 2 have no reference mean: 0 makes correction_node propagate n's uncertainty
+  // with the whole field (the conservative form used before format 3).
+  c.reference_mean_nT = {0.0, 0.0, 0.0};
+  if (version >= 3) r.array("reference_mean_nT", c.reference_mean_nT);
   r.array("scale_ratio", c.scale_ratio);
   r.array("scale_ratio_ci95", c.scale_ratio_ci95);
   r.array("nonorthogonality_deg", c.nonorthogonality_deg);
@@ -333,6 +338,7 @@ bool calibrations_equal(const MagnetometerCalibration& a, const MagnetometerCali
   MIC_SAME(trend_ci95_nT_per_day, arrays_equal(a.trend_ci95_nT_per_day, b.trend_ci95_nT_per_day))
   MIC_SAME(offset_nT, arrays_equal(a.offset_nT, b.offset_nT))
   MIC_SAME(offset_ci95_nT, arrays_equal(a.offset_ci95_nT, b.offset_ci95_nT))
+  MIC_SAME(reference_mean_nT, arrays_equal(a.reference_mean_nT, b.reference_mean_nT))
   MIC_SAME(scale_ratio, arrays_equal(a.scale_ratio, b.scale_ratio))
   MIC_SAME(scale_ratio_ci95, arrays_equal(a.scale_ratio_ci95, b.scale_ratio_ci95))
   MIC_SAME(nonorthogonality_deg, arrays_equal(a.nonorthogonality_deg, b.nonorthogonality_deg))

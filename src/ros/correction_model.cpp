@@ -13,9 +13,10 @@
 namespace magnetometer_insitu_calibration {
 
 CorrectionModel::CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covariance, double max_condition,
-                                 const Eigen::Vector3d& offset)
-    : n_(n), covariance_(covariance), offset_(offset) {
+                                 const Eigen::Vector3d& offset, const Eigen::Vector3d& anchor)
+    : n_(n), covariance_(covariance), offset_(offset), anchor_(anchor) {
   if (!offset.allFinite()) throw std::invalid_argument("offset has non-finite entries");
+  if (!anchor.allFinite()) throw std::invalid_argument("reference mean has non-finite entries");
   if (!n.allFinite()) throw std::invalid_argument("matrix has non-finite entries");
   if (!covariance.allFinite()) throw std::invalid_argument("matrix_covariance has non-finite entries");
   if ((covariance.diagonal().array() < 0.0).any()) throw std::invalid_argument("matrix_covariance has a negative variance");
@@ -42,7 +43,7 @@ Eigen::Matrix3d CorrectionModel::corrected_covariance(const Eigen::Matrix3d& tes
     Eigen::Matrix<double, 3, 9> jacobian;
     for (int j = 0; j < 3; ++j) {
       for (int a = 0; a < 3; ++a) {
-        for (int b = 0; b < 3; ++b) jacobian(j, vec_index(a, b)) = -corrected(a) * n_inverse_(b, j);
+        for (int b = 0; b < 3; ++b) jacobian(j, vec_index(a, b)) = -(corrected(a) - anchor_(a)) * n_inverse_(b, j);
       }
     }
     c += jacobian * covariance_ * jacobian.transpose();

@@ -106,9 +106,14 @@ std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::s
     for (int k = 0; k < 81; ++k) covariance(k / 9, k % 9) = c.matrix_covariance[k];
     try {
       // Offset in nT (test frame) -> tesla, the unit of the topics; constant (trend not extrapolated).
-      Eigen::Vector3d offset = Eigen::Vector3d::Zero();
-      if (settings_.apply_offset) offset = 1e-9 * Eigen::Vector3d(c.offset_nT[0], c.offset_nT[1], c.offset_nT[2]);
-      model = std::make_unique<CorrectionModel>(n, covariance, settings_.max_matrix_condition, offset);
+      // With the offset, n's uncertainty propagates from the window's reference mean
+      // (CorrectionModel); without it, from the whole field.
+      Eigen::Vector3d offset = Eigen::Vector3d::Zero(), anchor = Eigen::Vector3d::Zero();
+      if (settings_.apply_offset) {
+        offset = 1e-9 * Eigen::Vector3d(c.offset_nT[0], c.offset_nT[1], c.offset_nT[2]);
+        anchor = 1e-9 * Eigen::Vector3d(c.reference_mean_nT[0], c.reference_mean_nT[1], c.reference_mean_nT[2]);
+      }
+      model = std::make_unique<CorrectionModel>(n, covariance, settings_.max_matrix_condition, offset, anchor);
     } catch (const std::invalid_argument& e) {
       reason = e.what();
     }
@@ -258,6 +263,10 @@ void CorrectionNode::diagnose(DiagnosticStatusWrapper& status) {
     offset << ")";
     status.add("calibration offset at window end (nT)", offset.str());
     status.add("offset applied", settings_.apply_offset);
+    std::ostringstream mean;
+    mean.precision(8);
+    for (int k = 0; k < 3; ++k) mean << (k ? " " : "") << c.reference_mean_nT[k];
+    status.add("calibration reference mean (nT; n's uncertainty propagates from it)", mean.str());
   } else {
     status.add("calibration source", "none");
   }

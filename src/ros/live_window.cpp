@@ -141,6 +141,7 @@ void estimate_offset(WindowResult& r, const PairedRecord& paired) {
   const double count = static_cast<double>(rows);
   const double dt = r.end_s - t_centre;
   r.offset_centre_nT = d;
+  r.reference_mean_nT = mean_r;
   r.offset_end_nT = d + trend_per_s * dt;
   for (int l = 0; l < 3; ++l) {
     Eigen::Matrix3d column_covariance;

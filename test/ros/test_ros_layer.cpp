@@ -46,10 +46,11 @@ mic::MagnetometerCalibration filled_calibration() {
   for (auto* array : {&c.trend_nT_per_day, &c.trend_ci95_nT_per_day, &c.scale_ratio, &c.scale_ratio_ci95,
                       &c.nonorthogonality_deg, &c.nonorthogonality_ci95_deg, &c.misalignment_deg,
                       &c.misalignment_ci95_deg, &c.axis_deviation_deg, &c.axis_deviation_ci95_deg, &c.coherence,
-                      &c.residual_rms_nT}) {
+                      &c.residual_rms_nT, &c.offset_nT, &c.offset_ci95_nT}) {
     for (auto& v : *array) v = normal(random) / 3.0;
   }
   c.residual_rms_nT[1] = std::numeric_limits<double>::quiet_NaN();
+  c.reference_mean_nT = {21512.25, -503.125, 43001.5};
   c.condition_number = 3.14159;
   c.quality = mic::MagnetometerCalibration::QUALITY_OK;
   c.quality_text = "ok";
@@ -75,6 +76,29 @@ TEST(CalibrationYaml, RoundTripIsExact) {
   other.matrix[4] = std::nextafter(other.matrix[4], 2.0);
   EXPECT_FALSE(mic::calibrations_equal(c, other, &difference));
   EXPECT_EQ(difference, "matrix");
+}
+
+TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
+  // A format-2 file (before reference_mean_nT): loads, with the mean 0 (the whole-field
+  // propagation correction_node used before); a format it does not know is refused.
+  std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
+  const std::size_t version = text.find("format_version: 3\n");
+  ASSERT_NE(version, std::string::npos) << text;
+  const std::size_t mean_line = text.find("reference_mean_nT: ");
+  ASSERT_NE(mean_line, std::string::npos);
+  std::string old = text;
+  old.erase(mean_line, old.find('\n', mean_line) + 1 - mean_line);
+  old.replace(version, 17, "format_version: 2");
+  const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "old.yaml");
+  for (double v : loaded.reference_mean_nT) EXPECT_EQ(v, 0.0);
+  EXPECT_EQ(loaded.offset_nT, filled_calibration().offset_nT);
+  // Format 3 without the field is incomplete.
+  std::string cut = text;
+  cut.erase(mean_line, cut.find('\n', mean_line) + 1 - mean_line);
+  EXPECT_THROW(mic::calibration_from_yaml(cut, "cut.yaml"), mic::CalibrationFileError);
+  std::string future = text;
+  future.replace(version, 17, "format_version: 4");
+  EXPECT_THROW(mic::calibration_from_yaml(future, "future.yaml"), mic::CalibrationFileError);
 }
 
 TEST(CalibrationYaml, EveryTruncationIsRefused) {
@@ -214,6 +238,8 @@ TEST(EstimateWindow, CompleteWindowIsAcceptedAndGapsAreFlagged) {
   EXPECT_EQ(ok.missing(), 0u);
   const Eigen::Matrix3d z = (ok.estimate.n - pair.n_true).cwiseAbs().array() / ok.estimate.n_stderr().array();
   EXPECT_LT(z.maxCoeff(), 4.0) << "|n - n_true| / se:\n" << z << "\nse:\n" << ok.estimate.n_stderr();
+  const Eigen::Vector3d mean_r = full.paired.reference_nT.colwise().mean().transpose();
+  EXPECT_LT((ok.reference_mean_nT - mean_r).norm(), 1e-9) << ok.reference_mean_nT.transpose();
 
   // 30 s inside: filled, not flagged.
   const mic::WindowResult small = mic::estimate_window(without_rows(full, 1000, 30), estimator, rule);
@@ -264,6 +290,46 @@ TEST(CorrectionModel, InvertsTheCalibrationAndPropagatesCovariance) {
   const Eigen::Matrix3d expected = n_inv.transpose() * c_t * n_inv + jacobian * cov * jacobian.transpose();
   const Eigen::Matrix3d got = model.corrected_covariance(c_t, field, true);
   EXPECT_LT((got - expected).norm(), 1e-6 * expected.norm()) << got << "\n" << expected;
+}
+
+TEST(CorrectionModel, OffsetAbsorbsTheMatrixErrorAtTheWindowMean) {
+  // The calibration's offset was estimated with n: d(n) = mean_t - n^T m (m = mean(R) of the
+  // window). The corrected reading r(n) = n^-T (t - d(n)) then depends on n through both terms;
+  // its numeric Jacobian must match the model's (r - m) form, and at the window mean field the
+  // calibration adds no uncertainty at all.
+  mic::SimulationSettings s;
+  const Eigen::Matrix3d n = s.n_true();
+  mic::Matrix9d cov = mic::Matrix9d::Identity() * 1e-10;
+  cov(1, 5) = cov(5, 1) = -0.3e-10;
+  const Eigen::Vector3d m(21480.0, 512.0, 43020.0);              // reference frame, nT
+  const Eigen::Vector3d d_true(-37.0, 12.5, 80.0);               // test frame, nT
+  const Eigen::Vector3d mean_t = n.transpose() * m + d_true;    // test frame, nT
+  const Eigen::Vector3d d = mean_t - n.transpose() * m;
+  const mic::CorrectionModel model(n, cov, 100.0, d, m);
+  const Eigen::Vector3d field = m + Eigen::Vector3d(25.0, -40.0, 12.0);  // r, 50 nT from the mean
+  const Eigen::Vector3d test = n.transpose() * field + d;
+  ASSERT_LT((model.correct(test) - field).norm(), 1e-9);
+  auto corrected_with = [&](const Eigen::Matrix3d& n_other) {
+    const Eigen::Vector3d d_other = mean_t - n_other.transpose() * m;
+    return Eigen::Vector3d(n_other.inverse().transpose() * (test - d_other));
+  };
+  Eigen::Matrix<double, 3, 9> jacobian;
+  for (int k = 0; k < 9; ++k) {
+    Eigen::Matrix3d plus = n, minus = n;
+    plus(k / 3, k % 3) += 1e-7;
+    minus(k / 3, k % 3) -= 1e-7;
+    jacobian.col(k) = (corrected_with(plus) - corrected_with(minus)) / 2e-7;
+  }
+  const Eigen::Matrix3d zero = Eigen::Matrix3d::Zero();
+  const Eigen::Matrix3d expected = jacobian * cov * jacobian.transpose();
+  const Eigen::Matrix3d got = model.corrected_covariance(zero, field, true);
+  EXPECT_LT((got - expected).norm(), 1e-5 * expected.norm()) << got << "\n" << expected;
+  // Whole-field propagation (no anchor) states ~1000x the standard deviation here.
+  const mic::CorrectionModel whole_field(n, cov, 100.0, d);
+  EXPECT_GT(whole_field.corrected_covariance(zero, field, true).trace(), 1e5 * got.trace());
+  EXPECT_LT(model.corrected_covariance(zero, m, true).norm(), 1e-20);
+  EXPECT_THROW(mic::CorrectionModel(n, cov, 100.0, d, Eigen::Vector3d::Constant(std::nan(""))),
+               std::invalid_argument);
 }
 
 TEST(CorrectionModel, RefusesUnusableMatrices) {

@@ -9,7 +9,8 @@
 //    drivers' frame ids;
 //  * the corrected test stream equals the reference stream, sample by sample at identical
 //    stamps: the difference's mean lies within 3 standard deviations of the corrected
-//    covariance (the calibration's uncertainty times the main field dominates it), and its
+//    covariance (test noise plus n's uncertainty times the distance from the calibration
+//    window's mean field: a few hundredths of a nT here), and its
 //    scatter within 1.5 times the scatter of the simulated noise alone (the two instruments'
 //    noise, recomputed here with the core simulator from the same seed and settings).
 // SimulatedNetwork.EveryPairRecoversTruthAndCorrects (test/ros/test_simulated_network.test,

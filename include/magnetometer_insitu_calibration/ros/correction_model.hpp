@@ -7,6 +7,13 @@
 // extrapolated beyond the window (a drift estimated over one window is too uncertain to
 // extend; the next window brings the next offset). d = 0 gives the variations-only correction
 // r = n^-T t. Units: d in the unit of t (the node converts nT to tesla).
+//
+// Uncertainty from n: the offset was estimated with n as d = mean(T) - n^T m, m = mean(R) over
+// the window, so r = n^-T (t - mean(T)) + m (at the window centre) and an error dn of n moves r
+// by -(r - m)^T dn n^-1 (row form), not by -r^T dn n^-1: at the window's mean field the offset
+// absorbs n's error. With a main field of ~50 000 nT and |r - m| of tens of nT this is the
+// difference between a stated uncertainty of nT and of hundredths of nT. `anchor` is m (zero:
+// the whole field, the conservative form for calibrations without m or without the offset).
 #pragma once
 
 #include "magnetometer_insitu_calibration/decomposition.hpp"
@@ -21,9 +28,11 @@ class CorrectionModel {
  public:
   /// Checks n (finite, invertible, condition number <= max_condition) and the covariance
   /// (finite, non-negative diagonal). Throws std::invalid_argument with the reason otherwise.
-  /// offset: d (test frame, unit of t; must be finite).
+  /// offset: d (test frame, unit of t; must be finite); anchor: m, the reference mean of the
+  /// calibration window (reference frame, unit of t; must be finite), see above.
   CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covariance, double max_condition,
-                  const Eigen::Vector3d& offset = Eigen::Vector3d::Zero());
+                  const Eigen::Vector3d& offset = Eigen::Vector3d::Zero(),
+                  const Eigen::Vector3d& anchor = Eigen::Vector3d::Zero());
 
   /// r = n^-T (t - d), same unit as t.
   Eigen::Vector3d correct(const Eigen::Vector3d& test) const { return n_inverse_transpose_ * (test - offset_); }
@@ -31,7 +40,9 @@ class CorrectionModel {
 
   /// Covariance of r (unit^2) from the covariance of t: n^-T C_t n^-1, plus, when
   /// include_calibration, the uncertainty of n itself propagated to first order:
-  /// dr_j = -sum_ab r_a dn_ab (n^-1)_bj, i.e. J Cov(vec n) J^T with J_j,3a+b = -r_a (n^-1)_bj.
+  /// dr_j = -sum_ab (r - m)_a dn_ab (n^-1)_bj, i.e. J Cov(vec n) J^T with
+  /// J_j,3a+b = -(r - m)_a (n^-1)_bj, m = anchor. (The offset's own noise terms, residual rms^2 / N
+  /// and the trend's, are left out: they are small next to the test noise.)
   Eigen::Matrix3d corrected_covariance(const Eigen::Matrix3d& test_covariance, const Eigen::Vector3d& corrected,
                                        bool include_calibration) const;
 
@@ -44,6 +55,7 @@ class CorrectionModel {
   Eigen::Matrix3d n_inverse_transpose_;
   Matrix9d covariance_;
   Eigen::Vector3d offset_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d anchor_ = Eigen::Vector3d::Zero();
   double condition_number_ = 1.0;
 };
 

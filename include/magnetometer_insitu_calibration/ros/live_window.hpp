@@ -122,6 +122,9 @@ struct WindowResult {
   Eigen::Vector3d offset_centre_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector3d offset_end_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector3d offset_end_ci95_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// m = mean(R) over the window's samples (reference frame, nT): where the offset absorbs the
+  /// error of n (d = mean(T) - m n), so a corrected reading's error from dn is (r - m)^T dn n^-1.
+  Eigen::Vector3d reference_mean_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
 
   /// Epochs without data: interpolated inside or missing at the edges.
   std::size_t missing() const { return leading_missing + trailing_missing + interpolated; }
