@@ -118,7 +118,7 @@ int lemi_mark_implausible_readings(Eigen::Matrix<double, Rows, 3>& variation_nT,
 
 /// Structure check of 153 bytes (tag, BCD date/time, EVERY reading plausible, status bytes), no
 /// checksum. Strict: used where an implausible reading must reject the whole packet (record-format
-/// detection, LemiBin records).
+/// detection, resynchronising inside a LemiBin file).
 Lemi025Problem check_lemi025_structure(const std::uint8_t* bytes,
                                        const Lemi025Plausibility& limits = {});
 

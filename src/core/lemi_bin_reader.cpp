@@ -19,9 +19,13 @@ constexpr std::size_t kPcTime = kLemi025PacketSize;          // six int16
 constexpr std::size_t kPcMicroseconds = kPcTime + 6 * 2;    // uint32
 constexpr std::size_t kMaxHeaderLine = 4096;
 
-// The problem of the record at p (kOk if it is a good one).
-Lemi025Problem check_record(const std::uint8_t* p, const LemiReadOptions& options) {
-  Lemi025Problem problem = check_lemi025_structure(p, options.plausibility);
+// The problem of the record at p (kOk if it is a good one). Where the previous record ended
+// (aligned) the packet's frame rule decides, as on a live stream: an implausible reading does not
+// reject an intact record, it is set to NaN. While resynchronising at an arbitrary offset every
+// reading must be plausible too (strict), so that a misaligned position is not taken for a record.
+Lemi025Problem check_record(const std::uint8_t* p, const LemiReadOptions& options, bool strict) {
+  Lemi025Problem problem = strict ? check_lemi025_structure(p, options.plausibility)
+                                  : check_lemi025_frame(p, options.checksum, options.plausibility);
   if (problem == Lemi025Problem::kOk && !lemi025_checksum_ok(p, options.checksum))
     problem = Lemi025Problem::kBadChecksum;
   return problem;
@@ -79,10 +83,15 @@ LemiBinFile read_lemi_bin_file(const std::string& path, const LemiReadOptions& o
            " bytes at end of file");
       break;
     }
-    const Lemi025Problem problem = check_record(bytes.data() + pos, options);
+    const Lemi025Problem problem = check_record(bytes.data() + pos, options, false);
     if (problem == Lemi025Problem::kOk) {
       LemiBinRecord record;
       record.packet = decode_lemi025_packet_unchecked(bytes.data() + pos);
+      const int implausible = lemi_mark_implausible_readings(record.packet.variation_nT, options.plausibility);
+      if (implausible > 0) {
+        warn(where(path, pos) + ": " + std::to_string(implausible) +
+             " implausible reading(s) (not finite or beyond the range) set to NaN, the record kept");
+      }
       record.pc_time_s = decode_pc_time(bytes.data() + pos + kPcTime);
       record.offset = pos;
       file.records.push_back(std::move(record));
@@ -93,7 +102,7 @@ LemiBinFile read_lemi_bin_file(const std::string& path, const LemiReadOptions& o
     std::size_t next = pos + 1;
     while (next + kLemiBinRecordSize <= size &&
            !(lemi_detail::is_lemi_tag(bytes.data() + next) &&
-             check_record(bytes.data() + next, options) == Lemi025Problem::kOk))
+             check_record(bytes.data() + next, options, true) == Lemi025Problem::kOk))
       ++next;
     if (next + kLemiBinRecordSize > size) {
       warn(where(path, pos) + ": bad record (" + lemi025_problem_text(problem) +

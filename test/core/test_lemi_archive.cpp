@@ -193,6 +193,51 @@ TEST(LemiBin, BadRecordIsReportedWithOffsetAndTheRestIsKept) {
                              ": bad record (tag is neither L025 nor L036), 169 bytes skipped");
 }
 
+// An aligned record with intact tag, time and status bytes but implausible readings (a failing
+// ADC): kept, those readings NaN in x, y and z, the others as recorded, one warning naming the
+// record's byte offset. Resynchronising after a broken record still needs every reading plausible.
+TEST(LemiBin, ImplausibleReadingsBecomeNaNAndTheRecordIsKept) {
+  Bytes odd = hand_record(2);
+  put_f32(odd, 28 + 12 * 3 + 4 * 1, 1000.0f);                                  // reading 3: y 1e6 nT
+  put_f32(odd, 28 + 12 * 7 + 4 * 2, std::numeric_limits<float>::infinity());   // reading 7: z
+  const std::string path = write_file(
+      "implausible.bin", lemi_bin({hand_record(0), hand_record(1), odd, hand_record(3)}));
+  std::vector<std::string> warnings;
+  const VectorRecord r = read_lemi_bin(path, {}, &warnings);
+  ASSERT_EQ(r.size(), 40u);
+  expect_packet_rows(r, 0, 0, true);
+  expect_packet_rows(r, 10, 1, true);
+  expect_packet_rows(r, 30, 3, true);
+  for (int k = 0; k < 10; ++k) {
+    const Eigen::Index n = 20 + k;
+    EXPECT_NEAR(r.time_s[20 + k], kT0 + 2 - 0.3 + 0.1 * k, 1e-6);
+    if (k == 3 || k == 7) {
+      EXPECT_TRUE(r.values_nT.row(n).array().isNaN().all()) << "reading " << k;
+    } else {
+      EXPECT_DOUBLE_EQ(r.values_nT(n, 0), 20000.0 + 1000.0 * (0.25 * k + 2)) << "reading " << k;
+      EXPECT_DOUBLE_EQ(r.values_nT(n, 1), -500.0 * k) << "reading " << k;
+    }
+  }
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], path + " byte " + std::to_string(kHeader.size() + 2 * 169) +
+                             ": 2 implausible reading(s) (not finite or beyond the range) set to NaN, the record kept");
+
+  // After a destroyed tag the reader searches at every offset: a record with an implausible
+  // reading is not taken as the resynchronisation point, the next clean one is (the odd record's
+  // good readings are lost there: the price of not resynchronising on a misaligned position).
+  Bytes broken = hand_record(1);
+  broken[0] = 'X';
+  const std::string resync_path = write_file(
+      "resync.bin", lemi_bin({hand_record(0), broken, odd, hand_record(3)}));
+  warnings.clear();
+  const VectorRecord after = read_lemi_bin(resync_path, {}, &warnings);
+  ASSERT_EQ(after.size(), 20u);
+  expect_packet_rows(after, 0, 0, true);
+  expect_packet_rows(after, 10, 3, true);
+  ASSERT_EQ(warnings.size(), 1u) << warnings[0];
+  EXPECT_NE(warnings[0].find(std::to_string(2 * 169) + " bytes skipped"), std::string::npos) << warnings[0];
+}
+
 TEST(LemiBin, InterruptedWriteMidRecordResynchronises) {
   Bytes cut = hand_record(2);
   cut.resize(100);  // acquisition stopped after 100 bytes of record 2
