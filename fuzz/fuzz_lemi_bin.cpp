@@ -2,8 +2,9 @@
 // Input: the file's bytes (written to an in-memory file). The checksum mode tried comes from the
 // input size (size % 3), so the corpus exercises all three without a config byte.
 // Checks: a value or InputError; records lie in the file at increasing, non-overlapping offsets
-// and pass the same checks as a stream packet; the VectorRecord has finite, strictly increasing
-// times and plausible values (|bias| + |variation| <= 81920 + 100000 nT).
+// and pass the same frame check as a stream packet (check_lemi025_frame + checksum); every decoded
+// reading is NaN in x, y and z or plausible; the VectorRecord has finite, strictly increasing
+// times and plausible values (|bias| + |variation| <= 81920 + 100000 nT) or NaN.
 #include "fuzz_common.hpp"
 
 #include "magnetometer_insitu_calibration/lemi_archive.hpp"
@@ -26,9 +27,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const std::uint64_t off = bin.records[i].offset;
       FUZZ_CHECK(off + kLemiBinRecordSize <= size, "record beyond the end of the file");
       if (i > 0) FUZZ_CHECK(off >= bin.records[i - 1].offset + kLemiBinRecordSize, "records overlap");
-      FUZZ_CHECK(check_lemi025_structure(data + off, options.plausibility) == Lemi025Problem::kOk &&
+      FUZZ_CHECK(check_lemi025_frame(data + off, options.checksum, options.plausibility) == Lemi025Problem::kOk &&
                      lemi025_checksum_ok(data + off, options.checksum),
                  "record at " + std::to_string(off) + " fails the packet checks");
+      const auto& v = bin.records[i].packet.variation_nT;
+      for (Eigen::Index k = 0; k < v.rows(); ++k) {
+        FUZZ_CHECK(v.row(k).array().isNaN().all() ||
+                       lemi_reading_plausible(v(k, 0), v(k, 1), v(k, 2), options.plausibility),
+                   "record at " + std::to_string(off) + ": reading " + std::to_string(k) +
+                       " neither NaN nor plausible");
+      }
     }
   } catch (const InputError&) {
   } catch (...) {
