@@ -317,8 +317,8 @@ void Lemi025Driver::handle(const Lemi025Packet& packet, double arrival_s, double
   // Consistent with x (a GPS second n packets ago): after it, and not further ahead than the n
   // seconds that n packets take.
   auto consistent = [g](double x, std::uint64_t n) { return g > x && g <= x + static_cast<double>(n); };
-  if (!have_gps_reference_ || consistent(gps_reference_s_, slots_since_reference_)) {
-    // First GPS packet, or the clock runs on from the reference: every held packet was an outlier.
+  if (have_gps_reference_ && consistent(gps_reference_s_, slots_since_reference_)) {
+    // The clock runs on from the reference: every held packet was an outlier.
     drop_held(held_.size(), "the packets after it continue from the time before it");
     accept_gps(packet, arrival_s, recorded_pc_s);
     return;
@@ -330,24 +330,29 @@ void Lemi025Driver::handle(const Lemi025Packet& packet, double arrival_s, double
     HeldPacket confirmed = held_[i];
     held_.erase(held_.begin() + static_cast<std::ptrdiff_t>(i));
     drop_held(held_.size(), "another time was confirmed");
-    ROS_INFO("%s: GPS time jump of %s s to %s confirmed by the next packet", node_name_.c_str(),
-             number_text(confirmed.packet.gps_time_s - gps_reference_s_).c_str(), time_for_message(confirmed.packet.gps_time_s).c_str());
-    {
+    if (have_gps_reference_) {
+      ROS_INFO("%s: GPS time jump of %s s to %s confirmed by the next packet", node_name_.c_str(),
+               number_text(confirmed.packet.gps_time_s - gps_reference_s_).c_str(),
+               time_for_message(confirmed.packet.gps_time_s).c_str());
       std::lock_guard<std::mutex> lock(mutex_);
       ++state_.gps_jumps_confirmed;
+    } else {
+      ROS_INFO("%s: first GPS time %s confirmed by the next packet", node_name_.c_str(),
+               time_for_message(confirmed.packet.gps_time_s).c_str());
     }
     accept_gps(confirmed.packet, confirmed.arrival_s, confirmed.recorded_pc_s);
     accept_gps(packet, arrival_s, recorded_pc_s);
     return;
   }
-  if (g <= gps_reference_s_) {
+  if (have_gps_reference_ && g <= gps_reference_s_) {
     // Backwards or repeated: never held (it cannot push the last stamp ahead); the stamp rule
     // drops what is not after the last published reading. The reference stays.
     publish_packet(packet, arrival_s, recorded_pc_s);
     return;
   }
-  // Ahead of what the packets since the reference allow: hold until a later packet says
-  // whether it is real. At most kMaxHeldPackets, the oldest dropped first.
+  // Ahead of what the packets since the reference allow, or no reference yet (the first GPS
+  // packet after start): hold until a later packet says whether it is real. At most
+  // kMaxHeldPackets, the oldest dropped first.
   held_.push_back(HeldPacket{packet, arrival_s, recorded_pc_s, 0});
   if (held_.size() > kMaxHeldPackets) drop_held(1, "no packet confirmed it");
 }
@@ -362,9 +367,11 @@ void Lemi025Driver::accept_gps(const Lemi025Packet& packet, double arrival_s, do
 void Lemi025Driver::drop_held(std::size_t count, const std::string& why) {
   for (std::size_t i = 0; i < count && !held_.empty(); ++i) {
     const Lemi025Packet& h = held_.front().packet;
-    ROS_WARN("%s: packet with GPS time %s (%s s after the last accepted %s) dropped: isolated time jump, %s",
-             node_name_.c_str(), time_for_message(h.gps_time_s).c_str(), number_text(h.gps_time_s - gps_reference_s_).c_str(),
-             time_for_message(gps_reference_s_).c_str(), why.c_str());
+    const std::string relative = have_gps_reference_ ? number_text(h.gps_time_s - gps_reference_s_) + " s after the last accepted " +
+                                                           time_for_message(gps_reference_s_)
+                                                     : std::string("before any accepted GPS time");
+    ROS_WARN("%s: packet with GPS time %s (%s) dropped: isolated time jump, %s", node_name_.c_str(),
+             time_for_message(h.gps_time_s).c_str(), relative.c_str(), why.c_str());
     {
       std::lock_guard<std::mutex> lock(mutex_);
       ++state_.packets_dropped_unconfirmed;

@@ -22,6 +22,8 @@
 //   StreamFileGpsGlitchDroppedAndLastHeldPacketReleased  a stream recording with a day-ahead GPS
 //                                      second (dropped) and a final jump (held, then published at
 //                                      the end of the recording)
+//   StreamFileFirstPacketGlitchDoesNotBlockData  the first packet a day ahead: dropped, the rest
+//                                      published
 // Lemi025DriverParameters.BadParametersExitNonZero starts the driver itself with impossible
 // parameters and checks the exit code and the fatal message naming the parameter.
 // SimulatedStation.* (test_simulated_station.cpp) runs from test_simulated_station.test.
@@ -671,6 +673,50 @@ TEST(Lemi025DriverRecordings, StreamFileGpsGlitchDroppedAndLastHeldPacketRelease
     EXPECT_EQ(from_t0[i].header.stamp, gps_stamp(s, k)) << "reading " << i;
     EXPECT_NEAR(from_t0[i].magnetic_field.y, (kBias_nT(1) + make_packet(s).variation_nT(k, 1)) * kNanotesla,
                 1e-4 * kNanotesla)
+        << "reading " << i;
+  }
+  ::unlink(path.c_str());
+}
+
+// The FIRST packet of a recording carries a day-ahead GPS second (a receiver glitch at start-up):
+// it has no reference to be checked against, so it is held like any jump and dropped when the
+// packets after it run on from each other. Before, it became the reference and every later
+// packet was "backwards": nothing was published until real time caught up. From t0 + 4 on (the
+// subscription connects during the first seconds at rate 2) every reading must arrive.
+TEST(Lemi025DriverRecordings, StreamFileFirstPacketGlitchDoesNotBlockData) {
+  const std::string path = temporary_path("lemi025_driver_test_first_glitch.stream");
+  const double t0 = 1709251200.0 + 5 * 86400.0;
+  std::vector<double> written = {t0 + 86400.0};
+  for (int i = 0; i < 10; ++i) written.push_back(t0 + i);
+  {
+    std::ofstream out(path, std::ios::binary);
+    for (double s : written) {
+      const auto bytes = encode(make_packet(s));
+      out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    }
+  }
+  const std::string ns = "/replay_first_glitch";
+  FieldRecorder recorder(ns);
+  DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=first_glitch"});
+  ASSERT_TRUE(driver.started());
+  const ros::Time last_stamp = gps_stamp(t0 + 9, 9);
+  ASSERT_TRUE(wait_for(
+      [&] {
+        const auto f = recorder.fields();
+        return !f.empty() && f.back().header.stamp >= last_stamp;
+      },
+      30.0))
+      << recorder.count() << " readings; the data after a glitched first packet were not published";
+  ros::WallDuration(0.3).sleep();
+  const auto fields = recorder.fields();
+  std::vector<sensor_msgs::MagneticField> from_t4;
+  for (const auto& f : fields) {
+    EXPECT_LT(f.header.stamp, gps_stamp(t0 + 10, 0)) << "the day-ahead first packet was published";
+    if (f.header.stamp >= gps_stamp(t0 + 4, 0)) from_t4.push_back(f);
+  }
+  ASSERT_EQ(from_t4.size(), 60u);
+  for (std::size_t i = 0; i < from_t4.size(); ++i) {
+    EXPECT_EQ(from_t4[i].header.stamp, gps_stamp(t0 + 4 + static_cast<double>(i / 10), static_cast<int>(i % 10)))
         << "reading " << i;
   }
   ::unlink(path.c_str());

@@ -49,8 +49,9 @@
 //    gap, then another real jump), is dropped and counted: the one case of a lost good packet.
 //    A backwards or repeated second is never held (it cannot push the last stamp ahead): the
 //    rule above drops what is not after the last published reading. The first GPS packet
-//    after start is the reference without confirmation. Held packets are published at the end
-//    of a recording.
+//    after start has no reference: it is held the same way until a later packet confirms it
+//    (so a glitch in the very first packet cannot block the data that follow), at the same cost
+//    of one packet's delay. Held packets are published at the end of a recording.
 //  * PC clock steps (GPS not active): a packet arriving more than 0.5 s off the 1 s prediction
 //    restarts the stamps from the arrival time and is counted in "PC clock steps" (WARN). A
 //    forward step leaves a gap in the stamps and loses nothing; after a backward step of D s the
