@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/errors_in_variables.hpp"
 #include "magnetometer_insitu_calibration/input_error.hpp"
+#include "failed_window_estimate.hpp"
 #include "spectral_tools.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -456,20 +457,6 @@ Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& ja
   return inflate.asDiagonal() * sandwich * inflate.asDiagonal();
 }
 
-WindowEstimate failed(WindowEstimate result, Quality q, const std::string& text) {
-  result.n.setConstant(kNaN);
-  result.n_covariance.setConstant(kNaN);
-  result.trend_nT_per_day.setConstant(kNaN);
-  result.trend_stderr_nT_per_day.setConstant(kNaN);
-  result.parameters = decompose(result.n);
-  result.condition_number = kNaN;
-  result.coherence.setConstant(kNaN);
-  result.residual_rms_nT.setConstant(kNaN);
-  result.quality = q;
-  result.quality_text = text;
-  return result;
-}
-
 }  // namespace
 
 WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& reference_nT,
@@ -574,7 +561,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   if (cells.size() < 8) {
     std::ostringstream text;
     text << "only " << cells.size() << " section harmonics in " << band_low << "-" << band_high << " Hz";
-    return failed(result, Quality::kTooFewSamples, text.str());
+    return detail::failed_window_estimate(result, Quality::kTooFewSamples, text.str());
   }
   // Scale bins: cells in frequency order, groups of at least max(40, 3K) cells.
   {
@@ -590,7 +577,9 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
       1 + std::max_element(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) { return a.bin < b.bin; })->bin);
 
   IrlsResult fit = irls(cells, k_sections, bins, rs, sample_period_s);
-  if (!fit.ok) return failed(result, Quality::kIllConditioned, "weighted A is singular: no signal in the band");
+  if (!fit.ok) {
+    return detail::failed_window_estimate(result, Quality::kIllConditioned, "weighted A is singular: no signal in the band");
+  }
 
   // Step 4: delay, and its removal when significant.
   if (rs.estimate_delay) {
