@@ -157,6 +157,35 @@ Eigen::Vector3d ratio_noise_power(const Eigen::Vector3d& e2, const Eigen::Vector
   return (share / kappa) * e2.cwiseMin(kNoiseCap * scale2);
 }
 
+/// Weighted sums of Eq. 2 over the cells (cell weight w times lambda^gamma g; cells of weight 0
+/// and of section `exclude` left out, -1 for none): A = sum w g Re(x x^H) and
+/// C = sum w g Re(x y^H) (nT^2), and in given mode the reference's expected noise periodogram
+/// N = sum w g E|X_noise|^2 (nT^2, diagonal; zero in the other modes).
+struct NormalEquations {
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d given_noise = Eigen::Matrix3d::Zero();
+};
+
+NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                          const RobustSettings& rs, double sample_period_s, int exclude) {
+  NormalEquations out;
+  NoiseSpectrum given;
+  given.white_nT = rs.reference_white_nT;
+  given.pink_nT_per_sqrt_hz = rs.reference_pink_nT_per_sqrt_hz;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const Cell& cell = cells[i];
+    const double wg = weight[i] * cell.g;
+    if (wg == 0.0 || cell.section == exclude) continue;
+    out.a.noalias() += wg * (cell.x * cell.x.adjoint()).real();
+    out.c.noalias() += wg * (cell.x * cell.y.adjoint()).real();
+    if (rs.eiv == EivCorrection::kGiven) {
+      out.given_noise.diagonal() += wg * given.expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
+    }
+  }
+  return out;
+}
+
 /// n for frozen cell weights: the last step of the IRLS, and each delete-one-section refit of
 /// the jackknife (exclude = that section; -1 for none). Ratio mode iterates the fixed point
 /// n = (A - N(n))^-1 C, N(n) = sum w g ratio_noise_power(|e(n)|^2), to convergence from
@@ -176,20 +205,10 @@ FrozenSolve solve_frozen(const std::vector<Cell>& cells, const std::vector<doubl
                          int exclude, const Eigen::Matrix3d& n_start) {
   FrozenSolve out;
   const double share = reference_share_of_residual(rs.eiv_noise_ratio);
-  NoiseSpectrum given;
-  given.white_nT = rs.reference_white_nT;
-  given.pink_nT_per_sqrt_hz = rs.reference_pink_nT_per_sqrt_hz;
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero(), c = Eigen::Matrix3d::Zero(), given_noise = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    const Cell& cell = cells[i];
-    const double wg = weight[i] * cell.g;
-    if (wg == 0.0 || cell.section == exclude) continue;
-    a.noalias() += wg * (cell.x * cell.x.adjoint()).real();
-    c.noalias() += wg * (cell.x * cell.y.adjoint()).real();
-    if (rs.eiv == EivCorrection::kGiven) {
-      given_noise.diagonal() += wg * given.expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
-    }
-  }
+  const NormalEquations sums = weighted_normal_equations(cells, weight, rs, sample_period_s, exclude);
+  const Eigen::Matrix3d& a = sums.a;
+  const Eigen::Matrix3d& c = sums.c;
+  const Eigen::Matrix3d& given_noise = sums.given_noise;
   Eigen::MatrixXd solution, inverse;
   const Eigen::MatrixXd a_dyn = a, c_dyn = c;
   if (!corrected_solve(a_dyn, Eigen::Matrix3d::Zero(), c_dyn, solution, &inverse)) return out;
@@ -297,24 +316,19 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   out.scale2.assign(bins, Eigen::Vector3d::Ones());
   std::vector<double> cell_weight(m, 1.0);
   const double share = reference_share_of_residual(rs.eiv_noise_ratio);
-  NoiseSpectrum given;
-  given.white_nT = rs.reference_white_nT;
-  given.pink_nT_per_sqrt_hz = rs.reference_pink_nT_per_sqrt_hz;
   bool have_scale = false;
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);
   std::vector<double> r2(m, 0.0);
   std::vector<Eigen::Vector3d> noise_power(m, Eigen::Vector3d::Zero());  // ratio mode, per cell
   for (int it = 0; it < rs.iterations; ++it) {
-    Eigen::Matrix3d a = Eigen::Matrix3d::Zero(), c = Eigen::Matrix3d::Zero(), noise = Eigen::Matrix3d::Zero();
-    for (std::size_t i = 0; i < m; ++i) {
-      const Cell& cell = cells[i];
-      const double wg = out.weight[i] * cell.g;
-      if (wg == 0.0) continue;
-      a.noalias() += wg * (cell.x * cell.x.adjoint()).real();
-      c.noalias() += wg * (cell.x * cell.y.adjoint()).real();
-      if (rs.eiv == EivCorrection::kGiven) {
-        noise.diagonal() += wg * given.expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
-      } else if (rs.eiv == EivCorrection::kNoiseRatio && have_scale) {
+    const NormalEquations sums = weighted_normal_equations(cells, out.weight, rs, sample_period_s, -1);
+    const Eigen::Matrix3d& a = sums.a;
+    const Eigen::Matrix3d& c = sums.c;
+    Eigen::Matrix3d noise = sums.given_noise;  // given mode; zero otherwise
+    if (rs.eiv == EivCorrection::kNoiseRatio && have_scale) {
+      for (std::size_t i = 0; i < m; ++i) {
+        const double wg = out.weight[i] * cells[i].g;
+        if (wg == 0.0) continue;
         noise.diagonal() += wg * noise_power[i];
       }
     }
