@@ -35,6 +35,7 @@
 //                                 are dropped and counted, nothing goes backwards), then forward
 //                                 100 s (a gap in the stamps, nothing dropped); both steps counted
 #include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "driver_test_support.hpp"
 #include "pty_link.hpp"
 
 #include <rosgraph_msgs/Clock.h>
@@ -71,19 +72,10 @@ const char* const kInvalid = "readings published as NaN (invalid)";
 const char* const kUnconfirmed = "packets dropped (isolated GPS time jump)";
 const char* const kConfirmed = "GPS time jumps confirmed";
 
-std::string param(const std::string& name, const std::string& fallback = "") {
-  std::string value;
-  return ros::param::get("~" + name, value) ? value : fallback;
-}
-
-bool wait_for(const std::function<bool()>& done, double timeout_s) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    if (done()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  return done();
-}
+using mic::test::encode;
+using mic::test::gps_stamp;
+using mic::test::param;
+using mic::test::wait_for;
 
 mic::Lemi025Packet make_packet(double gps_s) {
   mic::Lemi025Packet p;
@@ -103,27 +95,19 @@ mic::Lemi025Packet make_packet(double gps_s) {
   return p;
 }
 
-std::vector<std::uint8_t> encode(const mic::Lemi025Packet& p) {
-  const auto b = mic::encode_lemi025_packet(p, mic::ChecksumMode::kSum8);
-  return std::vector<std::uint8_t>(b.begin(), b.end());
-}
 std::vector<std::uint8_t> encode(double gps_s) { return encode(make_packet(gps_s)); }
 
 void append(std::vector<std::uint8_t>& to, const std::vector<std::uint8_t>& bytes) {
   to.insert(to.end(), bytes.begin(), bytes.end());
 }
 
-ros::Time gps_stamp(double gps_s, int k) {
-  return ros::Time(static_cast<std::uint32_t>(gps_s)) + ros::Duration(-0.3 + 0.1 * k);
-}
-
-class Inbox {
+/// What the driver publishes: its readings, and (DriverDiagnostics) its diagnostics.
+class Inbox : public mic::test::DriverDiagnostics {
  public:
-  Inbox() {
+  Inbox() : DriverDiagnostics(param("driver_node_name", "faults/lemi_driver")) {
     ros::NodeHandle nh;
     const std::string ns = param("driver_namespace", "/faults");
     fields_sub_ = nh.subscribe(ns + "/magnetic_field", 10000, &Inbox::on_field, this);
-    diagnostics_sub_ = nh.subscribe("/diagnostics", 1000, &Inbox::on_diagnostics, this);
   }
   bool connected() const { return fields_sub_.getNumPublishers() > 0; }
   std::size_t count() {
@@ -134,77 +118,16 @@ class Inbox {
     std::lock_guard<std::mutex> lock(mutex_);
     return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
   }
-  bool status(const std::string& task, diagnostic_msgs::DiagnosticStatus& out) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = statuses_.find(task);
-    if (it == statuses_.end()) return false;
-    out = it->second;
-    return true;
-  }
-  std::string value(const std::string& task, const std::string& key) {
-    diagnostic_msgs::DiagnosticStatus s;
-    if (!status(task, s)) return "";
-    for (const auto& kv : s.values)
-      if (kv.key == key) return kv.value;
-    return "";
-  }
-  long long counter(const std::string& task, const std::string& key) {
-    const std::string text = value(task, key);
-    return text.empty() ? -1 : std::stoll(text);
-  }
-  long long wait_counter(const std::string& task, const std::string& key, long long target, double timeout_s = 5.0) {
-    long long seen = -1;
-    wait_for([&] { return (seen = counter(task, key)) >= target; }, timeout_s);
-    return seen;
-  }
-  /// Every status of `task` received so far, oldest first (a WARN lasts one diagnostics period).
-  std::size_t history_size() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return history_.size();
-  }
-  bool any_since(std::size_t mark, const std::string& task, std::uint8_t level, const std::string& text) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = mark; i < history_.size(); ++i) {
-      const auto& h = history_[i];
-      if (h.first == task && h.second.level == level && h.second.message.find(text) != std::string::npos) return true;
-    }
-    return false;
-  }
-  /// Waits for a diagnostics message newer than now (so counters reflect what was just sent).
-  void fresh() {
-    const std::size_t n0 = diagnostics_seen();
-    wait_for([&] { return diagnostics_seen() >= n0 + 2; }, 3.0);
-  }
 
  private:
-  std::size_t diagnostics_seen() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return diagnostics_seen_;
-  }
   void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     fields_.push_back(*m);
   }
-  void on_diagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
-    const std::string prefix = param("driver_node_name", "faults/lemi_driver") + ": ";
-    std::lock_guard<std::mutex> lock(mutex_);
-    bool ours = false;
-    for (const auto& s : m->status) {
-      if (s.name.compare(0, prefix.size(), prefix) == 0) {
-        statuses_[s.name.substr(prefix.size())] = s;
-        history_.emplace_back(s.name.substr(prefix.size()), s);
-        ours = true;
-      }
-    }
-    if (ours) ++diagnostics_seen_;
-  }
 
   std::mutex mutex_;
   std::vector<sensor_msgs::MagneticField> fields_;
-  std::map<std::string, diagnostic_msgs::DiagnosticStatus> statuses_;
-  std::vector<std::pair<std::string, diagnostic_msgs::DiagnosticStatus>> history_;
-  std::size_t diagnostics_seen_ = 0;
-  ros::Subscriber fields_sub_, diagnostics_sub_;
+  ros::Subscriber fields_sub_;
 };
 
 mic::test::PtyLink* g_port = nullptr;

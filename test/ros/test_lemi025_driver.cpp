@@ -26,8 +26,9 @@
 // parameters and checks the exit code and the fatal message naming the parameter.
 // SimulatedStation.* (test_simulated_station.cpp) runs from test_simulated_station.test.
 #include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "pty_link.hpp"
 #include "magnetometer_insitu_calibration/lemi_archive.hpp"
+#include "driver_test_support.hpp"
+#include "pty_link.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
@@ -63,19 +64,10 @@ constexpr double kNanotesla = 1e-9;  // T
 constexpr double kT0 = 1709251200.0;  // 2024-03-01T00:00:00Z: GPS time of the first packet
 const Eigen::Vector3d kBias_nT(21500.0, 502.5, 43000.0);  // multiples of 2.5 nT
 
-std::string param(const std::string& name, const std::string& fallback = "") {
-  std::string value;
-  return ros::param::get("~" + name, value) ? value : fallback;
-}
-
-bool wait_for(const std::function<bool()>& done, double timeout_s) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    if (done()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  return done();
-}
+using mic::test::encode;
+using mic::test::gps_stamp;
+using mic::test::param;
+using mic::test::wait_for;
 
 // ---- Packets ------------------------------------------------------------------------------------
 
@@ -100,27 +92,17 @@ mic::Lemi025Packet make_packet(double gps_s, char gps_status = 'A') {
   return p;
 }
 
-std::vector<std::uint8_t> encode(const mic::Lemi025Packet& p) {
-  const auto bytes = mic::encode_lemi025_packet(p, mic::ChecksumMode::kSum8);
-  return std::vector<std::uint8_t>(bytes.begin(), bytes.end());
-}
-
-/// Exact stamp of reading k of the packet of GPS second gps_s: t_gps - 0.3 + 0.1 k.
-ros::Time gps_stamp(double gps_s, int k) {
-  return ros::Time(static_cast<std::uint32_t>(gps_s)) + ros::Duration(-0.3 + 0.1 * k);
-}
-
 // ---- What the driver publishes -----------------------------------------------------------------
 
-class Inbox {
+/// Readings and temperatures; diagnostics from DriverDiagnostics.
+class Inbox : public mic::test::DriverDiagnostics {
  public:
-  Inbox() {
+  Inbox() : DriverDiagnostics(param("driver_node_name", "lemi_driver")) {
     ros::NodeHandle nh;
     const std::string ns = param("driver_namespace", "/lemi");
     fields_sub_ = nh.subscribe(ns + "/magnetic_field", 10000, &Inbox::on_field, this);
     sensor_sub_ = nh.subscribe(ns + "/temperature/sensor", 1000, &Inbox::on_sensor, this);
     electronics_sub_ = nh.subscribe(ns + "/temperature/electronics", 1000, &Inbox::on_electronics, this);
-    diagnostics_sub_ = nh.subscribe("/diagnostics", 1000, &Inbox::on_diagnostics, this);
   }
 
   bool connected() const {
@@ -150,33 +132,6 @@ class Inbox {
                                                  electronics_.end());
   }
 
-  /// The newest status of the driver's task ("packet rate", "link", "instrument"), if any.
-  bool status(const std::string& task, diagnostic_msgs::DiagnosticStatus& out) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = statuses_.find(task);
-    if (it == statuses_.end()) return false;
-    out = it->second;
-    return true;
-  }
-  /// A value of the newest status of `task`, "" if absent.
-  std::string value(const std::string& task, const std::string& key) {
-    diagnostic_msgs::DiagnosticStatus s;
-    if (!status(task, s)) return "";
-    for (const auto& kv : s.values)
-      if (kv.key == key) return kv.value;
-    return "";
-  }
-  long long counter(const std::string& task, const std::string& key) {
-    const std::string text = value(task, key);
-    return text.empty() ? -1 : std::stoll(text);
-  }
-  /// Waits until the counter reaches at least `target`; returns the last value seen.
-  long long wait_counter(const std::string& task, const std::string& key, long long target, double timeout_s = 5.0) {
-    long long seen = -1;
-    wait_for([&] { return (seen = counter(task, key)) >= target; }, timeout_s);
-    return seen;
-  }
-
  private:
   void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -190,19 +145,11 @@ class Inbox {
     std::lock_guard<std::mutex> lock(mutex_);
     electronics_.push_back(*m);
   }
-  void on_diagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
-    const std::string prefix = param("driver_node_name", "lemi_driver") + ": ";
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (const auto& s : m->status) {
-      if (s.name.compare(0, prefix.size(), prefix) == 0) statuses_[s.name.substr(prefix.size())] = s;
-    }
-  }
 
   std::mutex mutex_;
   std::vector<sensor_msgs::MagneticField> fields_;
   std::vector<sensor_msgs::Temperature> sensor_, electronics_;
-  std::map<std::string, diagnostic_msgs::DiagnosticStatus> statuses_;
-  ros::Subscriber fields_sub_, sensor_sub_, electronics_sub_, diagnostics_sub_;
+  ros::Subscriber fields_sub_, sensor_sub_, electronics_sub_;
 };
 
 // One pty and one inbox for the whole run (the driver of the .test file keeps running).
