@@ -186,6 +186,47 @@ NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const 
   return out;
 }
 
+/// n = (A - N)^-1 C from the weighted sums and the inverse of A - N (N = 0: Eq. 2 itself, n in
+/// test nT per reference nT); false when A - N is singular (errors_in_variables.hpp).
+bool solve_corrected(const NormalEquations& sums, const Eigen::Matrix3d& noise, Eigen::Matrix3d& n,
+                     Eigen::Matrix3d& a_inverse) {
+  Eigen::MatrixXd solution, inverse;
+  const Eigen::MatrixXd a_dyn = sums.a, c_dyn = sums.c;
+  if (!corrected_solve(a_dyn, noise, c_dyn, solution, &inverse)) return false;
+  n = solution;
+  a_inverse = inverse;
+  return true;
+}
+
+/// Eq. 2 with the weights, n = A^-1 C, then, where the reference noise N (nT^2) has power,
+/// corrected for it: n = (A - N)^-1 C. ok is false when A is singular; without N, or when
+/// A - N is singular, eiv_applied is false and n, a_inverse are Eq. 2's.
+struct WeightedSolution {
+  bool ok = false;
+  bool eiv_applied = false;
+  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d a_inverse_uncorrected = Eigen::Matrix3d::Zero();  ///< of A
+  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();              ///< of the (corrected) A
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();                  ///< N applied, zero if none
+};
+
+WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise) {
+  WeightedSolution out;
+  if (!solve_corrected(sums, Eigen::Matrix3d::Zero(), out.n_uncorrected, out.a_inverse_uncorrected)) return out;
+  out.ok = true;
+  out.n = out.n_uncorrected;
+  out.a_inverse = out.a_inverse_uncorrected;
+  Eigen::Matrix3d corrected, corrected_inverse;
+  if (noise.diagonal().sum() > 0.0 && solve_corrected(sums, noise, corrected, corrected_inverse)) {
+    out.n = corrected;
+    out.a_inverse = corrected_inverse;
+    out.noise = noise;
+    out.eiv_applied = true;
+  }
+  return out;
+}
+
 /// n for frozen cell weights: the last step of the IRLS, and each delete-one-section refit of
 /// the jackknife (exclude = that section; -1 for none). Ratio mode iterates the fixed point
 /// n = (A - N(n))^-1 C, N(n) = sum w g ratio_noise_power(|e(n)|^2), to convergence from
@@ -206,28 +247,17 @@ FrozenSolve solve_frozen(const std::vector<Cell>& cells, const std::vector<doubl
   FrozenSolve out;
   const double share = reference_share_of_residual(rs.eiv_noise_ratio);
   const NormalEquations sums = weighted_normal_equations(cells, weight, rs, sample_period_s, exclude);
-  const Eigen::Matrix3d& a = sums.a;
-  const Eigen::Matrix3d& c = sums.c;
-  const Eigen::Matrix3d& given_noise = sums.given_noise;
-  Eigen::MatrixXd solution, inverse;
-  const Eigen::MatrixXd a_dyn = a, c_dyn = c;
-  if (!corrected_solve(a_dyn, Eigen::Matrix3d::Zero(), c_dyn, solution, &inverse)) return out;
+  // None and given mode are one solve; ratio mode starts from Eq. 2's n (N = 0 here).
+  const WeightedSolution first = solve_weighted(sums, sums.given_noise);
+  if (!first.ok) return out;
   out.ok = true;
-  out.a = a;
-  out.n_uncorrected = solution;
-  out.n = solution;
-  out.a_inverse = inverse;
-  if (rs.eiv == EivCorrection::kNone) return out;
-  if (rs.eiv == EivCorrection::kGiven) {
-    Eigen::MatrixXd corrected, corrected_inverse;
-    if (given_noise.diagonal().sum() > 0.0 && corrected_solve(a_dyn, given_noise, c_dyn, corrected, &corrected_inverse)) {
-      out.n = corrected;
-      out.a_inverse = corrected_inverse;
-      out.noise = given_noise;
-      out.eiv_applied = true;
-    }
-    return out;
-  }
+  out.a = sums.a;
+  out.n_uncorrected = first.n_uncorrected;
+  out.n = first.n;
+  out.a_inverse = first.a_inverse;
+  out.noise = first.noise;
+  out.eiv_applied = first.eiv_applied;
+  if (rs.eiv != EivCorrection::kNoiseRatio) return out;
   Eigen::Matrix3d n = n_start.allFinite() ? n_start : out.n_uncorrected;
   for (int it = 0; it < 100; ++it) {
     Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();
@@ -238,15 +268,15 @@ FrozenSolve solve_frozen(const std::vector<Cell>& cells, const std::vector<doubl
       const Eigen::Vector3d e2 = (cell.y - n.transpose() * cell.x).cwiseAbs2();
       noise.diagonal() += wg * ratio_noise_power(e2, scale2[static_cast<std::size_t>(cell.bin)], share);
     }
-    Eigen::MatrixXd corrected, corrected_inverse;
-    if (!(noise.diagonal().sum() > 0.0) || !corrected_solve(a_dyn, noise, c_dyn, corrected, &corrected_inverse)) {
+    Eigen::Matrix3d corrected, corrected_inverse;
+    if (!(noise.diagonal().sum() > 0.0) || !solve_corrected(sums, noise, corrected, corrected_inverse)) {
       out.n = out.n_uncorrected;
-      out.a_inverse = inverse;
+      out.a_inverse = first.a_inverse_uncorrected;
       out.noise.setZero();
       out.eiv_applied = false;
       return out;
     }
-    const bool converged = (Eigen::Matrix3d(corrected) - n).cwiseAbs().maxCoeff() < 1e-12;
+    const bool converged = (corrected - n).cwiseAbs().maxCoeff() < 1e-12;
     n = corrected;
     out.n = n;
     out.a_inverse = corrected_inverse;
@@ -322,8 +352,6 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   std::vector<Eigen::Vector3d> noise_power(m, Eigen::Vector3d::Zero());  // ratio mode, per cell
   for (int it = 0; it < rs.iterations; ++it) {
     const NormalEquations sums = weighted_normal_equations(cells, out.weight, rs, sample_period_s, -1);
-    const Eigen::Matrix3d& a = sums.a;
-    const Eigen::Matrix3d& c = sums.c;
     Eigen::Matrix3d noise = sums.given_noise;  // given mode; zero otherwise
     if (rs.eiv == EivCorrection::kNoiseRatio && have_scale) {
       for (std::size_t i = 0; i < m; ++i) {
@@ -332,24 +360,15 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
         noise.diagonal() += wg * noise_power[i];
       }
     }
-    Eigen::MatrixXd solution, a_inverse;
-    const Eigen::MatrixXd a_dyn = a, c_dyn = c;
-    if (!corrected_solve(a_dyn, Eigen::Matrix3d::Zero(), c_dyn, solution, &a_inverse)) return out;
-    out.n_uncorrected = solution;
-    out.a = a;
-    out.a_inverse = a_inverse;
-    out.n = solution;
-    out.eiv_applied = false;
-    out.eiv_noise.setZero();
-    if (rs.eiv != EivCorrection::kNone && noise.diagonal().sum() > 0.0) {
-      Eigen::MatrixXd corrected, corrected_inverse;
-      if (corrected_solve(a_dyn, noise, c_dyn, corrected, &corrected_inverse)) {
-        out.n = corrected;
-        out.a_inverse = corrected_inverse;
-        out.eiv_applied = true;
-        out.eiv_noise = noise;
-      }
-    }
+    // N is zero in none mode (and in ratio mode before the first scale): Eq. 2 with the weights.
+    const WeightedSolution solved = solve_weighted(sums, noise);
+    if (!solved.ok) return out;
+    out.n_uncorrected = solved.n_uncorrected;
+    out.a = sums.a;
+    out.a_inverse = solved.a_inverse;
+    out.n = solved.n;
+    out.eiv_applied = solved.eiv_applied;
+    out.eiv_noise = solved.noise;
     out.ok = true;
     out.iterations = it + 1;
     // Residuals, frequency-resolved robust scale, new weights.
