@@ -148,4 +148,15 @@ inline void check_record(const magnetometer_insitu_calibration::VectorRecord& re
   }
 }
 
+/// The invariants of a record read from a text format (IAGA-2002, CSV): those of check_record,
+/// at least one row (a file without data is an InputError), and every value below the 88888 nT
+/// missing-data sentinel (the readers turn sentinels into NaN).
+inline void check_text_record(const magnetometer_insitu_calibration::VectorRecord& record) {
+  check_record(record);
+  FUZZ_CHECK(!record.empty(), "no data but no InputError");
+  for (Eigen::Index r = 0; r < record.values_nT.rows(); ++r)
+    for (int c = 0; c < 3; ++c)
+      FUZZ_CHECK(!(record.values_nT(r, c) >= 88888.0), "sentinel value not turned into NaN");
+}
+
 }  // namespace mic_fuzz

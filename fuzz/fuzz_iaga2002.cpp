@@ -14,12 +14,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   mic_fuzz::InputFile& file = mic_fuzz::input_file();
   file.set(data, size);
   try {
-    const VectorRecord record = read_iaga2002(file.path());
-    mic_fuzz::check_record(record);
-    FUZZ_CHECK(!record.empty(), "no data but no InputError");
-    for (Eigen::Index r = 0; r < record.values_nT.rows(); ++r)
-      for (int c = 0; c < 3; ++c)
-        FUZZ_CHECK(!(record.values_nT(r, c) >= 88888.0), "sentinel value not turned into NaN");
+    mic_fuzz::check_text_record(read_iaga2002(file.path()));
   } catch (const InputError&) {
   } catch (...) {
     mic_fuzz::unexpected_exception(__FILE__, __LINE__);
