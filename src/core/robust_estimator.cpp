@@ -132,14 +132,23 @@ struct Cell {
   Eigen::Vector3cd x, y;
 };
 
-struct IrlsResult {
+/// n from the weighted sums (solve_weighted, solve_frozen): Eq. 2, n = A^-1 C, or, where the
+/// reference noise N (nT^2) has power, corrected for it: n = (A - N)^-1 C. ok is false when A
+/// is singular; without N, or when A - N is singular, eiv_applied is false and n, a_inverse
+/// are Eq. 2's.
+struct WeightedSolution {
   bool ok = false;
-  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();          ///< weighted, uncorrected
-  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();  ///< of the (corrected) A
-  Eigen::Matrix3d eiv_noise = Eigen::Matrix3d::Zero();
   bool eiv_applied = false;
+  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();                      ///< weighted, uncorrected
+  Eigen::Matrix3d a_inverse_uncorrected = Eigen::Matrix3d::Zero();  ///< of A
+  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();              ///< of the (corrected) A
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();                  ///< N applied, zero if none
+};
+
+/// The IRLS: the solution with its last weights, and those weights.
+struct IrlsResult : WeightedSolution {
   std::vector<double> weight;          ///< per cell (cell x section)
   std::vector<double> section_weight;
   std::vector<Eigen::Vector3d> scale2; ///< per bin, sigma_l^2
@@ -198,23 +207,11 @@ bool solve_corrected(const NormalEquations& sums, const Eigen::Matrix3d& noise, 
   return true;
 }
 
-/// Eq. 2 with the weights, n = A^-1 C, then, where the reference noise N (nT^2) has power,
-/// corrected for it: n = (A - N)^-1 C. ok is false when A is singular; without N, or when
-/// A - N is singular, eiv_applied is false and n, a_inverse are Eq. 2's.
-struct WeightedSolution {
-  bool ok = false;
-  bool eiv_applied = false;
-  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d a_inverse_uncorrected = Eigen::Matrix3d::Zero();  ///< of A
-  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();              ///< of the (corrected) A
-  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();                  ///< N applied, zero if none
-};
-
 WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise) {
   WeightedSolution out;
   if (!solve_corrected(sums, Eigen::Matrix3d::Zero(), out.n_uncorrected, out.a_inverse_uncorrected)) return out;
   out.ok = true;
+  out.a = sums.a;
   out.n = out.n_uncorrected;
   out.a_inverse = out.a_inverse_uncorrected;
   Eigen::Matrix3d corrected, corrected_inverse;
@@ -231,33 +228,14 @@ WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix
 /// the jackknife (exclude = that section; -1 for none). Ratio mode iterates the fixed point
 /// n = (A - N(n))^-1 C, N(n) = sum w g ratio_noise_power(|e(n)|^2), to convergence from
 /// n_start; given mode subtracts its known N; none solves Eq. 2 with the weights.
-struct FrozenSolve {
-  bool ok = false;
-  bool eiv_applied = false;
-  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();          ///< weighted, uncorrected
-  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();  ///< of the (corrected) A
-  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();
-};
-
-FrozenSolve solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                         const std::vector<Eigen::Vector3d>& scale2, const RobustSettings& rs, double sample_period_s,
-                         int exclude, const Eigen::Matrix3d& n_start) {
-  FrozenSolve out;
+WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                              const std::vector<Eigen::Vector3d>& scale2, const RobustSettings& rs,
+                              double sample_period_s, int exclude, const Eigen::Matrix3d& n_start) {
   const double share = reference_share_of_residual(rs.eiv_noise_ratio);
   const NormalEquations sums = weighted_normal_equations(cells, weight, rs, sample_period_s, exclude);
   // None and given mode are one solve; ratio mode starts from Eq. 2's n (N = 0 here).
-  const WeightedSolution first = solve_weighted(sums, sums.given_noise);
-  if (!first.ok) return out;
-  out.ok = true;
-  out.a = sums.a;
-  out.n_uncorrected = first.n_uncorrected;
-  out.n = first.n;
-  out.a_inverse = first.a_inverse;
-  out.noise = first.noise;
-  out.eiv_applied = first.eiv_applied;
-  if (rs.eiv != EivCorrection::kNoiseRatio) return out;
+  WeightedSolution out = solve_weighted(sums, sums.given_noise);
+  if (!out.ok || rs.eiv != EivCorrection::kNoiseRatio) return out;
   Eigen::Matrix3d n = n_start.allFinite() ? n_start : out.n_uncorrected;
   for (int it = 0; it < 100; ++it) {
     Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();
@@ -271,7 +249,7 @@ FrozenSolve solve_frozen(const std::vector<Cell>& cells, const std::vector<doubl
     Eigen::Matrix3d corrected, corrected_inverse;
     if (!(noise.diagonal().sum() > 0.0) || !solve_corrected(sums, noise, corrected, corrected_inverse)) {
       out.n = out.n_uncorrected;
-      out.a_inverse = first.a_inverse_uncorrected;
+      out.a_inverse = out.a_inverse_uncorrected;
       out.noise.setZero();
       out.eiv_applied = false;
       return out;
@@ -363,13 +341,7 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
     // N is zero in none mode (and in ratio mode before the first scale): Eq. 2 with the weights.
     const WeightedSolution solved = solve_weighted(sums, noise);
     if (!solved.ok) return out;
-    out.n_uncorrected = solved.n_uncorrected;
-    out.a = sums.a;
-    out.a_inverse = solved.a_inverse;
-    out.n = solved.n;
-    out.eiv_applied = solved.eiv_applied;
-    out.eiv_noise = solved.noise;
-    out.ok = true;
+    static_cast<WeightedSolution&>(out) = solved;  // n, A and the correction; the weights stay
     out.iterations = it + 1;
     // Residuals, frequency-resolved robust scale, new weights.
     std::vector<std::vector<double>> per_bin(bins * 3);
@@ -439,7 +411,7 @@ JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResu
   std::vector<Eigen::Matrix<double, 9, 1>> leave_out;
   for (std::size_t s = 0; s < k_sections; ++s) {
     if (!(section_weight[s] > 0.0)) continue;  // a rejected section: deleting it changes nothing
-    const FrozenSolve f = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, static_cast<int>(s), fit.n);
+    const WeightedSolution f = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, static_cast<int>(s), fit.n);
     if (!f.ok) return out;  // one section held the whole signal of a direction: no jackknife
     Eigen::Matrix<double, 9, 1> v;
     for (int k = 0; k < 9; ++k) v(k) = f.n(k / 3, k % 3);
@@ -645,18 +617,11 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   // iterated to convergence), so that n, the sandwich and the jackknife below all belong to the
   // same weighted estimating equation.
   {
-    const FrozenSolve last = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, -1, fit.n);
-    if (last.ok) {
-      fit.n = last.n;
-      fit.n_uncorrected = last.n_uncorrected;
-      fit.a = last.a;
-      fit.a_inverse = last.a_inverse;
-      fit.eiv_noise = last.noise;
-      fit.eiv_applied = last.eiv_applied;
-    }
+    const WeightedSolution last = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, -1, fit.n);
+    if (last.ok) static_cast<WeightedSolution&>(fit) = last;
   }
   diagnostics_.eiv_applied = fit.eiv_applied;
-  diagnostics_.eiv_noise = fit.eiv_noise;
+  diagnostics_.eiv_noise = fit.noise;
   diagnostics_.n_uncorrected = fit.n_uncorrected;
 
   // Step 6a: sandwich covariance with the final weights.
