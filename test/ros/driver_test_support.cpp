@@ -1,6 +1,8 @@
 // Helpers of the lemi025_driver rostests: see driver_test_support.hpp.
 #include "driver_test_support.hpp"
 
+#include <gtest/gtest.h>
+
 namespace magnetometer_insitu_calibration {
 namespace test {
 
@@ -25,6 +27,44 @@ std::vector<std::uint8_t> encode(const Lemi025Packet& p) {
 
 ros::Time gps_stamp(double gps_s, int k) {
   return ros::Time(static_cast<std::uint32_t>(gps_s)) + ros::Duration(-0.3 + 0.1 * k);
+}
+
+FieldInbox::FieldInbox(const std::string& driver_namespace) {
+  ros::NodeHandle nh;
+  fields_sub_ = nh.subscribe(driver_namespace + "/magnetic_field", 10000, &FieldInbox::on_field, this);
+}
+
+std::size_t FieldInbox::field_count() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return fields_.size();
+}
+
+std::vector<sensor_msgs::MagneticField> FieldInbox::fields_from(std::size_t first) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
+}
+
+std::vector<sensor_msgs::MagneticField> FieldInbox::write_and_collect(PtyLink& port,
+                                                                      const std::vector<std::uint8_t>& bytes,
+                                                                      std::size_t expected) {
+  const std::size_t before = field_count();
+  port.write(bytes);
+  EXPECT_TRUE(wait_for([&] { return field_count() >= before + expected; }, 10.0))
+      << "got " << field_count() - before << " of " << expected << " readings";
+  ros::WallDuration(0.3).sleep();  // nothing more may come
+  return fields_from(before);
+}
+
+void FieldInbox::expect_all_stamps_increasing() {
+  const auto all = all_fields();
+  for (std::size_t i = 1; i < all.size(); ++i) {
+    ASSERT_GT(all[i].header.stamp, all[i - 1].header.stamp) << "message " << i << " goes backwards";
+  }
+}
+
+void FieldInbox::on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  fields_.push_back(*m);
 }
 
 DriverDiagnostics::DriverDiagnostics(const std::string& driver_node) : prefix_(driver_node + ": ") {
@@ -96,6 +136,12 @@ void DriverDiagnostics::on_diagnostics(const diagnostic_msgs::DiagnosticArray::C
     }
   }
   if (ours) ++diagnostics_seen_;
+}
+
+void assert_driver_on_pty(const std::function<bool()>& topics_connected, DriverDiagnostics& diagnostics) {
+  ASSERT_TRUE(wait_for(topics_connected, 20.0)) << "driver topics not connected";
+  ASSERT_TRUE(wait_for([&] { return diagnostics.value("link", "connected") == "True"; }, 20.0))
+      << "driver not connected to the pty: " << diagnostics.value("link", "last warning");
 }
 
 }  // namespace test

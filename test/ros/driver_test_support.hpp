@@ -1,13 +1,16 @@
 // Helpers shared by the lemi025_driver rostests (test_lemi025_driver, test_faults_driver): the
 // test node's private parameters, waiting on a condition, a packet's bytes, the exact stamps the
-// driver gives a packet's readings, and what the driver reports on /diagnostics.
+// driver gives a packet's readings, the readings it publishes and what it reports on
+// /diagnostics.
 #pragma once
 
 #include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "pty_link.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <diagnostic_msgs/DiagnosticStatus.h>
 #include <ros/ros.h>
+#include <sensor_msgs/MagneticField.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -33,6 +36,33 @@ std::vector<std::uint8_t> encode(const Lemi025Packet& p);
 
 /// Exact stamp of reading k (0..9) of the packet of GPS second gps_s (s): t_gps - 0.3 + 0.1 k s.
 ros::Time gps_stamp(double gps_s, int k);
+
+/// The readings the driver publishes on <driver_namespace>/magnetic_field, in order of arrival.
+class FieldInbox {
+ public:
+  explicit FieldInbox(const std::string& driver_namespace);
+  FieldInbox(const FieldInbox&) = delete;
+  FieldInbox& operator=(const FieldInbox&) = delete;
+
+  /// Whether the driver's field topic has a publisher.
+  bool fields_connected() const { return fields_sub_.getNumPublishers() > 0; }
+  std::size_t field_count();
+  std::vector<sensor_msgs::MagneticField> fields_from(std::size_t first);
+  std::vector<sensor_msgs::MagneticField> all_fields() { return fields_from(0); }
+  /// Writes `bytes` into the pty, waits (up to 10 s) for `expected` more readings (a gtest
+  /// failure when they do not come), then 0.3 s for anything extra; returns what came.
+  std::vector<sensor_msgs::MagneticField> write_and_collect(PtyLink& port, const std::vector<std::uint8_t>& bytes,
+                                                            std::size_t expected);
+  /// A gtest failure at the first reading whose stamp is not after the one before.
+  void expect_all_stamps_increasing();
+
+ private:
+  void on_field(const sensor_msgs::MagneticField::ConstPtr& m);
+
+  std::mutex mutex_;
+  std::vector<sensor_msgs::MagneticField> fields_;
+  ros::Subscriber fields_sub_;
+};
 
 /// What one driver node reports on /diagnostics: the newest status of each of its tasks
 /// ("packet rate", "link", "instrument") and every status in order of arrival.
@@ -71,6 +101,11 @@ class DriverDiagnostics {
   std::size_t diagnostics_seen_ = 0;  ///< messages that held a status of the driver
   ros::Subscriber subscriber_;
 };
+
+/// Fixture set-up of the tests of the driver started by the .test file: a fatal gtest failure
+/// unless `topics_connected` holds within 20 s and then the driver's link reports the pty
+/// connected within 20 s.
+void assert_driver_on_pty(const std::function<bool()>& topics_connected, DriverDiagnostics& diagnostics);
 
 }  // namespace test
 }  // namespace magnetometer_insitu_calibration

@@ -101,33 +101,13 @@ void append(std::vector<std::uint8_t>& to, const std::vector<std::uint8_t>& byte
   to.insert(to.end(), bytes.begin(), bytes.end());
 }
 
-/// What the driver publishes: its readings, and (DriverDiagnostics) its diagnostics.
-class Inbox : public mic::test::DriverDiagnostics {
+/// What the driver publishes: its readings (FieldInbox) and its diagnostics (DriverDiagnostics).
+class Inbox : public mic::test::FieldInbox, public mic::test::DriverDiagnostics {
  public:
-  Inbox() : DriverDiagnostics(param("driver_node_name", "faults/lemi_driver")) {
-    ros::NodeHandle nh;
-    const std::string ns = param("driver_namespace", "/faults");
-    fields_sub_ = nh.subscribe(ns + "/magnetic_field", 10000, &Inbox::on_field, this);
-  }
-  bool connected() const { return fields_sub_.getNumPublishers() > 0; }
-  std::size_t count() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_.size();
-  }
-  std::vector<sensor_msgs::MagneticField> from(std::size_t first) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
-  }
-
- private:
-  void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    fields_.push_back(*m);
-  }
-
-  std::mutex mutex_;
-  std::vector<sensor_msgs::MagneticField> fields_;
-  ros::Subscriber fields_sub_;
+  Inbox()
+      : FieldInbox(param("driver_namespace", "/faults")),
+        DriverDiagnostics(param("driver_node_name", "faults/lemi_driver")) {}
+  bool connected() const { return fields_connected(); }
 };
 
 mic::test::PtyLink* g_port = nullptr;
@@ -137,9 +117,7 @@ class DriverFaults : public testing::Test {
  protected:
   void SetUp() override {
     ASSERT_NE(g_port, nullptr);
-    ASSERT_TRUE(wait_for([] { return g_inbox->connected(); }, 20.0)) << "driver topic not connected";
-    ASSERT_TRUE(wait_for([] { return g_inbox->value("link", "connected") == "True"; }, 20.0))
-        << "driver not connected to the pty: " << g_inbox->value("link", "last warning");
+    mic::test::assert_driver_on_pty([] { return g_inbox->connected(); }, *g_inbox);
   }
   Inbox& inbox() { return *g_inbox; }
   mic::test::PtyLink& port() { return *g_port; }
@@ -147,12 +125,7 @@ class DriverFaults : public testing::Test {
   /// Writes `bytes`, waits for `expected` readings, then 0.3 s more for anything extra.
   std::vector<sensor_msgs::MagneticField> write_and_collect(const std::vector<std::uint8_t>& bytes,
                                                             std::size_t expected) {
-    const std::size_t before = inbox().count();
-    port().write(bytes);
-    EXPECT_TRUE(wait_for([&] { return inbox().count() >= before + expected; }, 10.0))
-        << "got " << inbox().count() - before << " of " << expected << " readings";
-    ros::WallDuration(0.3).sleep();
-    return inbox().from(before);
+    return inbox().write_and_collect(port(), bytes, expected);
   }
 
   /// The readings are exactly the 10 readings of each of `seconds`, in order, with their values.
@@ -167,11 +140,7 @@ class DriverFaults : public testing::Test {
       EXPECT_NEAR(fields[i].magnetic_field.z, (kBias_nT(2) + p.variation_nT(k, 2)) * kNanotesla, 1e-4 * kNanotesla);
     }
   }
-  void expect_all_increasing() {
-    const auto all = inbox().from(0);
-    for (std::size_t i = 1; i < all.size(); ++i)
-      ASSERT_GT(all[i].header.stamp, all[i - 1].header.stamp) << "message " << i << " goes backwards";
-  }
+  void expect_all_increasing() { inbox().expect_all_stamps_increasing(); }
 };
 
 TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
@@ -182,9 +151,9 @@ TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
   std::vector<std::uint8_t> half = encode(kT0 + 2);
   half.resize(80);
   append(bytes, half);
-  const std::size_t before = inbox().count();
+  const std::size_t before = inbox().field_count();
   port().write(bytes);
-  ASSERT_TRUE(wait_for([&] { return inbox().count() >= before + 20; }, 10.0));
+  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 20; }, 10.0));
   ros::WallDuration(0.3).sleep();  // the driver has read the half packet too
   port().close();                  // cut mid-packet
   EXPECT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "False"; }, 10.0));
@@ -197,7 +166,7 @@ TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
   std::vector<std::uint8_t> after = encode(kT0 + 3);
   append(after, encode(kT0 + 4));
   write_and_collect(after, 20);
-  expect_packets(inbox().from(before), {kT0, kT0 + 1, kT0 + 3, kT0 + 4});
+  expect_packets(inbox().fields_from(before), {kT0, kT0 + 1, kT0 + 3, kT0 + 4});
   EXPECT_EQ(inbox().wait_counter("link", "disconnects", disconnects0 + 1), disconnects0 + 1);
   EXPECT_GE(inbox().wait_counter("link", "reconnects", reconnects0 + 1), reconnects0 + 1);
   EXPECT_EQ(inbox().counter("link", "readings published as NaN (invalid)"), 0);
@@ -209,18 +178,18 @@ TEST_F(DriverFaults, LineStallsMidPacket) {
   const long long resyncs0 = inbox().counter("link", "resyncs");
   std::vector<std::uint8_t> half = encode(kT0 + 5);
   half.resize(100);
-  const std::size_t before = inbox().count();
+  const std::size_t before = inbox().field_count();
   port().write(half);
   ros::WallDuration(1.0).sleep();  // silence: the rest never comes
   // kT0 + 6 follows the lost kT0 + 5: ahead of the packet count, so held until the next packet
   // confirms it (documented 1-packet delay), then published with it; nothing is lost.
   port().write(encode(kT0 + 6));
   ros::WallDuration(1.5).sleep();
-  EXPECT_EQ(inbox().count(), before) << "a packet after a lost one is published before it is confirmed";
+  EXPECT_EQ(inbox().field_count(), before) << "a packet after a lost one is published before it is confirmed";
   std::vector<std::uint8_t> more = encode(kT0 + 7);
   append(more, encode(kT0 + 8));
   write_and_collect(more, 30);
-  expect_packets(inbox().from(before), {kT0 + 6, kT0 + 7, kT0 + 8});
+  expect_packets(inbox().fields_from(before), {kT0 + 6, kT0 + 7, kT0 + 8});
   inbox().fresh();
   // The half packet is skipped (flushed at the read gap or resynchronised): never a packet.
   EXPECT_GE(inbox().counter("link", "checksum errors") - checksum0 + inbox().counter("link", "resyncs") - resyncs0 +
@@ -413,10 +382,10 @@ class DriverPcClock : public testing::Test {
     ros::WallDuration(0.3).sleep();
     mic::Lemi025Packet p = make_packet(gps_s);
     p.gps_status = 'P';
-    const std::size_t before = g_inbox->count();
+    const std::size_t before = g_inbox->field_count();
     port().write(encode(p));
     // A published packet shows up on the topic; a dropped one cannot: wait a generous while.
-    wait_for([&] { return g_inbox->count() >= before + 10; }, 1.5);
+    wait_for([&] { return g_inbox->field_count() >= before + 10; }, 1.5);
     ros::WallDuration(0.2).sleep();
   }
   /// Advances the clock in steps of 0.25 s until diagnostics newer than now have arrived.
@@ -444,10 +413,10 @@ class DriverPcClock : public testing::Test {
 // stamps restart at the new arrival - 0.9 s, nothing dropped. Both steps counted, WARN.
 TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
   const std::size_t mark = g_inbox->history_size();
-  const std::size_t before = g_inbox->count();
+  const std::size_t before = g_inbox->field_count();
   const double gps0 = kT0 + 500.0;  // the instrument's (untrusted) clock runs on regardless
   for (int j = 0; j < 3; ++j) packet_at(kP0 + j, gps0 + j);
-  ASSERT_EQ(g_inbox->count(), before + 30);
+  ASSERT_EQ(g_inbox->field_count(), before + 30);
   fresh_diagnostics(kP0 + 2);
   const long long dropped0 = g_inbox->counter("link", kDropped);
   const long long steps0 = g_inbox->counter("link", "PC clock steps");
@@ -459,7 +428,7 @@ TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
   const double forward = back + 6.0 + 100.0;  // then the clock jumps 100 s ahead
   for (int j = 0; j < 2; ++j) packet_at(forward + j, gps0 + 9 + j);
 
-  const auto fields = g_inbox->from(before);
+  const auto fields = g_inbox->fields_from(before);
   std::vector<double> expected;  // truth, UNIX s
   for (int j = 0; j < 3; ++j)
     for (int k = 0; k < 10; ++k) expected.push_back(kP0 + j - 0.9 + 0.1 * k);

@@ -94,30 +94,20 @@ mic::Lemi025Packet make_packet(double gps_s, char gps_status = 'A') {
 
 // ---- What the driver publishes -----------------------------------------------------------------
 
-/// Readings and temperatures; diagnostics from DriverDiagnostics.
-class Inbox : public mic::test::DriverDiagnostics {
+/// Readings (FieldInbox), temperatures, and diagnostics (DriverDiagnostics).
+class Inbox : public mic::test::FieldInbox, public mic::test::DriverDiagnostics {
  public:
-  Inbox() : DriverDiagnostics(param("driver_node_name", "lemi_driver")) {
+  Inbox()
+      : FieldInbox(param("driver_namespace", "/lemi")), DriverDiagnostics(param("driver_node_name", "lemi_driver")) {
     ros::NodeHandle nh;
     const std::string ns = param("driver_namespace", "/lemi");
-    fields_sub_ = nh.subscribe(ns + "/magnetic_field", 10000, &Inbox::on_field, this);
     sensor_sub_ = nh.subscribe(ns + "/temperature/sensor", 1000, &Inbox::on_sensor, this);
     electronics_sub_ = nh.subscribe(ns + "/temperature/electronics", 1000, &Inbox::on_electronics, this);
   }
 
   bool connected() const {
-    return fields_sub_.getNumPublishers() > 0 && sensor_sub_.getNumPublishers() > 0 &&
-           electronics_sub_.getNumPublishers() > 0;
+    return fields_connected() && sensor_sub_.getNumPublishers() > 0 && electronics_sub_.getNumPublishers() > 0;
   }
-  std::size_t field_count() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_.size();
-  }
-  std::vector<sensor_msgs::MagneticField> fields_from(std::size_t first) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
-  }
-  std::vector<sensor_msgs::MagneticField> all_fields() { return fields_from(0); }
   std::size_t temperature_count() {
     std::lock_guard<std::mutex> lock(mutex_);
     return std::min(sensor_.size(), electronics_.size());
@@ -133,10 +123,6 @@ class Inbox : public mic::test::DriverDiagnostics {
   }
 
  private:
-  void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    fields_.push_back(*m);
-  }
   void on_sensor(const sensor_msgs::Temperature::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     sensor_.push_back(*m);
@@ -147,9 +133,8 @@ class Inbox : public mic::test::DriverDiagnostics {
   }
 
   std::mutex mutex_;
-  std::vector<sensor_msgs::MagneticField> fields_;
   std::vector<sensor_msgs::Temperature> sensor_, electronics_;
-  ros::Subscriber fields_sub_, sensor_sub_, electronics_sub_;
+  ros::Subscriber sensor_sub_, electronics_sub_;
 };
 
 // One pty and one inbox for the whole run (the driver of the .test file keeps running).
@@ -160,9 +145,7 @@ class Lemi025DriverOnPty : public testing::Test {
  protected:
   void SetUp() override {
     ASSERT_NE(g_port, nullptr);
-    ASSERT_TRUE(wait_for([] { return g_inbox->connected(); }, 20.0)) << "driver topics not connected";
-    ASSERT_TRUE(wait_for([] { return g_inbox->value("link", "connected") == "True"; }, 20.0))
-        << "driver not connected to the pty: " << g_inbox->value("link", "last warning");
+    mic::test::assert_driver_on_pty([] { return g_inbox->connected(); }, *g_inbox);
   }
   mic::test::PtyLink& port() { return *g_port; }
   Inbox& inbox() { return *g_inbox; }
@@ -170,25 +153,15 @@ class Lemi025DriverOnPty : public testing::Test {
   /// Writes packets of the given GPS seconds and waits for their 10 readings each.
   std::vector<sensor_msgs::MagneticField> send(const std::vector<double>& seconds, std::size_t expected_readings,
                                                char gps_status = 'A') {
-    const std::size_t before = inbox().field_count();
     std::vector<std::uint8_t> bytes;
     for (double s : seconds) {
       const auto packet = encode(make_packet(s, gps_status));
       bytes.insert(bytes.end(), packet.begin(), packet.end());
     }
-    port().write(bytes);
-    EXPECT_TRUE(wait_for([&] { return inbox().field_count() >= before + expected_readings; }, 10.0))
-        << "got " << inbox().field_count() - before << " of " << expected_readings << " readings";
-    ros::WallDuration(0.3).sleep();  // nothing more may come
-    return inbox().fields_from(before);
+    return inbox().write_and_collect(port(), bytes, expected_readings);
   }
 
-  static void expect_all_stamps_increasing() {
-    const auto all = g_inbox->all_fields();
-    for (std::size_t i = 1; i < all.size(); ++i) {
-      ASSERT_GT(all[i].header.stamp, all[i - 1].header.stamp) << "message " << i << " goes backwards";
-    }
-  }
+  static void expect_all_stamps_increasing() { g_inbox->expect_all_stamps_increasing(); }
 };
 
 TEST_F(Lemi025DriverOnPty, PublishesTeslaWithGpsStamps) {
@@ -429,31 +402,6 @@ class DriverProcess {
   pid_t pid_ = -1;
 };
 
-/// Collects one namespace's magnetic_field messages.
-class FieldRecorder {
- public:
-  explicit FieldRecorder(const std::string& ns) {
-    sub_ = ros::NodeHandle().subscribe(ns + "/magnetic_field", 10000, &FieldRecorder::on_field, this);
-  }
-  std::vector<sensor_msgs::MagneticField> fields() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_;
-  }
-  std::size_t count() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_.size();
-  }
-
- private:
-  void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    fields_.push_back(*m);
-  }
-  std::mutex mutex_;
-  std::vector<sensor_msgs::MagneticField> fields_;
-  ros::Subscriber sub_;
-};
-
 std::string temporary_path(const std::string& stem) {
   const char* home = std::getenv("ROS_HOME");
   return std::string(home ? home : "/tmp") + "/" + stem + "_" + std::to_string(::getpid());
@@ -488,19 +436,19 @@ TEST(Lemi025DriverRecordings, CompactFlashInvalidReadingsAreNaN) {
     }
   }
   const std::string ns = "/replay_flash";
-  FieldRecorder recorder(ns);
+  mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=compact_flash", "_file:=" + path, "_rate:=10.0", "_frame_id:=flash"});
   ASSERT_TRUE(driver.started());
   // The last block's readings come last: wait for its final reading.
   const ros::Time last_stamp = gps_stamp(t0 + 29.0, 9);
   ASSERT_TRUE(wait_for(
       [&] {
-        const auto f = recorder.fields();
+        const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp >= last_stamp;
       },
       20.0))
-      << recorder.count() << " readings";
-  const auto fields = recorder.fields();
+      << recorder.field_count() << " readings";
+  const auto fields = recorder.all_fields();
   std::size_t nan_readings = 0, checked = 0;
   for (const auto& m : fields) {
     // Reading j of block b: caption time + 0.1 j - 0.3 s.
@@ -542,17 +490,17 @@ TEST(Lemi025DriverRecordings, LemiBinWithoutGpsUsesRecordedPcTime) {
   }
   mic::write_lemi_bin(path, records, "LEMI025TEST", mic::ChecksumMode::kNone);
   const std::string ns = "/replay_lemibin";
-  FieldRecorder recorder(ns);
+  mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=lemibin", "_file:=" + path, "_rate:=10.0"});
   ASSERT_TRUE(driver.started());
   ASSERT_TRUE(wait_for(
       [&] {
-        const auto f = recorder.fields();
+        const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp.toSec() > t0 + 3600.0 + 19.0;
       },
       20.0))
-      << recorder.count() << " readings";
-  const auto fields = recorder.fields();
+      << recorder.field_count() << " readings";
+  const auto fields = recorder.all_fields();
   std::size_t passive_readings = 0;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     if (i > 0) EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp);
@@ -589,19 +537,19 @@ TEST(Lemi025DriverRecordings, StreamFileGpsGlitchDroppedAndLastHeldPacketRelease
     }
   }
   const std::string ns = "/replay_glitch";
-  FieldRecorder recorder(ns);
+  mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=glitch"});
   ASSERT_TRUE(driver.started());
   const ros::Time last_stamp = gps_stamp(t0 + 50, 9);
   ASSERT_TRUE(wait_for(
       [&] {
-        const auto f = recorder.fields();
+        const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp >= last_stamp;
       },
       30.0))
-      << recorder.count() << " readings; the held last packet was not released at the end";
+      << recorder.field_count() << " readings; the held last packet was not released at the end";
   ros::WallDuration(0.3).sleep();
-  const auto fields = recorder.fields();
+  const auto fields = recorder.all_fields();
   std::vector<sensor_msgs::MagneticField> from_t0;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     if (i > 0) {
