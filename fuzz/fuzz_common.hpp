@@ -128,6 +128,24 @@ inline bool within_bounds(const std::uint8_t* data, std::size_t size, bool text)
   return !text || inflated_size(data, size, kMaxInflated) <= kMaxInflated;
 }
 
+/// The body of a target that reads the input as a file: declines an input beyond the bounds
+/// (returns -1; `text`: its inflated size is bounded too), writes it to the in-memory file and
+/// runs check(path), in which the reader's InputError is the documented refusal and any other
+/// exception a finding (reported here). Returns 0 otherwise.
+template <class Check>
+int check_input_file(const std::uint8_t* data, std::size_t size, bool text, const Check& check) {
+  if (!within_bounds(data, size, text)) return -1;
+  InputFile& file = input_file();
+  file.set(data, size);
+  try {
+    check(file.path());
+  } catch (const magnetometer_insitu_calibration::InputError&) {
+  } catch (...) {
+    unexpected_exception(__FILE__, __LINE__);
+  }
+  return 0;
+}
+
 /// The invariants every VectorRecord returned by a reader must satisfy (vector_record.hpp):
 /// times finite and strictly increasing, one row of values per time, values NaN or finite with
 /// |value| <= max_abs_nT.

@@ -10,14 +10,6 @@
 using namespace magnetometer_insitu_calibration;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  if (!mic_fuzz::within_bounds(data, size, true)) return -1;
-  mic_fuzz::InputFile& file = mic_fuzz::input_file();
-  file.set(data, size);
-  try {
-    mic_fuzz::check_text_record(read_iaga2002(file.path()));
-  } catch (const InputError&) {
-  } catch (...) {
-    mic_fuzz::unexpected_exception(__FILE__, __LINE__);
-  }
-  return 0;
+  return mic_fuzz::check_input_file(data, size, true,
+                                    [](const std::string& path) { mic_fuzz::check_text_record(read_iaga2002(path)); });
 }
