@@ -7,6 +7,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
 #include "magnetometer_insitu_calibration/vector_record.hpp"
 
 #include <zlib.h>
@@ -164,6 +165,24 @@ inline void check_record(const magnetometer_insitu_calibration::VectorRecord& re
                  "value out of range at row " + std::to_string(i) + ": " + std::to_string(v));
     }
   }
+}
+
+/// The time invariants of a VectorRecord alone, for readers whose values are not range-checked
+/// (a compact-flash card has no plausibility check): one row of values per time, times finite
+/// and strictly increasing.
+inline void check_record_times(const magnetometer_insitu_calibration::VectorRecord& record) {
+  FUZZ_CHECK(record.values_nT.rows() == static_cast<Eigen::Index>(record.time_s.size()), "rows");
+  for (std::size_t i = 0; i < record.time_s.size(); ++i) {
+    FUZZ_CHECK(std::isfinite(record.time_s[i]), "time not finite");
+    if (i > 0) FUZZ_CHECK(record.time_s[i] > record.time_s[i - 1], "times not increasing");
+  }
+}
+
+/// The checksum mode the LEMI file targets try, taken from the input size so that the corpus
+/// exercises all three without a configuration byte: size % 3 = 1 sum8, 2 xor8, 0 none.
+inline magnetometer_insitu_calibration::ChecksumMode checksum_from_size(std::size_t size) {
+  using magnetometer_insitu_calibration::ChecksumMode;
+  return size % 3 == 1 ? ChecksumMode::kSum8 : size % 3 == 2 ? ChecksumMode::kXor8 : ChecksumMode::kNone;
 }
 
 /// The invariants of a record read from a text format (IAGA-2002, CSV): those of check_record,
