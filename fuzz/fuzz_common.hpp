@@ -7,6 +7,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
 #include "magnetometer_insitu_calibration/vector_record.hpp"
 
 #include <zlib.h>
@@ -128,6 +129,24 @@ inline bool within_bounds(const std::uint8_t* data, std::size_t size, bool text)
   return !text || inflated_size(data, size, kMaxInflated) <= kMaxInflated;
 }
 
+/// The body of a target that reads the input as a file: declines an input beyond the bounds
+/// (returns -1; `text`: its inflated size is bounded too), writes it to the in-memory file and
+/// runs check(path), in which the reader's InputError is the documented refusal and any other
+/// exception a finding (reported here). Returns 0 otherwise.
+template <class Check>
+int check_input_file(const std::uint8_t* data, std::size_t size, bool text, const Check& check) {
+  if (!within_bounds(data, size, text)) return -1;
+  InputFile& file = input_file();
+  file.set(data, size);
+  try {
+    check(file.path());
+  } catch (const magnetometer_insitu_calibration::InputError&) {
+  } catch (...) {
+    unexpected_exception(__FILE__, __LINE__);
+  }
+  return 0;
+}
+
 /// The invariants every VectorRecord returned by a reader must satisfy (vector_record.hpp):
 /// times finite and strictly increasing, one row of values per time, values NaN or finite with
 /// |value| <= max_abs_nT.
@@ -146,6 +165,35 @@ inline void check_record(const magnetometer_insitu_calibration::VectorRecord& re
                  "value out of range at row " + std::to_string(i) + ": " + std::to_string(v));
     }
   }
+}
+
+/// The time invariants of a VectorRecord alone, for readers whose values are not range-checked
+/// (a compact-flash card has no plausibility check): one row of values per time, times finite
+/// and strictly increasing.
+inline void check_record_times(const magnetometer_insitu_calibration::VectorRecord& record) {
+  FUZZ_CHECK(record.values_nT.rows() == static_cast<Eigen::Index>(record.time_s.size()), "rows");
+  for (std::size_t i = 0; i < record.time_s.size(); ++i) {
+    FUZZ_CHECK(std::isfinite(record.time_s[i]), "time not finite");
+    if (i > 0) FUZZ_CHECK(record.time_s[i] > record.time_s[i - 1], "times not increasing");
+  }
+}
+
+/// The checksum mode the LEMI file targets try, taken from the input size so that the corpus
+/// exercises all three without a configuration byte: size % 3 = 1 sum8, 2 xor8, 0 none.
+inline magnetometer_insitu_calibration::ChecksumMode checksum_from_size(std::size_t size) {
+  using magnetometer_insitu_calibration::ChecksumMode;
+  return size % 3 == 1 ? ChecksumMode::kSum8 : size % 3 == 2 ? ChecksumMode::kXor8 : ChecksumMode::kNone;
+}
+
+/// The invariants of a record read from a text format (IAGA-2002, CSV): those of check_record,
+/// at least one row (a file without data is an InputError), and every value below the 88888 nT
+/// missing-data sentinel (the readers turn sentinels into NaN).
+inline void check_text_record(const magnetometer_insitu_calibration::VectorRecord& record) {
+  check_record(record);
+  FUZZ_CHECK(!record.empty(), "no data but no InputError");
+  for (Eigen::Index r = 0; r < record.values_nT.rows(); ++r)
+    for (int c = 0; c < 3; ++c)
+      FUZZ_CHECK(!(record.values_nT(r, c) >= 88888.0), "sentinel value not turned into NaN");
 }
 
 }  // namespace mic_fuzz

@@ -16,9 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   mic_fuzz::InputFile& file = mic_fuzz::input_file();
   file.set(data, size);
   LemiReadOptions options;
-  options.checksum = size % 3 == 1 ? ChecksumMode::kSum8
-                     : size % 3 == 2 ? ChecksumMode::kXor8
-                                     : ChecksumMode::kNone;
+  options.checksum = mic_fuzz::checksum_from_size(size);
   std::vector<std::string> warnings;
   try {
     const LemiBinFile bin = read_lemi_bin_file(file.path(), options, &warnings);

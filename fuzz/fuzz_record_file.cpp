@@ -27,11 +27,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   try {
     const VectorRecord record = read_record(file.path());
-    FUZZ_CHECK(record.values_nT.rows() == static_cast<Eigen::Index>(record.time_s.size()), "rows");
-    for (std::size_t i = 0; i < record.time_s.size(); ++i) {
-      FUZZ_CHECK(std::isfinite(record.time_s[i]), "time not finite");
-      if (i > 0) FUZZ_CHECK(record.time_s[i] > record.time_s[i - 1], "times not increasing");
-    }
+    mic_fuzz::check_record_times(record);
   } catch (const InputError&) {
   } catch (...) {
     mic_fuzz::unexpected_exception(__FILE__, __LINE__);

@@ -24,6 +24,7 @@
 #include "magnetometer_insitu_calibration/fd_wlse.hpp"
 
 #include "magnetometer_insitu_calibration/input_error.hpp"
+#include "failed_window_estimate.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -39,7 +40,6 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 constexpr double kSecondsPerDay = 86400.0;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// FFTW's planner is not thread-safe (execution of distinct plans is).
 std::mutex& fftw_planner_mutex() {
@@ -185,19 +185,7 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   WindowEstimate result;
   result.samples = length;
   result.sample_period_s = sample_period_s;
-  auto fail = [&](Quality q, const std::string& text) {
-    result.n.setConstant(kNaN);
-    result.n_covariance.setConstant(kNaN);
-    result.trend_nT_per_day.setConstant(kNaN);
-    result.trend_stderr_nT_per_day.setConstant(kNaN);
-    result.parameters = decompose(result.n);
-    result.condition_number = kNaN;
-    result.coherence.setConstant(kNaN);
-    result.residual_rms_nT.setConstant(kNaN);
-    result.quality = q;
-    result.quality_text = text;
-    return result;
-  };
+  auto fail = [&](Quality q, const std::string& text) { return detail::failed_window_estimate(result, q, text); };
 
   if (!reference_nT.allFinite() || !test_nT.allFinite()) {
     return fail(Quality::kNotFinite, "window contains NaN or infinite readings");

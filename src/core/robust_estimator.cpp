@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/errors_in_variables.hpp"
 #include "magnetometer_insitu_calibration/input_error.hpp"
+#include "failed_window_estimate.hpp"
 #include "spectral_tools.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -131,14 +132,23 @@ struct Cell {
   Eigen::Vector3cd x, y;
 };
 
-struct IrlsResult {
+/// n from the weighted sums (solve_weighted, solve_frozen): Eq. 2, n = A^-1 C, or, where the
+/// reference noise N (nT^2) has power, corrected for it: n = (A - N)^-1 C. ok is false when A
+/// is singular; without N, or when A - N is singular, eiv_applied is false and n, a_inverse
+/// are Eq. 2's.
+struct WeightedSolution {
   bool ok = false;
-  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();          ///< weighted, uncorrected
-  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();  ///< of the (corrected) A
-  Eigen::Matrix3d eiv_noise = Eigen::Matrix3d::Zero();
   bool eiv_applied = false;
+  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();                      ///< weighted, uncorrected
+  Eigen::Matrix3d a_inverse_uncorrected = Eigen::Matrix3d::Zero();  ///< of A
+  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();              ///< of the (corrected) A
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();                  ///< N applied, zero if none
+};
+
+/// The IRLS: the solution with its last weights, and those weights.
+struct IrlsResult : WeightedSolution {
   std::vector<double> weight;          ///< per cell (cell x section)
   std::vector<double> section_weight;
   std::vector<Eigen::Vector3d> scale2; ///< per bin, sigma_l^2
@@ -156,58 +166,76 @@ Eigen::Vector3d ratio_noise_power(const Eigen::Vector3d& e2, const Eigen::Vector
   return (share / kappa) * e2.cwiseMin(kNoiseCap * scale2);
 }
 
-/// n for frozen cell weights: the last step of the IRLS, and each delete-one-section refit of
-/// the jackknife (exclude = that section; -1 for none). Ratio mode iterates the fixed point
-/// n = (A - N(n))^-1 C, N(n) = sum w g ratio_noise_power(|e(n)|^2), to convergence from
-/// n_start; given mode subtracts its known N; none solves Eq. 2 with the weights.
-struct FrozenSolve {
-  bool ok = false;
-  bool eiv_applied = false;
-  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();          ///< weighted, uncorrected
-  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();  ///< of the (corrected) A
-  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();
+/// Weighted sums of Eq. 2 over the cells (cell weight w times lambda^gamma g; cells of weight 0
+/// and of section `exclude` left out, -1 for none): A = sum w g Re(x x^H) and
+/// C = sum w g Re(x y^H) (nT^2), and in given mode the reference's expected noise periodogram
+/// N = sum w g E|X_noise|^2 (nT^2, diagonal; zero in the other modes).
+struct NormalEquations {
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d given_noise = Eigen::Matrix3d::Zero();
 };
 
-FrozenSolve solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                         const std::vector<Eigen::Vector3d>& scale2, const RobustSettings& rs, double sample_period_s,
-                         int exclude, const Eigen::Matrix3d& n_start) {
-  FrozenSolve out;
-  const double share = reference_share_of_residual(rs.eiv_noise_ratio);
+NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                          const RobustSettings& rs, double sample_period_s, int exclude) {
+  NormalEquations out;
   NoiseSpectrum given;
   given.white_nT = rs.reference_white_nT;
   given.pink_nT_per_sqrt_hz = rs.reference_pink_nT_per_sqrt_hz;
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero(), c = Eigen::Matrix3d::Zero(), given_noise = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < cells.size(); ++i) {
     const Cell& cell = cells[i];
     const double wg = weight[i] * cell.g;
     if (wg == 0.0 || cell.section == exclude) continue;
-    a.noalias() += wg * (cell.x * cell.x.adjoint()).real();
-    c.noalias() += wg * (cell.x * cell.y.adjoint()).real();
+    out.a.noalias() += wg * (cell.x * cell.x.adjoint()).real();
+    out.c.noalias() += wg * (cell.x * cell.y.adjoint()).real();
     if (rs.eiv == EivCorrection::kGiven) {
-      given_noise.diagonal() += wg * given.expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
+      out.given_noise.diagonal() += wg * given.expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
     }
   }
+  return out;
+}
+
+/// n = (A - N)^-1 C from the weighted sums and the inverse of A - N (N = 0: Eq. 2 itself, n in
+/// test nT per reference nT); false when A - N is singular (errors_in_variables.hpp).
+bool solve_corrected(const NormalEquations& sums, const Eigen::Matrix3d& noise, Eigen::Matrix3d& n,
+                     Eigen::Matrix3d& a_inverse) {
   Eigen::MatrixXd solution, inverse;
-  const Eigen::MatrixXd a_dyn = a, c_dyn = c;
-  if (!corrected_solve(a_dyn, Eigen::Matrix3d::Zero(), c_dyn, solution, &inverse)) return out;
+  const Eigen::MatrixXd a_dyn = sums.a, c_dyn = sums.c;
+  if (!corrected_solve(a_dyn, noise, c_dyn, solution, &inverse)) return false;
+  n = solution;
+  a_inverse = inverse;
+  return true;
+}
+
+WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise) {
+  WeightedSolution out;
+  if (!solve_corrected(sums, Eigen::Matrix3d::Zero(), out.n_uncorrected, out.a_inverse_uncorrected)) return out;
   out.ok = true;
-  out.a = a;
-  out.n_uncorrected = solution;
-  out.n = solution;
-  out.a_inverse = inverse;
-  if (rs.eiv == EivCorrection::kNone) return out;
-  if (rs.eiv == EivCorrection::kGiven) {
-    Eigen::MatrixXd corrected, corrected_inverse;
-    if (given_noise.diagonal().sum() > 0.0 && corrected_solve(a_dyn, given_noise, c_dyn, corrected, &corrected_inverse)) {
-      out.n = corrected;
-      out.a_inverse = corrected_inverse;
-      out.noise = given_noise;
-      out.eiv_applied = true;
-    }
-    return out;
+  out.a = sums.a;
+  out.n = out.n_uncorrected;
+  out.a_inverse = out.a_inverse_uncorrected;
+  Eigen::Matrix3d corrected, corrected_inverse;
+  if (noise.diagonal().sum() > 0.0 && solve_corrected(sums, noise, corrected, corrected_inverse)) {
+    out.n = corrected;
+    out.a_inverse = corrected_inverse;
+    out.noise = noise;
+    out.eiv_applied = true;
   }
+  return out;
+}
+
+/// n for frozen cell weights: the last step of the IRLS, and each delete-one-section refit of
+/// the jackknife (exclude = that section; -1 for none). Ratio mode iterates the fixed point
+/// n = (A - N(n))^-1 C, N(n) = sum w g ratio_noise_power(|e(n)|^2), to convergence from
+/// n_start; given mode subtracts its known N; none solves Eq. 2 with the weights.
+WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                              const std::vector<Eigen::Vector3d>& scale2, const RobustSettings& rs,
+                              double sample_period_s, int exclude, const Eigen::Matrix3d& n_start) {
+  const double share = reference_share_of_residual(rs.eiv_noise_ratio);
+  const NormalEquations sums = weighted_normal_equations(cells, weight, rs, sample_period_s, exclude);
+  // None and given mode are one solve; ratio mode starts from Eq. 2's n (N = 0 here).
+  WeightedSolution out = solve_weighted(sums, sums.given_noise);
+  if (!out.ok || rs.eiv != EivCorrection::kNoiseRatio) return out;
   Eigen::Matrix3d n = n_start.allFinite() ? n_start : out.n_uncorrected;
   for (int it = 0; it < 100; ++it) {
     Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();
@@ -218,15 +246,15 @@ FrozenSolve solve_frozen(const std::vector<Cell>& cells, const std::vector<doubl
       const Eigen::Vector3d e2 = (cell.y - n.transpose() * cell.x).cwiseAbs2();
       noise.diagonal() += wg * ratio_noise_power(e2, scale2[static_cast<std::size_t>(cell.bin)], share);
     }
-    Eigen::MatrixXd corrected, corrected_inverse;
-    if (!(noise.diagonal().sum() > 0.0) || !corrected_solve(a_dyn, noise, c_dyn, corrected, &corrected_inverse)) {
+    Eigen::Matrix3d corrected, corrected_inverse;
+    if (!(noise.diagonal().sum() > 0.0) || !solve_corrected(sums, noise, corrected, corrected_inverse)) {
       out.n = out.n_uncorrected;
-      out.a_inverse = inverse;
+      out.a_inverse = out.a_inverse_uncorrected;
       out.noise.setZero();
       out.eiv_applied = false;
       return out;
     }
-    const bool converged = (Eigen::Matrix3d(corrected) - n).cwiseAbs().maxCoeff() < 1e-12;
+    const bool converged = (corrected - n).cwiseAbs().maxCoeff() < 1e-12;
     n = corrected;
     out.n = n;
     out.a_inverse = corrected_inverse;
@@ -296,46 +324,24 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   out.scale2.assign(bins, Eigen::Vector3d::Ones());
   std::vector<double> cell_weight(m, 1.0);
   const double share = reference_share_of_residual(rs.eiv_noise_ratio);
-  NoiseSpectrum given;
-  given.white_nT = rs.reference_white_nT;
-  given.pink_nT_per_sqrt_hz = rs.reference_pink_nT_per_sqrt_hz;
   bool have_scale = false;
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);
   std::vector<double> r2(m, 0.0);
   std::vector<Eigen::Vector3d> noise_power(m, Eigen::Vector3d::Zero());  // ratio mode, per cell
   for (int it = 0; it < rs.iterations; ++it) {
-    Eigen::Matrix3d a = Eigen::Matrix3d::Zero(), c = Eigen::Matrix3d::Zero(), noise = Eigen::Matrix3d::Zero();
-    for (std::size_t i = 0; i < m; ++i) {
-      const Cell& cell = cells[i];
-      const double wg = out.weight[i] * cell.g;
-      if (wg == 0.0) continue;
-      a.noalias() += wg * (cell.x * cell.x.adjoint()).real();
-      c.noalias() += wg * (cell.x * cell.y.adjoint()).real();
-      if (rs.eiv == EivCorrection::kGiven) {
-        noise.diagonal() += wg * given.expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
-      } else if (rs.eiv == EivCorrection::kNoiseRatio && have_scale) {
+    const NormalEquations sums = weighted_normal_equations(cells, out.weight, rs, sample_period_s, -1);
+    Eigen::Matrix3d noise = sums.given_noise;  // given mode; zero otherwise
+    if (rs.eiv == EivCorrection::kNoiseRatio && have_scale) {
+      for (std::size_t i = 0; i < m; ++i) {
+        const double wg = out.weight[i] * cells[i].g;
+        if (wg == 0.0) continue;
         noise.diagonal() += wg * noise_power[i];
       }
     }
-    Eigen::MatrixXd solution, a_inverse;
-    const Eigen::MatrixXd a_dyn = a, c_dyn = c;
-    if (!corrected_solve(a_dyn, Eigen::Matrix3d::Zero(), c_dyn, solution, &a_inverse)) return out;
-    out.n_uncorrected = solution;
-    out.a = a;
-    out.a_inverse = a_inverse;
-    out.n = solution;
-    out.eiv_applied = false;
-    out.eiv_noise.setZero();
-    if (rs.eiv != EivCorrection::kNone && noise.diagonal().sum() > 0.0) {
-      Eigen::MatrixXd corrected, corrected_inverse;
-      if (corrected_solve(a_dyn, noise, c_dyn, corrected, &corrected_inverse)) {
-        out.n = corrected;
-        out.a_inverse = corrected_inverse;
-        out.eiv_applied = true;
-        out.eiv_noise = noise;
-      }
-    }
-    out.ok = true;
+    // N is zero in none mode (and in ratio mode before the first scale): Eq. 2 with the weights.
+    const WeightedSolution solved = solve_weighted(sums, noise);
+    if (!solved.ok) return out;
+    static_cast<WeightedSolution&>(out) = solved;  // n, A and the correction; the weights stay
     out.iterations = it + 1;
     // Residuals, frequency-resolved robust scale, new weights.
     std::vector<std::vector<double>> per_bin(bins * 3);
@@ -405,7 +411,7 @@ JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResu
   std::vector<Eigen::Matrix<double, 9, 1>> leave_out;
   for (std::size_t s = 0; s < k_sections; ++s) {
     if (!(section_weight[s] > 0.0)) continue;  // a rejected section: deleting it changes nothing
-    const FrozenSolve f = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, static_cast<int>(s), fit.n);
+    const WeightedSolution f = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, static_cast<int>(s), fit.n);
     if (!f.ok) return out;  // one section held the whole signal of a direction: no jackknife
     Eigen::Matrix<double, 9, 1> v;
     for (int k = 0; k < 9; ++k) v(k) = f.n(k / 3, k % 3);
@@ -454,20 +460,6 @@ Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& ja
     inflate(k) = std::sqrt(std::max(1.0, ratio));
   }
   return inflate.asDiagonal() * sandwich * inflate.asDiagonal();
-}
-
-WindowEstimate failed(WindowEstimate result, Quality q, const std::string& text) {
-  result.n.setConstant(kNaN);
-  result.n_covariance.setConstant(kNaN);
-  result.trend_nT_per_day.setConstant(kNaN);
-  result.trend_stderr_nT_per_day.setConstant(kNaN);
-  result.parameters = decompose(result.n);
-  result.condition_number = kNaN;
-  result.coherence.setConstant(kNaN);
-  result.residual_rms_nT.setConstant(kNaN);
-  result.quality = q;
-  result.quality_text = text;
-  return result;
 }
 
 }  // namespace
@@ -574,7 +566,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   if (cells.size() < 8) {
     std::ostringstream text;
     text << "only " << cells.size() << " section harmonics in " << band_low << "-" << band_high << " Hz";
-    return failed(result, Quality::kTooFewSamples, text.str());
+    return detail::failed_window_estimate(result, Quality::kTooFewSamples, text.str());
   }
   // Scale bins: cells in frequency order, groups of at least max(40, 3K) cells.
   {
@@ -590,7 +582,9 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
       1 + std::max_element(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) { return a.bin < b.bin; })->bin);
 
   IrlsResult fit = irls(cells, k_sections, bins, rs, sample_period_s);
-  if (!fit.ok) return failed(result, Quality::kIllConditioned, "weighted A is singular: no signal in the band");
+  if (!fit.ok) {
+    return detail::failed_window_estimate(result, Quality::kIllConditioned, "weighted A is singular: no signal in the band");
+  }
 
   // Step 4: delay, and its removal when significant.
   if (rs.estimate_delay) {
@@ -623,18 +617,11 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   // iterated to convergence), so that n, the sandwich and the jackknife below all belong to the
   // same weighted estimating equation.
   {
-    const FrozenSolve last = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, -1, fit.n);
-    if (last.ok) {
-      fit.n = last.n;
-      fit.n_uncorrected = last.n_uncorrected;
-      fit.a = last.a;
-      fit.a_inverse = last.a_inverse;
-      fit.eiv_noise = last.noise;
-      fit.eiv_applied = last.eiv_applied;
-    }
+    const WeightedSolution last = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, -1, fit.n);
+    if (last.ok) static_cast<WeightedSolution&>(fit) = last;
   }
   diagnostics_.eiv_applied = fit.eiv_applied;
-  diagnostics_.eiv_noise = fit.eiv_noise;
+  diagnostics_.eiv_noise = fit.noise;
   diagnostics_.n_uncorrected = fit.n_uncorrected;
 
   // Step 6a: sandwich covariance with the final weights.

@@ -6,30 +6,16 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include <cstdio>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 
 namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-struct CliRun {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
+using mic::test::ProgramRun;
 
-CliRun run(const std::string& args) {
-  const std::string command = std::string(CALIBRATE_RECORDS_BIN) + " " + args + " 2>&1";
-  CliRun r;
-  FILE* pipe = popen(command.c_str(), "r");
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) r.output += buffer;
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+ProgramRun run(const std::string& args) { return mic::test::run_program(CALIBRATE_RECORDS_BIN, args); }
 
 class CalibrateRecordsCli : public ::testing::Test {
  protected:
@@ -51,7 +37,7 @@ mic::SimulatedPair CalibrateRecordsCli::pair_;
 }  // namespace
 
 TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
-  const CliRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --intervals 2 --json " + dir_ +
+  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --intervals 2 --json " + dir_ +
                     "/out.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("scale ratio Kxt/Kxr"), std::string::npos);
@@ -74,7 +60,7 @@ TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
 }
 
 TEST_F(CalibrateRecordsCli, MissingFileIsNamed) {
-  const CliRun r = run("--reference " + dir_ + "/nope.sec --test " + dir_ + "/test.csv");
+  const ProgramRun r = run("--reference " + dir_ + "/nope.sec --test " + dir_ + "/test.csv");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("nope.sec"), std::string::npos) << r.output;
 }
@@ -84,7 +70,7 @@ TEST_F(CalibrateRecordsCli, MalformedLineIsNamedWithItsNumber) {
     std::ofstream bad(dir_ + "/bad.csv");
     bad << "time,x,y,z\n1747180800,1,2,3\n1747180801,1,2,3\n1747180802,1,two,3\n";
   }
-  const CliRun r = run("--reference " + dir_ + "/bad.csv --test " + dir_ + "/test.csv");
+  const ProgramRun r = run("--reference " + dir_ + "/bad.csv --test " + dir_ + "/test.csv");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("bad.csv:4"), std::string::npos) << r.output;
 }
@@ -95,7 +81,7 @@ TEST_F(CalibrateRecordsCli, RecordsThatDoNotOverlapAreRejected) {
     later << "time,x,y,z\n";
     for (int i = 0; i < 100; ++i) later << 1800000000 + i << ",1,2,3\n";
   }
-  const CliRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/later.csv");
+  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/later.csv");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("overlap"), std::string::npos) << r.output;
 }
@@ -106,13 +92,13 @@ TEST_F(CalibrateRecordsCli, RecordOfNaNIsRejected) {
     nan << "time,x,y,z\n";
     for (int i = 0; i < 3600; ++i) nan << 1747180800 + i << ",nan,nan,nan\n";
   }
-  const CliRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/nan.csv");
+  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/nan.csv");
   EXPECT_NE(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("nan.csv: no sample has three finite components"), std::string::npos) << r.output;
 }
 
 TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
-  CliRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 0.01:0.001");
+  ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 0.01:0.001");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("band"), std::string::npos) << r.output;
   r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 1e-3");

@@ -3,7 +3,6 @@
 #include "magnetometer_insitu_calibration/csv_record.hpp"
 #include "magnetometer_insitu_calibration/input_error.hpp"
 #include "magnetometer_insitu_calibration/record_file.hpp"
-#include "magnetometer_insitu_calibration/text_lines.hpp"
 #include "magnetometer_insitu_calibration/time_format.hpp"
 
 #include "test_support.hpp"
@@ -17,27 +16,17 @@
 #include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
+using mic::test::contains;
 using mic::test::make_temp_dir;
 using mic::test::package_data;
+using mic::test::read_lines;
 using mic::test::test_data;
+using mic::test::write_bytes;
 
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kMay14 = 1747180800.0;  // 2025-05-14T00:00:00Z
-
-void write_bytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out << bytes;
-}
-
-std::vector<std::string> read_lines(const std::string& path) {
-  mic::TextLineReader reader(path);
-  std::vector<std::string> lines;
-  std::string line;
-  while (reader.next(line)) lines.push_back(line);
-  return lines;
-}
 
 /// The InputError message of reading a CSV file with `content`, or "" if it read fine.
 std::string csv_error(const std::string& dir, const std::string& name, const std::string& content) {
@@ -49,10 +38,6 @@ std::string csv_error(const std::string& dir, const std::string& name, const std
     return error.what();
   }
   return "";
-}
-
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
 }
 
 mic::VectorRecord sample_record(std::size_t n, double t0, double step) {

@@ -17,28 +17,15 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <sys/wait.h>
 
 namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-struct ProgramRun {
-  int status = -1;
-  std::string output;
-};
+using mic::test::ProgramRun;
+using mic::test::run_program;
 
-ProgramRun run(const std::string& program, const std::string& args) {
-  ProgramRun r;
-  FILE* pipe = popen((program + " " + args + " 2>&1").c_str(), "r");
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) r.output += buffer;
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
-
-ProgramRun export_corrected(const std::string& args) { return run(EXPORT_CORRECTED_BIN, args); }
+ProgramRun export_corrected(const std::string& args) { return run_program(EXPORT_CORRECTED_BIN, args); }
 
 nlohmann::json read_json(const std::string& path) {
   std::ifstream in(path);
@@ -107,7 +94,7 @@ class ExportCorrected : public ::testing::Test {
     options.station_name = "Simulated reference";
     mic::write_iaga2002(dir_ + "/reference.sec", pair_.reference, options);
     test_read_ = mic::read_iaga2002(dir_ + "/test.sec");
-    const ProgramRun r = run(CALIBRATE_RECORDS_BIN, "--reference " + dir_ + "/reference.sec --test " + dir_ +
+    const ProgramRun r = run_program(CALIBRATE_RECORDS_BIN, "--reference " + dir_ + "/reference.sec --test " + dir_ +
                                                  "/test.sec --intervals 2 --json " + dir_ + "/report.json");
     ASSERT_EQ(r.status, 0) << r.output;
     // The same report with the true matrix in every window: the correction alone is then tested.
@@ -255,7 +242,7 @@ TEST(ExportCorrectedWic, FgeDayCorrectedIntoTheLemiFrame) {
   const std::string dir = mic::test::make_temp_dir("export_wic");
   const std::string lemi = mic::test::package_data("wic20250514_lemi036.sec.gz");
   const std::string fge = mic::test::package_data("wic20250514_fge.sec.gz");
-  ProgramRun r = run(CALIBRATE_RECORDS_BIN, "--reference " + lemi + " --test " + fge + " --json " + dir + "/day.json");
+  ProgramRun r = run_program(CALIBRATE_RECORDS_BIN, "--reference " + lemi + " --test " + fge + " --json " + dir + "/day.json");
   ASSERT_EQ(r.status, 0) << r.output;
   r = export_corrected("--test " + fge + " --calibration " + dir + "/day.json -o " + dir + "/fge_corrected.sec");
   ASSERT_EQ(r.status, 0) << r.output;

@@ -19,9 +19,12 @@
 #include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
+using mic::test::contains;
 using mic::test::make_temp_dir;
 using mic::test::package_data;
+using mic::test::read_lines;
 using mic::test::test_data;
+using mic::test::write_bytes;
 
 namespace {
 
@@ -33,19 +36,6 @@ std::string read_bytes(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-void write_bytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out << bytes;
-}
-
-std::vector<std::string> read_lines(const std::string& path) {
-  mic::TextLineReader reader(path);
-  std::vector<std::string> lines;
-  std::string line;
-  while (reader.next(line)) lines.push_back(line);
-  return lines;
-}
-
 /// The InputError message of reading `path`, or "" if it read without error.
 std::string read_error(const std::string& path) {
   try {
@@ -54,10 +44,6 @@ std::string read_error(const std::string& path) {
     return error.what();
   }
   return "";
-}
-
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
 }
 
 /// Every line exactly 70 characters followed by CRLF, no bare CR or LF anywhere.

@@ -13,9 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
-#include <cstdio>
 #include <fstream>
-#include <sys/wait.h>
 #include <cmath>
 #include <complex>
 #include <random>
@@ -489,19 +487,9 @@ TEST(Simulator, FiveDaysAtOneHertzIsFast) {
 // Needs the executable's path from the build (SIMULATE_RECORDS_BIN="$<TARGET_FILE:simulate_records>").
 #ifdef SIMULATE_RECORDS_BIN
 namespace {
-struct CliRun {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-CliRun run_simulate_records(const std::string& args) {
-  const std::string command = std::string(SIMULATE_RECORDS_BIN) + " " + args + " 2>&1";
-  CliRun r;
-  FILE* pipe = popen(command.c_str(), "r");
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) r.output += buffer;
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
+using mic::test::ProgramRun;
+ProgramRun run_simulate_records(const std::string& args) {
+  return mic::test::run_program(SIMULATE_RECORDS_BIN, args);
 }
 }  // namespace
 #endif
@@ -511,7 +499,7 @@ TEST(SimulateRecordsCli, WritesRecordsAndTruthMatchingTheLibrary) {
   GTEST_SKIP() << "SIMULATE_RECORDS_BIN not defined by the build";
 #else
   const std::string dir = mic::test::make_temp_dir("simulate_records");
-  const CliRun r = run_simulate_records(
+  const ProgramRun r = run_simulate_records(
       "--out-dir " + dir + " --format csv --days 0.25 --rate 1 --seed 9 --scale 0.999,1.001,1.002 "
       "--nonorthogonality-deg 0.1,0,-0.05 --misalignment-deg 0.2,0.1,-0.3 --noise-nT 0.02,0.03 "
       "--drift-nT-per-day 1,-2,3 --spikes-per-day 8 --gaps 2 --gap-seconds 60 --delay-s 0.02 "
@@ -555,7 +543,7 @@ TEST(SimulateRecordsCli, WritesRecordsAndTruthMatchingTheLibrary) {
   EXPECT_EQ(truth["settings"]["delay_s"].get<double>(), 0.02);
 
   // IAGA-2002: values at 0.01 nT.
-  const CliRun iaga = run_simulate_records("--out-dir " + dir + "/iaga --days 0.05 --seed 9");
+  const ProgramRun iaga = run_simulate_records("--out-dir " + dir + "/iaga --days 0.05 --seed 9");
   ASSERT_EQ(iaga.status, 0) << iaga.output;
   const mic::VectorRecord ref_iaga = mic::read_iaga2002(dir + "/iaga/reference.iaga");
   EXPECT_EQ(ref_iaga.size(), 4320u);
@@ -578,7 +566,7 @@ TEST(SimulateRecordsCli, BadOptionsAreNamedAndFail) {
       {"--delay-s 1e9", "--delay-s"},
   };
   for (const auto& [args, option] : cases) {
-    const CliRun r = run_simulate_records("--out-dir " + dir + " " + args);
+    const ProgramRun r = run_simulate_records("--out-dir " + dir + " " + args);
     EXPECT_NE(r.status, 0) << args;
     EXPECT_NE(r.output.find(option), std::string::npos) << args << " -> " << r.output;
   }

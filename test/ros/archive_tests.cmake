@@ -24,8 +24,9 @@ endforeach()
 catkin_add_gtest(test_bag_records test/ros/test_bag_records.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
 if(TARGET test_bag_records)
   target_include_directories(test_bag_records PRIVATE test/core ${CATKIN_DEVEL_PREFIX}/include)
+  # test support (test/core/test_support.cpp): temporary directories, data paths, running programs.
   target_link_libraries(test_bag_records ${PROJECT_NAME}_bag ${PROJECT_NAME}_archive ${PROJECT_NAME}_ros
-    ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
+    ${PROJECT_NAME}_test_support ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
   target_compile_definitions(test_bag_records PRIVATE ${_mic_programs})
   target_compile_options(test_bag_records PRIVATE -Wall -Wextra)
   add_dependencies(test_bag_records records_to_bag export_corrected calibrate_records

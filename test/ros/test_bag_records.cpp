@@ -10,6 +10,7 @@
 #include "magnetometer_insitu_calibration/simulator.hpp"
 
 #include "archive_fixtures.hpp"
+#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -17,39 +18,18 @@
 #include <sensor_msgs/MagneticField.h>
 
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <limits>
-#include <sys/wait.h>
 
 namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-struct ProgramRun {
-  int status = -1;
-  std::string output;
-};
-
-ProgramRun run(const std::string& program, const std::string& args) {
-  ProgramRun r;
-  FILE* pipe = popen((program + " " + args + " 2>&1").c_str(), "r");
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) r.output += buffer;
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
-
-std::string temp_dir(const std::string& tag) {
-  std::string pattern = (std::filesystem::temp_directory_path() / ("mic_" + tag + "_XXXXXX")).string();
-  if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-  return pattern;
-}
-
-std::string package_data(const std::string& name) { return std::string(PACKAGE_DATA_DIR) + "/" + name; }
+using mic::test::make_temp_dir;
+using mic::test::package_data;
+using mic::test::ProgramRun;
+using mic::test::run_program;
 
 nlohmann::json read_json(const std::string& path) {
   std::ifstream in(path);
@@ -116,7 +96,7 @@ bool has(const std::string& text, const std::string& part) { return text.find(pa
 // ---- the library ------------------------------------------------------------------------------
 
 TEST(BagRecords, RoundTripKeepsTimesExactValuesToOneUlpGapsAndTemperatures) {
-  const std::string dir = temp_dir("bag_roundtrip");
+  const std::string dir = make_temp_dir("bag_roundtrip");
   mic::SimulationSettings s;
   s.duration_s = 7200.0;
   s.sample_period_s = 0.1;
@@ -159,7 +139,7 @@ TEST(BagRecords, RoundTripKeepsTimesExactValuesToOneUlpGapsAndTemperatures) {
 }
 
 TEST(BagRecords, MissingTopicWrongTypeAndUnreadableBagAreNamed) {
-  const std::string dir = temp_dir("bag_errors");
+  const std::string dir = make_temp_dir("bag_errors");
   mic::VectorRecord r;
   r.time_s = {1747180800.0, 1747180801.0};
   r.values_nT = mic::Readings::Ones(2, 3);
@@ -186,7 +166,7 @@ TEST(BagRecords, MissingTopicWrongTypeAndUnreadableBagAreNamed) {
 }
 
 TEST(BagRecords, MessagesOutOfStampOrderAreSortedAndRepeatsDropped) {
-  const std::string dir = temp_dir("bag_order");
+  const std::string dir = make_temp_dir("bag_order");
   {
     rosbag::Bag bag(dir + "/o.bag", rosbag::bagmode::Write);
     const double stamps[] = {10.0, 12.0, 11.0, 12.0, 13.0};
@@ -210,9 +190,9 @@ TEST(BagRecords, MessagesOutOfStampOrderAreSortedAndRepeatsDropped) {
 // The real WIC day: IAGA-2002 -> bag -> calibrate_records --bag gives the report of
 // calibrate_records on the files (the paper's layout: four intervals and the day).
 TEST(RecordsToBag, WicDayBagGivesTheSameCalibrationAsTheFiles) {
-  const std::string dir = temp_dir("bag_wic");
+  const std::string dir = make_temp_dir("bag_wic");
   const std::string lemi = package_data("wic20250514_lemi036.sec.gz"), fge = package_data("wic20250514_fge.sec.gz");
-  ProgramRun r = run(RECORDS_TO_BAG_BIN, "--reference " + lemi + " --test " + fge + " -o " + dir +
+  ProgramRun r = run_program(RECORDS_TO_BAG_BIN, "--reference " + lemi + " --test " + fge + " -o " + dir +
                                       "/wic.bag --reference-topic /wic/lemi036/magnetic_field --test-topic "
                                       "/wic/fge/magnetic_field --reference-frame lemi036 --test-frame fge");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -224,11 +204,11 @@ TEST(RecordsToBag, WicDayBagGivesTheSameCalibrationAsTheFiles) {
   EXPECT_EQ(records[1].header.at("frame_id"), "fge");
   EXPECT_EQ(mic::bag_topics(dir + "/wic.bag").size(), 2u) << "IAGA-2002 has no temperatures";
 
-  r = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/wic.bag --reference-topic /wic/lemi036/magnetic_field "
+  r = run_program(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/wic.bag --reference-topic /wic/lemi036/magnetic_field "
                                  "--test-topic /wic/fge/magnetic_field --intervals 4 --json " + dir + "/bag.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_TRUE(has(r.output, "reference: " + dir + "/wic.bag:/wic/lemi036/magnetic_field")) << r.output;
-  r = run(CALIBRATE_RECORDS_BIN, "--reference " + lemi + " --test " + fge + " --intervals 4 --json " + dir + "/file.json");
+  r = run_program(CALIBRATE_RECORDS_BIN, "--reference " + lemi + " --test " + fge + " --intervals 4 --json " + dir + "/file.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json bag = read_json(dir + "/bag.json"), file = read_json(dir + "/file.json");
   ASSERT_EQ(bag["windows"].size(), 5u);
@@ -241,7 +221,7 @@ TEST(RecordsToBag, WicDayBagGivesTheSameCalibrationAsTheFiles) {
 // reading, writes the temperatures; the calibration from the bag is that of the files (through
 // read_record's LEMI dispatch), decimation to 1 Hz included.
 TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
-  const std::string dir = temp_dir("bag_lemi");
+  const std::string dir = make_temp_dir("bag_lemi");
   const double t0 = 1747180800.0;
   mic::SimulationSettings s;
   s.start_time_s = t0 - 0.3;
@@ -255,7 +235,7 @@ TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
   mic::test::write_lemi_stream(dir + "/test.raw", test_packets, {100, 5000});
   mic::test::write_lemi_stream(dir + "/test_clean.raw", test_packets);
 
-  ProgramRun r = run(RECORDS_TO_BAG_BIN, "--reference " + dir + "/reference.bin --test " + dir + "/test.raw -o " + dir +
+  ProgramRun r = run_program(RECORDS_TO_BAG_BIN, "--reference " + dir + "/reference.bin --test " + dir + "/test.raw -o " + dir +
                                       "/lemi.bag --progress-delay 0 --reference-topic /lemi/ref/magnetic_field "
                                       "--test-topic /lemi/test/magnetic_field");
   ASSERT_EQ(r.status, 0) << r.output;
@@ -279,10 +259,10 @@ TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
   }
 
   const std::string common = " --intervals 2 --json ";
-  r = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/lemi.bag --reference-topic /lemi/ref/magnetic_field --test-topic "
+  r = run_program(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/lemi.bag --reference-topic /lemi/ref/magnetic_field --test-topic "
                                  "/lemi/test/magnetic_field" + common + dir + "/bag.json");
   ASSERT_EQ(r.status, 0) << r.output;
-  r = run(CALIBRATE_RECORDS_BIN, "--reference " + dir + "/reference.bin --test " + dir + "/test.raw" + common + dir +
+  r = run_program(CALIBRATE_RECORDS_BIN, "--reference " + dir + "/reference.bin --test " + dir + "/test.raw" + common + dir +
                                      "/file.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json bag = read_json(dir + "/bag.json");
@@ -299,7 +279,7 @@ TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
 
 // Damaged IAGA-2002 lines: named with their line numbers, skipped, counted; the rest converted.
 TEST(RecordsToBag, DamagedTextRecordsAreNamedSkippedAndCounted) {
-  const std::string dir = temp_dir("bag_damaged");
+  const std::string dir = make_temp_dir("bag_damaged");
   mic::SimulationSettings s;
   s.duration_s = 7200.0;
   s.keep_clean_field = false;
@@ -313,7 +293,7 @@ TEST(RecordsToBag, DamagedTextRecordsAreNamedSkippedAndCounted) {
   lines[d + 5000].replace(11, 2, "25");  // hour 25
   mic::test::write_lines(dir + "/test_damaged.sec", lines, true);
 
-  const ProgramRun r = run(RECORDS_TO_BAG_BIN, "--reference " + dir + "/reference.sec --test " + dir +
+  const ProgramRun r = run_program(RECORDS_TO_BAG_BIN, "--reference " + dir + "/reference.sec --test " + dir +
                                             "/test_damaged.sec -o " + dir + "/d.bag");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_TRUE(has(r.output, dir + "/test_damaged.sec:" + std::to_string(d + 11) + ": ")) << r.output;
@@ -325,23 +305,23 @@ TEST(RecordsToBag, DamagedTextRecordsAreNamedSkippedAndCounted) {
 }
 
 TEST(CalibrateRecordsBag, BadBagRequestsAreNamed) {
-  const std::string dir = temp_dir("bag_cli");
+  const std::string dir = make_temp_dir("bag_cli");
   mic::VectorRecord r;
   r.time_s = {1747180800.0, 1747180801.0};
   r.values_nT = mic::Readings::Ones(2, 3);
   mic::write_records_bag(dir + "/b.bag", {{"/reference/magnetic_field", "r", &r}}, {});
-  ProgramRun run_missing = run(CALIBRATE_RECORDS_BIN, "--bag " + dir +
+  ProgramRun run_missing = run_program(CALIBRATE_RECORDS_BIN, "--bag " + dir +
                                                    "/b.bag --reference-topic /reference/magnetic_field --test-topic /nope");
   EXPECT_EQ(run_missing.status, 1);
   EXPECT_TRUE(has(run_missing.output, "no sensor_msgs/MagneticField message on topic /nope")) << run_missing.output;
-  ProgramRun both = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/b.bag --reference x --test y --reference-topic a --test-topic b");
+  ProgramRun both = run_program(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/b.bag --reference x --test y --reference-topic a --test-topic b");
   EXPECT_NE(both.status, 0);
   EXPECT_TRUE(has(both.output, "--reference excludes --bag") || has(both.output, "--bag excludes --reference"))
       << both.output;
-  ProgramRun none = run(CALIBRATE_RECORDS_BIN, "--intervals 2");
+  ProgramRun none = run_program(CALIBRATE_RECORDS_BIN, "--intervals 2");
   EXPECT_EQ(none.status, 1);
   EXPECT_TRUE(has(none.output, "--reference: is required (or --bag")) << none.output;
-  ProgramRun no_topic = run(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/b.bag --test-topic a");
+  ProgramRun no_topic = run_program(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/b.bag --test-topic a");
   EXPECT_NE(no_topic.status, 0);
   EXPECT_TRUE(has(no_topic.output, "--reference-topic")) << no_topic.output;
 }
@@ -349,7 +329,7 @@ TEST(CalibrateRecordsBag, BadBagRequestsAreNamed) {
 // ---- export_corrected from a bag, with calibration_node's YAML ----------------------------------
 
 TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
-  const std::string dir = temp_dir("bag_export");
+  const std::string dir = make_temp_dir("bag_export");
   mic::SimulationSettings s;
   s.duration_s = 3600.0;
   const mic::SimulatedPair pair = mic::simulate_pair(s);
@@ -366,7 +346,7 @@ TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
   c.quality_text = "ok";
   c.accepted = true;
   { std::ofstream(dir + "/fge.yaml") << mic::calibration_to_yaml(c, "/calibration_fge"); }
-  const ProgramRun r = run(EXPORT_CORRECTED_BIN, "--bag " + dir + "/p.bag --test-topic /test/magnetic_field --calibration " +
+  const ProgramRun r = run_program(EXPORT_CORRECTED_BIN, "--bag " + dir + "/p.bag --test-topic /test/magnetic_field --calibration " +
                                               dir + "/fge.yaml --iaga-code SIM -o " + dir + "/corrected.sec");
   ASSERT_EQ(r.status, 0) << r.output;
   const mic::VectorRecord out = mic::read_iaga2002(dir + "/corrected.sec");

@@ -35,6 +35,7 @@
 //                                 are dropped and counted, nothing goes backwards), then forward
 //                                 100 s (a gap in the stamps, nothing dropped); both steps counted
 #include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "driver_test_support.hpp"
 #include "pty_link.hpp"
 
 #include <rosgraph_msgs/Clock.h>
@@ -71,19 +72,10 @@ const char* const kInvalid = "readings published as NaN (invalid)";
 const char* const kUnconfirmed = "packets dropped (isolated GPS time jump)";
 const char* const kConfirmed = "GPS time jumps confirmed";
 
-std::string param(const std::string& name, const std::string& fallback = "") {
-  std::string value;
-  return ros::param::get("~" + name, value) ? value : fallback;
-}
-
-bool wait_for(const std::function<bool()>& done, double timeout_s) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    if (done()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  return done();
-}
+using mic::test::encode;
+using mic::test::gps_stamp;
+using mic::test::param;
+using mic::test::wait_for;
 
 mic::Lemi025Packet make_packet(double gps_s) {
   mic::Lemi025Packet p;
@@ -103,108 +95,19 @@ mic::Lemi025Packet make_packet(double gps_s) {
   return p;
 }
 
-std::vector<std::uint8_t> encode(const mic::Lemi025Packet& p) {
-  const auto b = mic::encode_lemi025_packet(p, mic::ChecksumMode::kSum8);
-  return std::vector<std::uint8_t>(b.begin(), b.end());
-}
 std::vector<std::uint8_t> encode(double gps_s) { return encode(make_packet(gps_s)); }
 
 void append(std::vector<std::uint8_t>& to, const std::vector<std::uint8_t>& bytes) {
   to.insert(to.end(), bytes.begin(), bytes.end());
 }
 
-ros::Time gps_stamp(double gps_s, int k) {
-  return ros::Time(static_cast<std::uint32_t>(gps_s)) + ros::Duration(-0.3 + 0.1 * k);
-}
-
-class Inbox {
+/// What the driver publishes: its readings (FieldInbox) and its diagnostics (DriverDiagnostics).
+class Inbox : public mic::test::FieldInbox, public mic::test::DriverDiagnostics {
  public:
-  Inbox() {
-    ros::NodeHandle nh;
-    const std::string ns = param("driver_namespace", "/faults");
-    fields_sub_ = nh.subscribe(ns + "/magnetic_field", 10000, &Inbox::on_field, this);
-    diagnostics_sub_ = nh.subscribe("/diagnostics", 1000, &Inbox::on_diagnostics, this);
-  }
-  bool connected() const { return fields_sub_.getNumPublishers() > 0; }
-  std::size_t count() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_.size();
-  }
-  std::vector<sensor_msgs::MagneticField> from(std::size_t first) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
-  }
-  bool status(const std::string& task, diagnostic_msgs::DiagnosticStatus& out) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = statuses_.find(task);
-    if (it == statuses_.end()) return false;
-    out = it->second;
-    return true;
-  }
-  std::string value(const std::string& task, const std::string& key) {
-    diagnostic_msgs::DiagnosticStatus s;
-    if (!status(task, s)) return "";
-    for (const auto& kv : s.values)
-      if (kv.key == key) return kv.value;
-    return "";
-  }
-  long long counter(const std::string& task, const std::string& key) {
-    const std::string text = value(task, key);
-    return text.empty() ? -1 : std::stoll(text);
-  }
-  long long wait_counter(const std::string& task, const std::string& key, long long target, double timeout_s = 5.0) {
-    long long seen = -1;
-    wait_for([&] { return (seen = counter(task, key)) >= target; }, timeout_s);
-    return seen;
-  }
-  /// Every status of `task` received so far, oldest first (a WARN lasts one diagnostics period).
-  std::size_t history_size() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return history_.size();
-  }
-  bool any_since(std::size_t mark, const std::string& task, std::uint8_t level, const std::string& text) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = mark; i < history_.size(); ++i) {
-      const auto& h = history_[i];
-      if (h.first == task && h.second.level == level && h.second.message.find(text) != std::string::npos) return true;
-    }
-    return false;
-  }
-  /// Waits for a diagnostics message newer than now (so counters reflect what was just sent).
-  void fresh() {
-    const std::size_t n0 = diagnostics_seen();
-    wait_for([&] { return diagnostics_seen() >= n0 + 2; }, 3.0);
-  }
-
- private:
-  std::size_t diagnostics_seen() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return diagnostics_seen_;
-  }
-  void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    fields_.push_back(*m);
-  }
-  void on_diagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
-    const std::string prefix = param("driver_node_name", "faults/lemi_driver") + ": ";
-    std::lock_guard<std::mutex> lock(mutex_);
-    bool ours = false;
-    for (const auto& s : m->status) {
-      if (s.name.compare(0, prefix.size(), prefix) == 0) {
-        statuses_[s.name.substr(prefix.size())] = s;
-        history_.emplace_back(s.name.substr(prefix.size()), s);
-        ours = true;
-      }
-    }
-    if (ours) ++diagnostics_seen_;
-  }
-
-  std::mutex mutex_;
-  std::vector<sensor_msgs::MagneticField> fields_;
-  std::map<std::string, diagnostic_msgs::DiagnosticStatus> statuses_;
-  std::vector<std::pair<std::string, diagnostic_msgs::DiagnosticStatus>> history_;
-  std::size_t diagnostics_seen_ = 0;
-  ros::Subscriber fields_sub_, diagnostics_sub_;
+  Inbox()
+      : FieldInbox(param("driver_namespace", "/faults")),
+        DriverDiagnostics(param("driver_node_name", "faults/lemi_driver")) {}
+  bool connected() const { return fields_connected(); }
 };
 
 mic::test::PtyLink* g_port = nullptr;
@@ -214,9 +117,7 @@ class DriverFaults : public testing::Test {
  protected:
   void SetUp() override {
     ASSERT_NE(g_port, nullptr);
-    ASSERT_TRUE(wait_for([] { return g_inbox->connected(); }, 20.0)) << "driver topic not connected";
-    ASSERT_TRUE(wait_for([] { return g_inbox->value("link", "connected") == "True"; }, 20.0))
-        << "driver not connected to the pty: " << g_inbox->value("link", "last warning");
+    mic::test::assert_driver_on_pty([] { return g_inbox->connected(); }, *g_inbox);
   }
   Inbox& inbox() { return *g_inbox; }
   mic::test::PtyLink& port() { return *g_port; }
@@ -224,12 +125,7 @@ class DriverFaults : public testing::Test {
   /// Writes `bytes`, waits for `expected` readings, then 0.3 s more for anything extra.
   std::vector<sensor_msgs::MagneticField> write_and_collect(const std::vector<std::uint8_t>& bytes,
                                                             std::size_t expected) {
-    const std::size_t before = inbox().count();
-    port().write(bytes);
-    EXPECT_TRUE(wait_for([&] { return inbox().count() >= before + expected; }, 10.0))
-        << "got " << inbox().count() - before << " of " << expected << " readings";
-    ros::WallDuration(0.3).sleep();
-    return inbox().from(before);
+    return inbox().write_and_collect(port(), bytes, expected);
   }
 
   /// The readings are exactly the 10 readings of each of `seconds`, in order, with their values.
@@ -244,11 +140,7 @@ class DriverFaults : public testing::Test {
       EXPECT_NEAR(fields[i].magnetic_field.z, (kBias_nT(2) + p.variation_nT(k, 2)) * kNanotesla, 1e-4 * kNanotesla);
     }
   }
-  void expect_all_increasing() {
-    const auto all = inbox().from(0);
-    for (std::size_t i = 1; i < all.size(); ++i)
-      ASSERT_GT(all[i].header.stamp, all[i - 1].header.stamp) << "message " << i << " goes backwards";
-  }
+  void expect_all_increasing() { inbox().expect_all_stamps_increasing(); }
 };
 
 TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
@@ -259,9 +151,9 @@ TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
   std::vector<std::uint8_t> half = encode(kT0 + 2);
   half.resize(80);
   append(bytes, half);
-  const std::size_t before = inbox().count();
+  const std::size_t before = inbox().field_count();
   port().write(bytes);
-  ASSERT_TRUE(wait_for([&] { return inbox().count() >= before + 20; }, 10.0));
+  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 20; }, 10.0));
   ros::WallDuration(0.3).sleep();  // the driver has read the half packet too
   port().close();                  // cut mid-packet
   EXPECT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "False"; }, 10.0));
@@ -274,7 +166,7 @@ TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
   std::vector<std::uint8_t> after = encode(kT0 + 3);
   append(after, encode(kT0 + 4));
   write_and_collect(after, 20);
-  expect_packets(inbox().from(before), {kT0, kT0 + 1, kT0 + 3, kT0 + 4});
+  expect_packets(inbox().fields_from(before), {kT0, kT0 + 1, kT0 + 3, kT0 + 4});
   EXPECT_EQ(inbox().wait_counter("link", "disconnects", disconnects0 + 1), disconnects0 + 1);
   EXPECT_GE(inbox().wait_counter("link", "reconnects", reconnects0 + 1), reconnects0 + 1);
   EXPECT_EQ(inbox().counter("link", "readings published as NaN (invalid)"), 0);
@@ -286,18 +178,18 @@ TEST_F(DriverFaults, LineStallsMidPacket) {
   const long long resyncs0 = inbox().counter("link", "resyncs");
   std::vector<std::uint8_t> half = encode(kT0 + 5);
   half.resize(100);
-  const std::size_t before = inbox().count();
+  const std::size_t before = inbox().field_count();
   port().write(half);
   ros::WallDuration(1.0).sleep();  // silence: the rest never comes
   // kT0 + 6 follows the lost kT0 + 5: ahead of the packet count, so held until the next packet
   // confirms it (documented 1-packet delay), then published with it; nothing is lost.
   port().write(encode(kT0 + 6));
   ros::WallDuration(1.5).sleep();
-  EXPECT_EQ(inbox().count(), before) << "a packet after a lost one is published before it is confirmed";
+  EXPECT_EQ(inbox().field_count(), before) << "a packet after a lost one is published before it is confirmed";
   std::vector<std::uint8_t> more = encode(kT0 + 7);
   append(more, encode(kT0 + 8));
   write_and_collect(more, 30);
-  expect_packets(inbox().from(before), {kT0 + 6, kT0 + 7, kT0 + 8});
+  expect_packets(inbox().fields_from(before), {kT0 + 6, kT0 + 7, kT0 + 8});
   inbox().fresh();
   // The half packet is skipped (flushed at the read gap or resynchronised): never a packet.
   EXPECT_GE(inbox().counter("link", "checksum errors") - checksum0 + inbox().counter("link", "resyncs") - resyncs0 +
@@ -490,10 +382,10 @@ class DriverPcClock : public testing::Test {
     ros::WallDuration(0.3).sleep();
     mic::Lemi025Packet p = make_packet(gps_s);
     p.gps_status = 'P';
-    const std::size_t before = g_inbox->count();
+    const std::size_t before = g_inbox->field_count();
     port().write(encode(p));
     // A published packet shows up on the topic; a dropped one cannot: wait a generous while.
-    wait_for([&] { return g_inbox->count() >= before + 10; }, 1.5);
+    wait_for([&] { return g_inbox->field_count() >= before + 10; }, 1.5);
     ros::WallDuration(0.2).sleep();
   }
   /// Advances the clock in steps of 0.25 s until diagnostics newer than now have arrived.
@@ -521,10 +413,10 @@ class DriverPcClock : public testing::Test {
 // stamps restart at the new arrival - 0.9 s, nothing dropped. Both steps counted, WARN.
 TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
   const std::size_t mark = g_inbox->history_size();
-  const std::size_t before = g_inbox->count();
+  const std::size_t before = g_inbox->field_count();
   const double gps0 = kT0 + 500.0;  // the instrument's (untrusted) clock runs on regardless
   for (int j = 0; j < 3; ++j) packet_at(kP0 + j, gps0 + j);
-  ASSERT_EQ(g_inbox->count(), before + 30);
+  ASSERT_EQ(g_inbox->field_count(), before + 30);
   fresh_diagnostics(kP0 + 2);
   const long long dropped0 = g_inbox->counter("link", kDropped);
   const long long steps0 = g_inbox->counter("link", "PC clock steps");
@@ -536,7 +428,7 @@ TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
   const double forward = back + 6.0 + 100.0;  // then the clock jumps 100 s ahead
   for (int j = 0; j < 2; ++j) packet_at(forward + j, gps0 + 9 + j);
 
-  const auto fields = g_inbox->from(before);
+  const auto fields = g_inbox->fields_from(before);
   std::vector<double> expected;  // truth, UNIX s
   for (int j = 0; j < 3; ++j)
     for (int k = 0; k < 10; ++k) expected.push_back(kP0 + j - 0.9 + 0.1 * k);

@@ -28,8 +28,9 @@
 // parameters and checks the exit code and the fatal message naming the parameter.
 // SimulatedStation.* (test_simulated_station.cpp) runs from test_simulated_station.test.
 #include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "pty_link.hpp"
 #include "magnetometer_insitu_calibration/lemi_archive.hpp"
+#include "driver_test_support.hpp"
+#include "pty_link.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
@@ -65,19 +66,10 @@ constexpr double kNanotesla = 1e-9;  // T
 constexpr double kT0 = 1709251200.0;  // 2024-03-01T00:00:00Z: GPS time of the first packet
 const Eigen::Vector3d kBias_nT(21500.0, 502.5, 43000.0);  // multiples of 2.5 nT
 
-std::string param(const std::string& name, const std::string& fallback = "") {
-  std::string value;
-  return ros::param::get("~" + name, value) ? value : fallback;
-}
-
-bool wait_for(const std::function<bool()>& done, double timeout_s) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    if (done()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  return done();
-}
+using mic::test::encode;
+using mic::test::gps_stamp;
+using mic::test::param;
+using mic::test::wait_for;
 
 // ---- Packets ------------------------------------------------------------------------------------
 
@@ -102,42 +94,22 @@ mic::Lemi025Packet make_packet(double gps_s, char gps_status = 'A') {
   return p;
 }
 
-std::vector<std::uint8_t> encode(const mic::Lemi025Packet& p) {
-  const auto bytes = mic::encode_lemi025_packet(p, mic::ChecksumMode::kSum8);
-  return std::vector<std::uint8_t>(bytes.begin(), bytes.end());
-}
-
-/// Exact stamp of reading k of the packet of GPS second gps_s: t_gps - 0.3 + 0.1 k.
-ros::Time gps_stamp(double gps_s, int k) {
-  return ros::Time(static_cast<std::uint32_t>(gps_s)) + ros::Duration(-0.3 + 0.1 * k);
-}
-
 // ---- What the driver publishes -----------------------------------------------------------------
 
-class Inbox {
+/// Readings (FieldInbox), temperatures, and diagnostics (DriverDiagnostics).
+class Inbox : public mic::test::FieldInbox, public mic::test::DriverDiagnostics {
  public:
-  Inbox() {
+  Inbox()
+      : FieldInbox(param("driver_namespace", "/lemi")), DriverDiagnostics(param("driver_node_name", "lemi_driver")) {
     ros::NodeHandle nh;
     const std::string ns = param("driver_namespace", "/lemi");
-    fields_sub_ = nh.subscribe(ns + "/magnetic_field", 10000, &Inbox::on_field, this);
     sensor_sub_ = nh.subscribe(ns + "/temperature/sensor", 1000, &Inbox::on_sensor, this);
     electronics_sub_ = nh.subscribe(ns + "/temperature/electronics", 1000, &Inbox::on_electronics, this);
-    diagnostics_sub_ = nh.subscribe("/diagnostics", 1000, &Inbox::on_diagnostics, this);
   }
 
   bool connected() const {
-    return fields_sub_.getNumPublishers() > 0 && sensor_sub_.getNumPublishers() > 0 &&
-           electronics_sub_.getNumPublishers() > 0;
+    return fields_connected() && sensor_sub_.getNumPublishers() > 0 && electronics_sub_.getNumPublishers() > 0;
   }
-  std::size_t field_count() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_.size();
-  }
-  std::vector<sensor_msgs::MagneticField> fields_from(std::size_t first) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
-  }
-  std::vector<sensor_msgs::MagneticField> all_fields() { return fields_from(0); }
   std::size_t temperature_count() {
     std::lock_guard<std::mutex> lock(mutex_);
     return std::min(sensor_.size(), electronics_.size());
@@ -152,38 +124,7 @@ class Inbox {
                                                  electronics_.end());
   }
 
-  /// The newest status of the driver's task ("packet rate", "link", "instrument"), if any.
-  bool status(const std::string& task, diagnostic_msgs::DiagnosticStatus& out) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = statuses_.find(task);
-    if (it == statuses_.end()) return false;
-    out = it->second;
-    return true;
-  }
-  /// A value of the newest status of `task`, "" if absent.
-  std::string value(const std::string& task, const std::string& key) {
-    diagnostic_msgs::DiagnosticStatus s;
-    if (!status(task, s)) return "";
-    for (const auto& kv : s.values)
-      if (kv.key == key) return kv.value;
-    return "";
-  }
-  long long counter(const std::string& task, const std::string& key) {
-    const std::string text = value(task, key);
-    return text.empty() ? -1 : std::stoll(text);
-  }
-  /// Waits until the counter reaches at least `target`; returns the last value seen.
-  long long wait_counter(const std::string& task, const std::string& key, long long target, double timeout_s = 5.0) {
-    long long seen = -1;
-    wait_for([&] { return (seen = counter(task, key)) >= target; }, timeout_s);
-    return seen;
-  }
-
  private:
-  void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    fields_.push_back(*m);
-  }
   void on_sensor(const sensor_msgs::Temperature::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     sensor_.push_back(*m);
@@ -192,19 +133,10 @@ class Inbox {
     std::lock_guard<std::mutex> lock(mutex_);
     electronics_.push_back(*m);
   }
-  void on_diagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
-    const std::string prefix = param("driver_node_name", "lemi_driver") + ": ";
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (const auto& s : m->status) {
-      if (s.name.compare(0, prefix.size(), prefix) == 0) statuses_[s.name.substr(prefix.size())] = s;
-    }
-  }
 
   std::mutex mutex_;
-  std::vector<sensor_msgs::MagneticField> fields_;
   std::vector<sensor_msgs::Temperature> sensor_, electronics_;
-  std::map<std::string, diagnostic_msgs::DiagnosticStatus> statuses_;
-  ros::Subscriber fields_sub_, sensor_sub_, electronics_sub_, diagnostics_sub_;
+  ros::Subscriber sensor_sub_, electronics_sub_;
 };
 
 // One pty and one inbox for the whole run (the driver of the .test file keeps running).
@@ -215,9 +147,7 @@ class Lemi025DriverOnPty : public testing::Test {
  protected:
   void SetUp() override {
     ASSERT_NE(g_port, nullptr);
-    ASSERT_TRUE(wait_for([] { return g_inbox->connected(); }, 20.0)) << "driver topics not connected";
-    ASSERT_TRUE(wait_for([] { return g_inbox->value("link", "connected") == "True"; }, 20.0))
-        << "driver not connected to the pty: " << g_inbox->value("link", "last warning");
+    mic::test::assert_driver_on_pty([] { return g_inbox->connected(); }, *g_inbox);
   }
   mic::test::PtyLink& port() { return *g_port; }
   Inbox& inbox() { return *g_inbox; }
@@ -225,25 +155,15 @@ class Lemi025DriverOnPty : public testing::Test {
   /// Writes packets of the given GPS seconds and waits for their 10 readings each.
   std::vector<sensor_msgs::MagneticField> send(const std::vector<double>& seconds, std::size_t expected_readings,
                                                char gps_status = 'A') {
-    const std::size_t before = inbox().field_count();
     std::vector<std::uint8_t> bytes;
     for (double s : seconds) {
       const auto packet = encode(make_packet(s, gps_status));
       bytes.insert(bytes.end(), packet.begin(), packet.end());
     }
-    port().write(bytes);
-    EXPECT_TRUE(wait_for([&] { return inbox().field_count() >= before + expected_readings; }, 10.0))
-        << "got " << inbox().field_count() - before << " of " << expected_readings << " readings";
-    ros::WallDuration(0.3).sleep();  // nothing more may come
-    return inbox().fields_from(before);
+    return inbox().write_and_collect(port(), bytes, expected_readings);
   }
 
-  static void expect_all_stamps_increasing() {
-    const auto all = g_inbox->all_fields();
-    for (std::size_t i = 1; i < all.size(); ++i) {
-      ASSERT_GT(all[i].header.stamp, all[i - 1].header.stamp) << "message " << i << " goes backwards";
-    }
-  }
+  static void expect_all_stamps_increasing() { g_inbox->expect_all_stamps_increasing(); }
 };
 
 TEST_F(Lemi025DriverOnPty, PublishesTeslaWithGpsStamps) {
@@ -484,31 +404,6 @@ class DriverProcess {
   pid_t pid_ = -1;
 };
 
-/// Collects one namespace's magnetic_field messages.
-class FieldRecorder {
- public:
-  explicit FieldRecorder(const std::string& ns) {
-    sub_ = ros::NodeHandle().subscribe(ns + "/magnetic_field", 10000, &FieldRecorder::on_field, this);
-  }
-  std::vector<sensor_msgs::MagneticField> fields() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_;
-  }
-  std::size_t count() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return fields_.size();
-  }
-
- private:
-  void on_field(const sensor_msgs::MagneticField::ConstPtr& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    fields_.push_back(*m);
-  }
-  std::mutex mutex_;
-  std::vector<sensor_msgs::MagneticField> fields_;
-  ros::Subscriber sub_;
-};
-
 std::string temporary_path(const std::string& stem) {
   const char* home = std::getenv("ROS_HOME");
   return std::string(home ? home : "/tmp") + "/" + stem + "_" + std::to_string(::getpid());
@@ -543,19 +438,19 @@ TEST(Lemi025DriverRecordings, CompactFlashInvalidReadingsAreNaN) {
     }
   }
   const std::string ns = "/replay_flash";
-  FieldRecorder recorder(ns);
+  mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=compact_flash", "_file:=" + path, "_rate:=10.0", "_frame_id:=flash"});
   ASSERT_TRUE(driver.started());
   // The last block's readings come last: wait for its final reading.
   const ros::Time last_stamp = gps_stamp(t0 + 29.0, 9);
   ASSERT_TRUE(wait_for(
       [&] {
-        const auto f = recorder.fields();
+        const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp >= last_stamp;
       },
       20.0))
-      << recorder.count() << " readings";
-  const auto fields = recorder.fields();
+      << recorder.field_count() << " readings";
+  const auto fields = recorder.all_fields();
   std::size_t nan_readings = 0, checked = 0;
   for (const auto& m : fields) {
     // Reading j of block b: caption time + 0.1 j - 0.3 s.
@@ -597,17 +492,17 @@ TEST(Lemi025DriverRecordings, LemiBinWithoutGpsUsesRecordedPcTime) {
   }
   mic::write_lemi_bin(path, records, "LEMI025TEST", mic::ChecksumMode::kNone);
   const std::string ns = "/replay_lemibin";
-  FieldRecorder recorder(ns);
+  mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=lemibin", "_file:=" + path, "_rate:=10.0"});
   ASSERT_TRUE(driver.started());
   ASSERT_TRUE(wait_for(
       [&] {
-        const auto f = recorder.fields();
+        const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp.toSec() > t0 + 3600.0 + 19.0;
       },
       20.0))
-      << recorder.count() << " readings";
-  const auto fields = recorder.fields();
+      << recorder.field_count() << " readings";
+  const auto fields = recorder.all_fields();
   std::size_t passive_readings = 0;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     if (i > 0) EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp);
@@ -644,19 +539,19 @@ TEST(Lemi025DriverRecordings, StreamFileGpsGlitchDroppedAndLastHeldPacketRelease
     }
   }
   const std::string ns = "/replay_glitch";
-  FieldRecorder recorder(ns);
+  mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=glitch"});
   ASSERT_TRUE(driver.started());
   const ros::Time last_stamp = gps_stamp(t0 + 50, 9);
   ASSERT_TRUE(wait_for(
       [&] {
-        const auto f = recorder.fields();
+        const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp >= last_stamp;
       },
       30.0))
-      << recorder.count() << " readings; the held last packet was not released at the end";
+      << recorder.field_count() << " readings; the held last packet was not released at the end";
   ros::WallDuration(0.3).sleep();
-  const auto fields = recorder.fields();
+  const auto fields = recorder.all_fields();
   std::vector<sensor_msgs::MagneticField> from_t0;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     if (i > 0) {

@@ -28,14 +28,15 @@ endforeach()
 # Calibration change WARN after a step of the scale ratio; resume from the file after a restart.
 add_rostest(test/ros/test_calibration_change.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 add_rostest(test/ros/test_calibration_resume.test DEPENDENCIES rostest_calibration calibration_node correction_node)
-# test/ros/pty_link.cpp: the pseudo-terminal serial port shared by the two driver rostests.
-add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros/test_lemi025_driver.cpp test/ros/test_simulated_station.cpp test/ros/pty_link.cpp)
+# test/ros/pty_link.cpp (the pseudo-terminal serial port) and test/ros/driver_test_support.cpp
+# (parameters, waiting, packet bytes, stamps, diagnostics) are shared by the two driver rostests.
+add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros/test_lemi025_driver.cpp test/ros/test_simulated_station.cpp test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
 target_link_libraries(test_lemi025_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 add_dependencies(test_lemi025_driver lemi025_driver lemi025_simulator calibration_node correction_node)
 add_rostest(test/ros/test_simulated_station.test DEPENDENCIES test_lemi025_driver)
 add_rostest(test/ros/test_simulated_network.test DEPENDENCIES test_lemi025_driver)
 # Fault injection (test/ros/test_faults_*.test): the driver's serial line.
-add_rostest_gtest(test_faults_driver test/ros/test_faults_driver.test test/ros/test_faults_driver.cpp test/ros/pty_link.cpp)
+add_rostest_gtest(test_faults_driver test/ros/test_faults_driver.test test/ros/test_faults_driver.cpp test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
 target_link_libraries(test_faults_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_compile_options(test_faults_driver PRIVATE -Wall -Wextra)
 add_dependencies(test_faults_driver lemi025_driver)
