@@ -591,19 +591,19 @@ TEST(Lemi025DriverRecordings, StreamFileFirstPacketGlitchDoesNotBlockData) {
     }
   }
   const std::string ns = "/replay_first_glitch";
-  FieldRecorder recorder(ns);
+  mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=first_glitch"});
   ASSERT_TRUE(driver.started());
   const ros::Time last_stamp = gps_stamp(t0 + 9, 9);
   ASSERT_TRUE(wait_for(
       [&] {
-        const auto f = recorder.fields();
+        const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp >= last_stamp;
       },
       30.0))
-      << recorder.count() << " readings; the data after a glitched first packet were not published";
+      << recorder.field_count() << " readings; the data after a glitched first packet were not published";
   ros::WallDuration(0.3).sleep();
-  const auto fields = recorder.fields();
+  const auto fields = recorder.all_fields();
   std::vector<sensor_msgs::MagneticField> from_t4;
   for (const auto& f : fields) {
     EXPECT_LT(f.header.stamp, gps_stamp(t0 + 10, 0)) << "the day-ahead first packet was published";
