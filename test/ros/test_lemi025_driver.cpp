@@ -522,6 +522,25 @@ TEST(Lemi025DriverRecordings, LemiBinWithoutGpsUsesRecordedPcTime) {
   ::unlink(path.c_str());
 }
 
+/// Writes packets of the given GPS seconds (GPS 'A', sum8) back to back: a raw stream recording.
+void write_stream_recording(const std::string& path, const std::vector<double>& seconds) {
+  std::ofstream out(path, std::ios::binary);
+  for (double s : seconds) {
+    const auto bytes = encode(make_packet(s));
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  }
+}
+
+/// Waits (wall time) until the newest reading in `inbox` is stamped at or after `stamp`.
+bool wait_for_stamp(mic::test::FieldInbox& inbox, const ros::Time& stamp, double timeout_s) {
+  return wait_for(
+      [&] {
+        const auto f = inbox.all_fields();
+        return !f.empty() && f.back().header.stamp >= stamp;
+      },
+      timeout_s);
+}
+
 // A raw stream recording (~source stream_file) through the driver's GPS-time screening: a packet
 // whose GPS second is a day ahead (in the slot of t0 + 2) is dropped, the seconds around it are
 // published; the last packet jumps 46 s ahead and has no later packet to confirm it: it is held,
@@ -530,25 +549,12 @@ TEST(Lemi025DriverRecordings, LemiBinWithoutGpsUsesRecordedPcTime) {
 TEST(Lemi025DriverRecordings, StreamFileGpsGlitchDroppedAndLastHeldPacketReleased) {
   const std::string path = temporary_path("lemi025_driver_test_glitch.stream");
   const double t0 = 1709251200.0 + 3 * 86400.0;
-  const std::vector<double> written = {t0 - 4, t0 - 3, t0 - 2, t0 - 1, t0, t0 + 1, t0 + 86400.0, t0 + 3, t0 + 4, t0 + 50};
-  {
-    std::ofstream out(path, std::ios::binary);
-    for (double s : written) {
-      const auto bytes = encode(make_packet(s));
-      out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    }
-  }
+  write_stream_recording(path, {t0 - 4, t0 - 3, t0 - 2, t0 - 1, t0, t0 + 1, t0 + 86400.0, t0 + 3, t0 + 4, t0 + 50});
   const std::string ns = "/replay_glitch";
   mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=glitch"});
   ASSERT_TRUE(driver.started());
-  const ros::Time last_stamp = gps_stamp(t0 + 50, 9);
-  ASSERT_TRUE(wait_for(
-      [&] {
-        const auto f = recorder.all_fields();
-        return !f.empty() && f.back().header.stamp >= last_stamp;
-      },
-      30.0))
+  ASSERT_TRUE(wait_for_stamp(recorder, gps_stamp(t0 + 50, 9), 30.0))
       << recorder.field_count() << " readings; the held last packet was not released at the end";
   ros::WallDuration(0.3).sleep();
   const auto fields = recorder.all_fields();
@@ -583,24 +589,12 @@ TEST(Lemi025DriverRecordings, StreamFileFirstPacketGlitchDoesNotBlockData) {
   const double t0 = 1709251200.0 + 5 * 86400.0;
   std::vector<double> written = {t0 + 86400.0};
   for (int i = 0; i < 10; ++i) written.push_back(t0 + i);
-  {
-    std::ofstream out(path, std::ios::binary);
-    for (double s : written) {
-      const auto bytes = encode(make_packet(s));
-      out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    }
-  }
+  write_stream_recording(path, written);
   const std::string ns = "/replay_first_glitch";
   mic::test::FieldInbox recorder(ns);
   DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=first_glitch"});
   ASSERT_TRUE(driver.started());
-  const ros::Time last_stamp = gps_stamp(t0 + 9, 9);
-  ASSERT_TRUE(wait_for(
-      [&] {
-        const auto f = recorder.all_fields();
-        return !f.empty() && f.back().header.stamp >= last_stamp;
-      },
-      30.0))
+  ASSERT_TRUE(wait_for_stamp(recorder, gps_stamp(t0 + 9, 9), 30.0))
       << recorder.field_count() << " readings; the data after a glitched first packet were not published";
   ros::WallDuration(0.3).sleep();
   const auto fields = recorder.all_fields();
