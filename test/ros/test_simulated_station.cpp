@@ -77,10 +77,6 @@ class StationRecorder {
     corrected_sub_ = nh.subscribe(pair.corrected_topic, 100000, &StationRecorder::on_corrected, this);
   }
 
-  std::size_t corrected_count() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return corrected_.size();
-  }
   bool accepted(mic::MagnetometerCalibration& out) {
     std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& c : calibrations_) {
