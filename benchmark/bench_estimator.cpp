@@ -2,9 +2,9 @@
 // sums, covariance, decomposition) against the FFTW transforms alone (load + the same batched
 // plan) on the same simulated 1 Hz data, 2 and 10 days; and the default robust estimator. README "Speed" quotes its output:
 //   build/devel/lib/magnetometer_insitu_calibration/bench_estimator --benchmark_repetitions=5
-#include "magnetometer_insitu_calibration/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/robust_estimator.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <benchmark/benchmark.h>
 

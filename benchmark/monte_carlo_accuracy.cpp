@@ -3,8 +3,8 @@
 // from the package's simulator with the paper's scale ratios, angles of 0.01-0.3 deg, white and
 // 1/f noise and a drift; reports the error distribution and the 95 % interval coverage.
 //   monte_carlo_accuracy [--seeds 500] [--rate 1] [--days 1] [--method plain|robust]
-#include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -9,11 +9,11 @@
 //   monte_carlo_disturbed wic [data_dir=data]             real pair, 4 intervals + the day
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary follows.
-#include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/record_file.hpp"
-#include "magnetometer_insitu_calibration/robust_estimator.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
-#include "magnetometer_insitu_calibration/station_disturbances.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 
 #include <algorithm>
 #include <chrono>

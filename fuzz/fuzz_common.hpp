@@ -6,9 +6,9 @@
 // exception, a sanitizer report, a timeout, a leak) is a finding: the target aborts.
 #pragma once
 
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "magnetometer_insitu_calibration/vector_record.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <zlib.h>
 

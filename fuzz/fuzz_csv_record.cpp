@@ -5,7 +5,7 @@
 // strictly increasing times; values NaN or finite and below the 88888 nT sentinel.
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/csv_record.hpp"
+#include "magnetometer_insitu_calibration/formats/csv_record.hpp"
 
 using namespace magnetometer_insitu_calibration;
 

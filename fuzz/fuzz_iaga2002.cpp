@@ -5,7 +5,7 @@
 // strictly increasing times; values NaN or finite and below the 88888 nT sentinel.
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 
 using namespace magnetometer_insitu_calibration;
 

@@ -9,7 +9,7 @@
 //  - decode_lemi025_packet_unchecked never throws.
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 
 #include <algorithm>
 #include <array>

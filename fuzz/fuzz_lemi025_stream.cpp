@@ -5,7 +5,7 @@
 // plausible values; the header's packet count is at most size / 153.
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 
 using namespace magnetometer_insitu_calibration;
 

@@ -11,7 +11,7 @@
 //  - at most max_warnings warnings are kept.
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/lemi025_stream_parser.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_stream_parser.hpp"
 
 #include <vector>
 

@@ -7,7 +7,7 @@
 // times and plausible values (|bias| + |variation| <= 81920 + 100000 nT) or NaN.
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 
 using namespace magnetometer_insitu_calibration;
 

@@ -8,7 +8,7 @@
 // record then carries): values are not range-checked here.
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 
 using namespace magnetometer_insitu_calibration;
 

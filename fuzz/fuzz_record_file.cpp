@@ -9,7 +9,7 @@
 // check, see fuzz_lemi_compact_flash.cpp).
 #include "fuzz_common.hpp"
 
-#include "magnetometer_insitu_calibration/record_file.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
 
 using namespace magnetometer_insitu_calibration;
 

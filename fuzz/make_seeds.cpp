@@ -4,11 +4,11 @@
 // with the library's own encoders from those readings, and a calibration YAML written by
 // calibration_to_yaml. The outputs are small and committed; re-run after a format change:
 //   build_fuzz/make_seeds <package root> <package root>/fuzz/corpus
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
-#include "magnetometer_insitu_calibration/text_lines.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 #ifdef MIC_FUZZ_WITH_YAML
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #endif

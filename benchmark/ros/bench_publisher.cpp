@@ -15,7 +15,7 @@
 // publisher waits for a subscriber on every topic before the first sample, and at the end
 // prints "published <ticks> samples per topic, <late> ticks late (publisher behind)" so that
 // the caller can compare with the node's counters.
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>

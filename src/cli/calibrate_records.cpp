@@ -1,9 +1,9 @@
 // calibrate_records: in-situ calibration of a test magnetometer record against a reference
 // record (IAGA-2002, CSV, plain or gzip). Prints the table; --json writes the full report.
-#include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/calibration_report.hpp"
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/record_file.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
 
 #include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
 

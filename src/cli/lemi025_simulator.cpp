@@ -14,10 +14,10 @@
 // The simulator keeps the slave open in raw mode: bytes wait in its input queue (a few kB)
 // while no driver is connected; when it is full, packets are dropped and counted. Stopping
 // the simulator (SIGINT/SIGTERM) closes the master: a connected driver sees a hang-up.
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <CLI/CLI.hpp>
 

@@ -1,11 +1,11 @@
 // simulate_records: writes a simulated reference record, a simulated test record (IAGA-2002 or
 // CSV) and truth.json (n_true row-major, trends, the settings) for testing the calibration.
 //   simulate_records --out-dir DIR [--format iaga|csv] [--days D] [--rate HZ] [--seed S] ...
-#include "magnetometer_insitu_calibration/csv_record.hpp"
-#include "magnetometer_insitu_calibration/iaga2002.hpp"
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/formats/csv_record.hpp"
+#include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>

@@ -1,8 +1,8 @@
 // Records in rosbags; see bag_records.hpp.
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>

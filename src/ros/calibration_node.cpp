@@ -1,12 +1,12 @@
 // calibration_node: sliding-window in-situ calibration (see calibration_node.hpp).
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 
-#include "magnetometer_insitu_calibration/calibration_change.hpp"
-#include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <atomic>
 #include <chrono>

@@ -2,8 +2,8 @@
 // config/calibration.yaml). Every error names the parameter; nothing falls back silently.
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 
-#include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
 #include <algorithm>

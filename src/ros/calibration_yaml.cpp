@@ -1,7 +1,7 @@
 // Calibration file: MagnetometerCalibration <-> YAML, atomic write.
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <yaml-cpp/yaml.h>
 

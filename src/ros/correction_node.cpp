@@ -3,7 +3,7 @@
 
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <ros/names.h>
 

@@ -1,10 +1,10 @@
 // lemi025_driver: LEMI-025 serial port or recording -> ROS topics (see lemi025_driver.hpp).
 #include "magnetometer_insitu_calibration/ros/lemi025_driver.hpp"
 
-#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
-#include "magnetometer_insitu_calibration/serial_port.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/instrument/serial_port.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <sensor_msgs/MagneticField.h>
 #include <sensor_msgs/Temperature.h>

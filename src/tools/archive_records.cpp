@@ -1,11 +1,11 @@
 // Archived records read without giving up at a damaged record; see archive_records.hpp.
 #include "archive_records.hpp"
 
-#include "magnetometer_insitu_calibration/csv_record.hpp"
-#include "magnetometer_insitu_calibration/iaga2002.hpp"
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/lemi025_stream_parser.hpp"
-#include "magnetometer_insitu_calibration/text_lines.hpp"
+#include "magnetometer_insitu_calibration/formats/csv_record.hpp"
+#include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_stream_parser.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 
 #include <Eigen/LU>
 #include <Eigen/Eigenvalues>

@@ -3,9 +3,9 @@
 // frame, and the calibration of a calibrate_records JSON report.
 #pragma once
 
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
-#include "magnetometer_insitu_calibration/record_file.hpp"
-#include "magnetometer_insitu_calibration/vector_record.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -1,8 +1,8 @@
 // Bag input for command-line programs; see bag_input.hpp.
 #include "bag_input.hpp"
 
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/record_file.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 
 #include <iostream>

@@ -2,8 +2,8 @@
 // alternative to --reference FILE --test FILE (calibrate_records).
 #pragma once
 
-#include "magnetometer_insitu_calibration/calibration_report.hpp"
-#include "magnetometer_insitu_calibration/vector_record.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <CLI/CLI.hpp>
 

@@ -13,9 +13,9 @@
 // Prints the median and the fastest of each, and read / bare.
 //
 //   benchmark_bag_read [--bag existing.bag] [--keep path.bag] [--repeat 5] [--compression none]
-#include "magnetometer_insitu_calibration/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <CLI/CLI.hpp>
 #include <rosbag/bag.h>

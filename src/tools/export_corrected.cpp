@@ -13,11 +13,11 @@
 // absolute measurements, as any variometer record. The trend column is not applied either.
 #include "archive_records.hpp"
 
-#include "magnetometer_insitu_calibration/iaga2002.hpp"
-#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <CLI/CLI.hpp>
 

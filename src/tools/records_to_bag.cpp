@@ -12,9 +12,9 @@
 // skipped records is printed), 1 when it could not be.
 #include "archive_records.hpp"
 
-#include "magnetometer_insitu_calibration/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <CLI/CLI.hpp>
 

@@ -3,9 +3,9 @@
 // known temperatures, and text-file surgery for damaged lines.
 #pragma once
 
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
-#include "magnetometer_insitu_calibration/vector_record.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <cmath>
 #include <cstdint>

@@ -1,6 +1,6 @@
 #include "test_support.hpp"
 
-#include "magnetometer_insitu_calibration/text_lines.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 
 #include <sys/wait.h>
 

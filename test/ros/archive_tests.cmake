@@ -1,5 +1,5 @@
 # Tests of the archived-record tools (included by test/ros/tests.cmake):
-#  - test/core/test_archive_records, test/core/test_export_corrected (ROS-free, created by the
+#  - test/core/programs/test_archive_records, test/core/programs/test_export_corrected (ROS-free, created by the
 #    core glob of CMakeLists.txt): linked here to the archive library, given the programs;
 #  - test_bag_records: gtest without a master (bags, records_to_bag, calibrate_records --bag,
 #    export_corrected from a bag and a calibration_node YAML);

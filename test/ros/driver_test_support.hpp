@@ -4,7 +4,7 @@
 // /diagnostics.
 #pragma once
 
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 #include "pty_link.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>

@@ -19,7 +19,7 @@
 //   Calibration.BadParameters  bad_parameters.test  impossible parameters: the node exits naming them
 // Private parameters of the test node: the topic names and the calibration file of the launch.
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 

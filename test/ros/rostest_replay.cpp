@@ -4,8 +4,8 @@
 // for the same bag and the same windows (--window/--step, --method plain --no-despike: what the
 // live node does). Agreement to numerical noise: every number of the message within 1e-7
 // relative (plus 1e-12 absolute) of the JSON; counts, harmonics and quality equal.
-#include "magnetometer_insitu_calibration/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 

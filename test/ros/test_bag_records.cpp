@@ -2,12 +2,12 @@
 // every input format (skipped records reported, temperatures, progress), calibrate_records
 // --bag giving the JSON of calibrate_records on the files (the real WIC pair and a simulated
 // 10 Hz LEMI pair), and export_corrected from a bag and from calibration_node's YAML file.
-#include "magnetometer_insitu_calibration/iaga2002.hpp"
-#include "magnetometer_insitu_calibration/input_error.hpp"
-#include "magnetometer_insitu_calibration/record_file.hpp"
+#include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include "archive_fixtures.hpp"
 #include "test_support.hpp"

@@ -12,7 +12,7 @@
 //                                     accepted, n_true recovered
 // Not covered elsewhere: test/ros (rostest_calibration) covers silent topics, time jumps,
 // decimation, two instruments, bad parameters, correction reloads; none feeds NaN or duplicates.
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 

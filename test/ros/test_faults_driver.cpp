@@ -34,7 +34,7 @@
 //                                 back 4.55 s (the 45 readings stamped before the last published one
 //                                 are dropped and counted, nothing goes backwards), then forward
 //                                 100 s (a gap in the stamps, nothing dropped); both steps counted
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 #include "driver_test_support.hpp"
 #include "pty_link.hpp"
 

@@ -27,8 +27,8 @@
 // Lemi025DriverParameters.BadParametersExitNonZero starts the driver itself with impossible
 // parameters and checks the exit code and the fatal message naming the parameter.
 // SimulatedStation.* (test_simulated_station.cpp) runs from test_simulated_station.test.
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 #include "driver_test_support.hpp"
 #include "pty_link.hpp"
 

@@ -3,7 +3,7 @@
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/correction_model.hpp"
 #include "magnetometer_insitu_calibration/ros/live_window.hpp"
-#include "magnetometer_insitu_calibration/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <Eigen/LU>
 #include <gtest/gtest.h>

@@ -22,8 +22,8 @@
 // the topics and frame ids; for SimulatedNetwork `network`, the pairs as STATION/TEST:SEED
 // separated by spaces (topics /STATION/reference/magnetic_field, /STATION/TEST/calibration,
 // /STATION/TEST/corrected; frame ids STATION_reference, STATION_TEST as network.launch sets).
-#include "magnetometer_insitu_calibration/simulator.hpp"
-#include "magnetometer_insitu_calibration/time_format.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 

@@ -14,7 +14,7 @@
 // back onto it).
 #pragma once
 
-#include "magnetometer_insitu_calibration/vector_record.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <cstddef>
 #include <functional>

@@ -26,12 +26,12 @@
 // ROS time (wall clock, or /clock with /use_sim_time) between arrivals.
 #pragma once
 
-#include "magnetometer_insitu_calibration/calibration_change.hpp"
-#include "magnetometer_insitu_calibration/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/robust_estimator.hpp"
-#include "magnetometer_insitu_calibration/gaussian_decimation.hpp"
+#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/ros/live_window.hpp"
-#include "magnetometer_insitu_calibration/stream_pairing.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 

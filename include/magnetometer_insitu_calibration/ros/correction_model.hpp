@@ -16,7 +16,7 @@
 // the whole field, the conservative form for calibrations without m or without the offset).
 #pragma once
 
-#include "magnetometer_insitu_calibration/decomposition.hpp"
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 
 #include <Eigen/Core>
 

@@ -64,9 +64,9 @@
 // by the core's StreamPacketSource; the device need not exist at start.
 #pragma once
 
-#include "magnetometer_insitu_calibration/lemi025_packet.hpp"
-#include "magnetometer_insitu_calibration/lemi_archive.hpp"
-#include "magnetometer_insitu_calibration/packet_source.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/instrument/packet_source.hpp"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <diagnostic_updater/update_functions.h>

@@ -2,11 +2,11 @@
 // preparation + estimate of one window (regularize_and_fill on the window copy, gap flags).
 #pragma once
 
-#include "magnetometer_insitu_calibration/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/gap_filling.hpp"
-#include "magnetometer_insitu_calibration/robust_estimator.hpp"
-#include "magnetometer_insitu_calibration/stream_pairing.hpp"
-#include "magnetometer_insitu_calibration/time_alignment.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include <cstddef>
 #include <deque>

@@ -1,0 +1,65 @@
+// Has the calibration changed? Compares a new window's estimate (e.g. the latest sliding window)
+// with the accepted calibration, accounting for the uncertainty of both.
+//
+// Rule. d = vec(n_new) - vec(n_accepted) (row-major, 9 entries), with covariance
+// S = Cov_new + Cov_accepted (the two windows taken as independent; a sliding window that
+// overlaps the accepted one makes the test conservative). The joint statistic
+//   chi2 = d^T S^-1 d          (~ chi^2 with 9 degrees of freedom when nothing changed)
+// is significant when its tail probability is below false_alarm_probability. Per parameter
+// (scale-factor ratios, non-orthogonality, misalignment) z = |difference| / sqrt(se_new^2 +
+// se_accepted^2) names what moved. A change is reported only when it is significant AND some
+// parameter moved by more than its practical tolerance (scale_tolerance, angle_tolerance_deg):
+// very long windows make tiny, harmless changes significant.
+//
+// ROS use (calibration node, diagnostic_updater): keep the accepted WindowEstimate; for every
+// new window call
+//   const CalibrationChange c = check_calibration_change(accepted, latest, settings);
+//   if (c.status == CalibrationChangeStatus::kChanged) stat.summary(WARN, c.text);
+//   else if (c.status == CalibrationChangeStatus::kInconclusive) stat.summary(OK, c.text);
+// and add c.chi2, c.p_value and the per-parameter z values as key/value pairs.
+#pragma once
+
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+
+#include <Eigen/Core>
+
+#include <string>
+
+namespace magnetometer_insitu_calibration {
+
+struct CalibrationChangeSettings {
+  double false_alarm_probability = 1e-3;  ///< of the joint chi^2 test when nothing changed
+  double scale_tolerance = 1e-4;          ///< practical tolerance of a scale-factor ratio (0.01 %)
+  double angle_tolerance_deg = 0.005;     ///< practical tolerance of an angle, degrees
+
+  void validate() const;  ///< throws InputError naming the field
+};
+
+enum class CalibrationChangeStatus : int {
+  kUnchanged = 0,
+  kChanged = 1,
+  kInconclusive = 2,  ///< a window is not Quality::kOk or its covariance is unusable
+};
+const char* calibration_change_status_name(CalibrationChangeStatus status);  ///< "unchanged", ...
+
+struct CalibrationChange {
+  CalibrationChangeStatus status = CalibrationChangeStatus::kInconclusive;
+  double chi2 = 0.0;     ///< joint statistic, 9 degrees of freedom
+  double p_value = 1.0;  ///< its tail probability
+  /// |difference| / combined standard error per parameter (x, y, z or xy, xz, yz).
+  Eigen::Vector3d scale_z = Eigen::Vector3d::Zero(), nonorthogonality_z = Eigen::Vector3d::Zero(),
+                  misalignment_z = Eigen::Vector3d::Zero();
+  Eigen::Vector3d scale_difference = Eigen::Vector3d::Zero();        ///< new - accepted
+  Eigen::Vector3d nonorthogonality_difference_deg = Eigen::Vector3d::Zero();
+  Eigen::Vector3d misalignment_difference_deg = Eigen::Vector3d::Zero();
+  std::string text;  ///< one line for the diagnostic message
+};
+
+CalibrationChange check_calibration_change(const WindowEstimate& accepted, const WindowEstimate& latest,
+                                           const CalibrationChangeSettings& settings = {});
+
+/// Upper tail probability of the chi^2 distribution with `dof` degrees of freedom at x
+/// (regularised incomplete gamma function Q(dof/2, x/2)).
+double chi2_tail_probability(double x, int dof);
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,158 @@
+// Frequency-domain weighted least squares estimator (FD-WLSE) of the calibration matrix,
+// Eq. 2 of Marusenkov et al. after Nielsen (2005, J. Time Ser. Anal. 26, 279-304).
+#pragma once
+
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace magnetometer_insitu_calibration {
+
+/// FFTW's planner is not thread-safe: every FFTW plan made or destroyed in the core takes this lock.
+std::mutex& fftw_planner_lock();
+
+/// Which estimator a window gets (see robust_estimator.hpp; WindowEstimator dispatches).
+enum class EstimatorMethod : int {
+  kPlain = 0,   ///< Eq. 2 exactly as FdWlseEstimator computes it (whole-window DFT)
+  kRobust = 1,  ///< residual screening + sectioned frequency-domain M-estimation (default)
+};
+const char* estimator_method_name(EstimatorMethod method);  ///< "plain", "robust"
+/// Parses "plain" / "robust"; throws InputError(where, ...) otherwise.
+EstimatorMethod parse_estimator_method(const std::string& text, const std::string& where = "method");
+
+/// Errors-in-variables correction of the robust estimator (errors_in_variables.hpp).
+enum class EivCorrection : int {
+  kNone = 0,        ///< none: the estimate is attenuated by the reference noise (as Eq. 2)
+  kNoiseRatio = 1,  ///< reference noise PSD = eiv_noise_ratio x test noise PSD (Deming / TLS)
+  kGiven = 2,       ///< reference noise spectrum given: reference_white_nT, reference_pink_*
+};
+const char* eiv_correction_name(EivCorrection mode);  ///< "none", "ratio", "given"
+EivCorrection parse_eiv_correction(const std::string& text, const std::string& where = "eiv");
+
+/// Options of the robust estimator, of the automatic band and of the delay (robust_estimator.hpp
+/// explains each step). Ignored by FdWlseEstimator itself.
+struct RobustSettings {
+  // Time-domain screening of the residual T - R n0 (n0: Eq. 2 on the window).
+  bool screen = true;
+  double screen_threshold = 6.0;     ///< multiple of the robust (MAD) sigma of the high-passed residual
+  double screen_baseline_s = 3600.0; ///< s, running-median baseline removed first (plateaus < half of it are flagged)
+  double screen_margin_s = 30.0;     ///< s, flagged spans are widened by this on each side
+  // Sectioned M-estimation.
+  double section_s = 10800.0;        ///< s, section length (shortened for short windows, >= 2 / band_low)
+  double huber_k = 2.0;              ///< Huber constant on the standardised cell residual (sigma units)
+  double section_rejection = 4.0;    ///< section weight 0 when its robust residual z exceeds this
+  int iterations = 8;                ///< IRLS iterations (stops earlier when converged)
+  // Automatic band (band_selection.hpp): within [band_search_low_hz, band_search_high_hz].
+  bool auto_band = false;
+  double band_search_low_hz = 0.0001;
+  double band_search_high_hz = 0.05;
+  double min_band_coherence = 0.9;   ///< squared multiple coherence every component must reach
+  // Delay (delay_estimation.hpp), test relative to reference.
+  bool estimate_delay = true;
+  bool correct_delay = true;         ///< remove a significant delay by a phase shift before fitting
+  double delay_max_hz = 0.1;         ///< highest frequency used for the delay, Hz
+  // Errors in variables.
+  EivCorrection eiv = EivCorrection::kNoiseRatio;  ///< default: instruments of one class (ratio 1)
+  double eiv_noise_ratio = 1.0;      ///< kNoiseRatio: PSD_ref / PSD_test (dimensionless, >= 0)
+  Eigen::Vector3d reference_white_nT = Eigen::Vector3d::Zero();  ///< kGiven: rms per sample, nT
+  Eigen::Vector3d reference_pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();  ///< kGiven: ASD at 1 Hz
+
+  /// Throws InputError naming the field when a value is impossible.
+  void validate() const;
+};
+
+struct EstimatorSettings {
+  double band_low_hz = 0.0002;   ///< lower band edge: harmonics below are not summed (m0)
+  double band_high_hz = 0.01;    ///< upper band edge (m)
+  double gamma = 1.0;            ///< weights lambda_j^gamma
+  bool trend = true;             ///< add a linear-trend column to the reference
+  // Quality rules: a window that breaks one is flagged, never silently accepted.
+  std::size_t min_harmonics = 16;      ///< fewer harmonics in the band: TooFewHarmonics
+  double max_condition_number = 1e4;   ///< of the 3x3 reference block of A: IllConditioned
+  double min_coherence = 0.5;          ///< any component below: LowCoherence
+  EstimatorMethod method = EstimatorMethod::kRobust;  ///< used by WindowEstimator / the pipeline
+  RobustSettings robust;                               ///< options of the robust method
+
+  /// Throws InputError naming the field when a value is impossible.
+  void validate() const;
+};
+
+enum class Quality : int {
+  kOk = 0,
+  kTooFewSamples = 1,
+  kTooFewHarmonics = 2,
+  kIllConditioned = 3,
+  kLowCoherence = 4,
+  kGaps = 5,
+  kNotFinite = 6,
+};
+const char* quality_name(Quality q);  ///< "ok", "too_few_samples", ...
+
+/// Result for one window of paired, regularly sampled, gap-free readings.
+struct WindowEstimate {
+  std::size_t samples = 0;
+  double sample_period_s = 0.0;
+  int harmonic_first = 0;  ///< m0
+  int harmonic_last = 0;   ///< m
+  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();  ///< T = R n
+  Matrix9d n_covariance = Matrix9d::Zero();         ///< covariance of row-major vec(n)
+  Eigen::Vector3d trend_nT_per_day = Eigen::Vector3d::Zero();
+  Eigen::Vector3d trend_stderr_nT_per_day = Eigen::Vector3d::Zero();
+  CalibrationParameters parameters;                 ///< decomposition of n with 95 % intervals
+  double condition_number = 0.0;
+  Eigen::Vector3d coherence = Eigen::Vector3d::Zero();
+  Eigen::Vector3d residual_rms_nT = Eigen::Vector3d::Zero();
+  Quality quality = Quality::kOk;
+  std::string quality_text = "ok";
+  // Filled by WindowEstimator (robust_estimator.hpp); FdWlseEstimator leaves the defaults.
+  std::string method = "plain";  ///< estimator that produced this window
+  double band_low_hz = std::numeric_limits<double>::quiet_NaN();   ///< band used, Hz
+  double band_high_hz = std::numeric_limits<double>::quiet_NaN();  ///< band used, Hz
+  double delay_s = std::numeric_limits<double>::quiet_NaN();        ///< test minus reference, s
+  double delay_ci95_s = std::numeric_limits<double>::quiet_NaN();   ///< 95 % half-width, s
+  double screened_fraction = 0.0;  ///< robust: share of samples masked by the residual screen
+  double downweighted_fraction = 0.0;  ///< robust: share of cell weight removed by the M-step
+
+  /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
+  Eigen::Matrix3d n_stderr() const;
+};
+
+/// Quality figures and rules shared by every estimator: sets e.condition_number from the 3x3
+/// field block of A (strongest / weakest in-band signal direction), then e.quality and
+/// e.quality_text from `harmonics` (described as `harmonics_noun`, e.g. "harmonics"),
+/// e.condition_number and e.coherence against the settings' rules, first failure wins.
+void apply_quality_rules(WindowEstimate& e, const Eigen::Matrix3d& field_block_of_a, long harmonics,
+                         const char* harmonics_noun, const EstimatorSettings& settings);
+
+/// Estimates n from reference R and test T (N x 3, nT, regular sample period, no NaN).
+/// Holds FFTW plans and buffers; reuses them while N stays the same. One instance per thread.
+class FdWlseEstimator {
+ public:
+  explicit FdWlseEstimator(EstimatorSettings settings = {});
+  ~FdWlseEstimator();
+  FdWlseEstimator(const FdWlseEstimator&) = delete;
+  FdWlseEstimator& operator=(const FdWlseEstimator&) = delete;
+
+  WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT,
+                          const Eigen::Ref<const Readings>& test_nT, double sample_period_s);
+
+  /// Only the FFTs of the same data, for the benchmark's ratio (returns a checksum).
+  double transform_only(const Eigen::Ref<const Readings>& reference_nT,
+                        const Eigen::Ref<const Readings>& test_nT);
+
+  const EstimatorSettings& settings() const { return settings_; }
+
+ private:
+  struct Workspace;
+  EstimatorSettings settings_;
+  std::unique_ptr<Workspace> workspace_;
+};
+
+}  // namespace magnetometer_insitu_calibration

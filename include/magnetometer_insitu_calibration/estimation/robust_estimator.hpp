@@ -1,0 +1,136 @@
+// Robust frequency-domain estimator of the calibration matrix for disturbed stations, and the
+// dispatcher that gives each window the estimator its settings ask for.
+//
+// Why Eq. 2 is fragile. A local disturbance seen by one instrument, or by both with different
+// gains and directions (a vehicle on a nearby road is a moving dipole: its field falls as
+// 1/r^3, so two sensors a few metres apart see it differently), enters the residual
+// T - R n. Eq. 2 sums every harmonic of the whole window with its least-squares weight, so a
+// few minutes of traffic or one parked car, spread over all harmonics by the DFT, bias n by
+// the ratio of the disturbance's in-band power to the weak (vertical) signal's.
+//
+// What this estimator does (units nT, s, Hz; R in the reference frame, T in the test frame):
+//  1. Residual screen (time domain). n0 from Eq. 2 on the window; the residual
+//     e(t) = T(t) - R(t) n0 (test frame) is high-passed by subtracting a running median of
+//     screen_baseline_s (slow drift, tilt and the trend are not outliers), and every sample
+//     whose high-passed residual exceeds screen_threshold robust sigmas (1.4826 MAD) in any
+//     component is flagged, widened by screen_margin_s. Flagged runs are replaced in BOTH
+//     records by straight lines between the good samples on either side: the same linear
+//     operation on R and T keeps T = R n + d (only d changes), so the masking cannot bias n;
+//     since the flags depend on the residual only (independent of the field under the model),
+//     they select no particular field either. Twice: the second pass uses n0 re-estimated on
+//     the cleaned records. Spikes, transients and the edges of steps are removed here.
+//  2. Sections. The window is cut into K sections of about section_s (>= 2 / band_low), each
+//     linearly detrended (replaces the trend column: per section it also absorbs nonlinear
+//     baseline drift and tilt-induced drift) and transformed. A cell is one harmonic of one
+//     section inside the band; it gives X (3 reference DFT values) and Y (3 test values).
+//  3. M-estimation (IRLS). With cell weights w_c and the Eq. 2 weights g_c = lambda_c^gamma,
+//       A = sum w g Re(X X^H),  C = sum w g Re(X Y^H),  n = A^-1 C        (Eq. 2 with weights)
+//     Residual e_c = Y_c - n^T X_c. Its scale sigma_l^2(f) is the median of |e_l|^2 / ln 2 over
+//     cells of neighbouring frequency (the residual is coloured; for Gaussian noise |e|^2 is
+//     exponential, whose median is ln 2 times its mean). r_c^2 = sum_l |e_l|^2 / sigma_l^2
+//     (mean 3 for clean cells). Cell weight: Huber, 1 for sqrt(r^2/3) <= huber_k, else
+//     huber_k / sqrt(r^2/3). Section weight: q_s = median of r^2 over the section's cells /
+//     the median over sections; 1 for q <= 2, 2/q up to section_rejection, then 0 (a section
+//     with raised broadband residual, e.g. a step or a long transient, is dropped as a whole).
+//  4. Delay (delay_estimation.hpp) from the cleaned records with n; when significant (> 2 se)
+//     and correct_delay, Y_c is multiplied by e^{+2 pi i f tau} (undoing the delay) and step 3
+//     is repeated, so that a timing offset cannot leak into n through the imaginary part of
+//     the cross-spectra (first order when the field's components are not in phase).
+//  5. Errors in variables (errors_in_variables.hpp): N_r = sum w g E|X_noise|^2 is subtracted
+//     from A at every iteration (mode given or ratio). In ratio mode each cell's E|X_noise|^2
+//     is share x its own residual power, capped at 9 robust sigmas^2 of its frequency bin, and
+//     the fixed point n = (A - N_r(n))^-1 C is iterated to convergence with the final weights.
+//  6. Covariance, from the final weights:
+//     a. the frequency-domain sandwich of fd_wlse.cpp over cells, Cov(vec n) =
+//        c (I (x) A^-1) [sum_c s_c s_c^T] (I (x) A^-1), s_c,l = w g (Re(X conj(e_l)) + D_c n_l)
+//        (the D_c term centres the score when the EIV term is used), c = 2M / (2M - 3),
+//        M = sum of cell weights; it assumes independent cells and fixed weights;
+//     b. the delete-one-section jackknife: n refitted without each weighted section (same
+//        weights, EIV fixed point re-solved), J = (K-1)/K sum (v_s - mean)(v_s - mean)^T over
+//        the K weighted sections, which sees what the sandwich cannot: transients left by the
+//        screen that are coherent over a section's harmonics, steps, tilt, the data-chosen
+//        weights and the uncertainty of the EIV correction;
+//     c. reported: Cov = D S D, D_kk = sqrt(max(1, J_kk / S_kk)) (the sandwich raised to the
+//        jackknife entry by entry, its correlations kept); the sandwich alone when fewer than 6
+//        sections carry weight (windows under 18 h at the default band).
+//     Measured coverage and the reasoning: robust_estimator.cpp (combine_covariances) and
+//     docs/robust_estimation.md.
+//
+// The plain estimator (FdWlseEstimator, Eq. 2 on the whole window) stays available through
+// EstimatorSettings::method = kPlain, with unchanged results.
+#pragma once
+
+#include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
+#include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+
+#include <memory>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+/// What the robust estimator did in its last window, for reports and tests.
+struct RobustDiagnostics {
+  std::vector<char> screened;            ///< per sample: 1 = masked by the residual screen
+  std::vector<double> section_weights;   ///< per section, 0..1
+  std::size_t sections = 0;
+  std::size_t section_samples = 0;       ///< nominal section length, samples
+  std::size_t cells = 0;
+  int iterations = 0;
+  bool eiv_applied = false;
+  Eigen::Matrix3d eiv_noise = Eigen::Matrix3d::Zero();  ///< N_r subtracted from A (nT^2 units of A)
+  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Zero();  ///< same weights, no EIV term
+  bool delay_corrected = false;
+  Matrix9d covariance_sandwich = Matrix9d::Zero();   ///< step 6a, row-major vec(n)
+  Matrix9d covariance_jackknife = Matrix9d::Zero();  ///< step 6b (NaN with fewer than 2 sections)
+  std::size_t jackknife_sections = 0;    ///< sections with weight: the jackknife's groups
+  BandSelection band;                    ///< when auto_band
+  DelayEstimate delay;
+};
+
+/// Robust estimator (steps 1-6 above). One instance per thread.
+class RobustFdEstimator {
+ public:
+  explicit RobustFdEstimator(EstimatorSettings settings = {});
+  ~RobustFdEstimator();
+  RobustFdEstimator(const RobustFdEstimator&) = delete;
+  RobustFdEstimator& operator=(const RobustFdEstimator&) = delete;
+
+  /// reference_nT, test_nT: N x 3, regular sample period (s), no NaN (the pipeline fills gaps).
+  WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
+                          double sample_period_s);
+  const RobustDiagnostics& diagnostics() const { return diagnostics_; }
+  const EstimatorSettings& settings() const { return settings_; }
+
+ private:
+  struct Impl;
+  EstimatorSettings settings_;
+  std::unique_ptr<Impl> impl_;
+  RobustDiagnostics diagnostics_;
+};
+
+/// Residual screen of step 1 alone: per sample 1 where T - R n, high-passed, is an outlier
+/// (margin included). Exposed for tests and for the real-data report.
+std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT,
+                                  const Eigen::Ref<const Readings>& test_nT, const Eigen::Matrix3d& n,
+                                  double sample_period_s, const RobustSettings& settings);
+
+/// The estimator a window gets: plain Eq. 2 or robust, from settings.method; auto band and the
+/// delay are applied to either (the plain method only reports the delay, it never corrects it).
+/// Fills WindowEstimate::method, band_low_hz/band_high_hz and delay_s/delay_ci95_s.
+class WindowEstimator {
+ public:
+  explicit WindowEstimator(const EstimatorSettings& settings);
+  ~WindowEstimator();
+  WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
+                          double sample_period_s);
+  const EstimatorSettings& settings() const { return settings_; }
+  /// The robust estimator's diagnostics of the last window (empty for the plain method).
+  const RobustDiagnostics* robust_diagnostics() const;
+
+ private:
+  EstimatorSettings settings_;
+  std::unique_ptr<RobustFdEstimator> robust_;
+};
+
+}  // namespace magnetometer_insitu_calibration

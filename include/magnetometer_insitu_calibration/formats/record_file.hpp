@@ -1,0 +1,45 @@
+// Reading a record file whatever its format, recognised from the content.
+#pragma once
+
+#include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
+
+#include <string>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+enum class RecordFormat {
+  kIaga2002,
+  kCsv,
+  kLemiBin,           ///< LemiBin (lemi_archive.hpp)
+  kLemiCompactFlash,  ///< LEMI-025 compact-flash card image
+  kLemi025Stream,     ///< raw capture of the LEMI-025 serial byte stream
+};
+
+/// "IAGA-2002", "CSV", "LemiBin", "LEMI compact flash", "LEMI-025 byte stream".
+const char* record_format_name(RecordFormat format);
+
+/// Binary LEMI files first, from the first 64 KiB of raw bytes (a gzip file is text):
+///  - "LemiBin" at byte 0, or two valid LEMI-025 packets 169 bytes apart: LemiBin;
+///  - two valid packets 153 bytes apart: raw byte stream;
+///  - a valid compact-flash caption (tag + BCD time) at the start of the first 512-byte block
+///    that is not erased: compact flash;
+///  - one valid packet anywhere: raw byte stream (a short capture).
+/// Otherwise text: the first non-blank line (plain or gzip) starting with "Format" after blanks
+/// (IAGA-2002 has " Format" in column 1) and containing "IAGA-2002" (any case) marks an
+/// IAGA-2002 file; anything else, including an empty file, is taken as CSV.
+/// Throws InputError(path, "cannot open: ...") for a missing file.
+RecordFormat detect_record_format(const std::string& path);
+
+/// detect_record_format, then read_iaga2002, read_csv_record, read_lemi_bin,
+/// read_lemi_compact_flash or read_lemi025_stream (LEMI: default LemiReadOptions, full field).
+VectorRecord read_record(const std::string& path);
+
+/// The same with LEMI read options; the LEMI readers' warnings (damaged records skipped, each
+/// with its byte offset) go to *warnings when given. Text formats have no warnings: a bad line
+/// throws InputError(path:line, ...).
+VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_options,
+                         std::vector<std::string>* warnings);
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,315 @@
+// FD-WLSE of the calibration matrix (Eq. 2 of Marusenkov et al.; Nielsen 2005) and its
+// covariance.
+//
+// Notation. R, T: N x 3 readings (nT) at sample period dt. With the trend column the regressors
+// are X = [R, tau] (N x p, p = 4; tau = time from the window centre in days), otherwise X = R
+// (p = 3). w_X(lambda_j) is the DFT of the columns of X at lambda_j = 2 pi j / N; FFTW's sign
+// convention (e^{-i...}) and origin (t = 0) differ from the paper's w, but every quantity below
+// is a product w_k w_l^*, in which both differences cancel, and the 1/(2 pi N) normalisation
+// cancels between the two sums of Eq. 2.
+//
+//   A = sum_{j=m0..m} lambda_j^gamma Re(w_X(j) w_X(j)^H)          (p x p)
+//   C = sum_{j=m0..m} lambda_j^gamma Re(w_X(j) w_T(j)^H)          (p x 3)
+//   B = A^{-1} C,   n = B(0:3, :),   trend = B(3, :)   (nT/day)          -- Eq. 2
+//
+// Covariance (frequency-domain sandwich, valid for coloured / long-range dependent errors
+// because each harmonic's own residual enters): with residual DFTs e_l(j) = w_T,l(j) -
+// B(:,l)^T w_X(j) and s_j,l = lambda_j^gamma Re(w_X(j) e_l(j)^*) stacked over l = 0..2 into S_j,
+//
+//   Cov(vec_col B) = c * (I_3 (x) A^{-1}) [ sum_j S_j S_j^T ] (I_3 (x) A^{-1}),
+//   c = 2M / (2M - p)   (M harmonics give 2M real equations for p unknowns per column).
+//
+// Harmonics of different frequency are asymptotically uncorrelated, so the middle sum estimates
+// the variance of sum_j s_j; cross-column terms keep the covariance between test components.
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "failed_window_estimate.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <fftw3.h>
+
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <mutex>
+#include <sstream>
+
+namespace magnetometer_insitu_calibration {
+namespace {
+
+constexpr double kSecondsPerDay = 86400.0;
+
+/// FFTW's planner is not thread-safe (execution of distinct plans is).
+std::mutex& fftw_planner_mutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+}  // namespace
+
+std::mutex& fftw_planner_lock() { return fftw_planner_mutex(); }
+
+void EstimatorSettings::validate() const {
+  auto fail = [](const std::string& field, const std::string& problem) {
+    throw InputError(field, problem);
+  };
+  if (!(band_low_hz > 0.0) || !std::isfinite(band_low_hz))
+    fail("band_low_hz", "must be a positive frequency in Hz (harmonic 0 is the mean)");
+  if (!(band_high_hz > band_low_hz) || !std::isfinite(band_high_hz))
+    fail("band_high_hz", "must be finite and above band_low_hz (empty band)");
+  if (!std::isfinite(gamma) || gamma < 0.0 || gamma > 4.0) fail("gamma", "must be in [0, 4]");
+  if (min_harmonics < 5) fail("min_harmonics", "must be at least 5");
+  if (!(max_condition_number > 1.0)) fail("max_condition_number", "must be above 1");
+  if (!(min_coherence >= 0.0 && min_coherence < 1.0)) fail("min_coherence", "must be in [0, 1)");
+  robust.validate();  // defined in robust_estimator.cpp
+}
+
+const char* quality_name(Quality q) {
+  switch (q) {
+    case Quality::kOk: return "ok";
+    case Quality::kTooFewSamples: return "too_few_samples";
+    case Quality::kTooFewHarmonics: return "too_few_harmonics";
+    case Quality::kIllConditioned: return "ill_conditioned";
+    case Quality::kLowCoherence: return "low_coherence";
+    case Quality::kGaps: return "gaps";
+    case Quality::kNotFinite: return "not_finite";
+  }
+  return "unknown";
+}
+
+Eigen::Matrix3d WindowEstimate::n_stderr() const {
+  Eigen::Matrix3d se;
+  for (int k = 0; k < 9; ++k) se(k / 3, k % 3) = std::sqrt(std::max(0.0, n_covariance(k, k)));
+  return se;
+}
+
+/// FFTW buffers and a batched real-to-complex plan for `columns` series of length `length`,
+/// stored column after column (Eigen's column-major layout).
+struct FdWlseEstimator::Workspace {
+  std::size_t length = 0;
+  int columns = 0;
+  double* input = nullptr;
+  fftw_complex* output = nullptr;
+  fftw_plan plan = nullptr;
+
+  ~Workspace() { release(); }
+
+  std::size_t bins() const { return length / 2 + 1; }
+
+  void prepare(std::size_t new_length, int new_columns) {
+    if (plan != nullptr && new_length == length && new_columns == columns) return;
+    release();
+    length = new_length;
+    columns = new_columns;
+    input = fftw_alloc_real(length * static_cast<std::size_t>(columns));
+    output = fftw_alloc_complex(bins() * static_cast<std::size_t>(columns));
+    if (input == nullptr || output == nullptr) throw std::bad_alloc();
+    const int n = static_cast<int>(length);
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    // FFTW_ESTIMATE: planning costs microseconds and does not touch the arrays.
+    plan = fftw_plan_many_dft_r2c(1, &n, columns, input, nullptr, 1, n, output, nullptr, 1,
+                                  static_cast<int>(bins()), FFTW_ESTIMATE);
+    if (plan == nullptr) throw std::runtime_error("FFTW could not plan a transform of length " +
+                                                  std::to_string(length));
+  }
+
+  void release() {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    if (plan != nullptr) fftw_destroy_plan(plan);
+    if (input != nullptr) fftw_free(input);
+    if (output != nullptr) fftw_free(output);
+    plan = nullptr;
+    input = nullptr;
+    output = nullptr;
+    length = 0;
+    columns = 0;
+  }
+
+  double* column(int c) { return input + static_cast<std::size_t>(c) * length; }
+  std::complex<double> bin(int c, std::size_t j) const {
+    const fftw_complex& z = output[static_cast<std::size_t>(c) * bins() + j];
+    return {z[0], z[1]};
+  }
+
+  /// Loads [R - mean(R), tau (if trend), T - mean(T)] into the input buffer. Removing the means
+  /// changes only harmonic 0, which is never used, and keeps rounding small.
+  void load(const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test,
+            bool trend, double sample_period_s) {
+    const std::size_t n = static_cast<std::size_t>(reference.rows());
+    auto load_centred = [&](int c, const auto& series) {
+      const double mean = series.mean();
+      double* out = column(c);
+      for (std::size_t i = 0; i < n; ++i) out[i] = series(static_cast<Eigen::Index>(i)) - mean;
+    };
+    for (int k = 0; k < 3; ++k) load_centred(k, reference.col(k));
+    int c = 3;
+    if (trend) {
+      double* tau = column(c++);
+      const double centre = 0.5 * static_cast<double>(n - 1);
+      for (std::size_t i = 0; i < n; ++i) {
+        tau[i] = (static_cast<double>(i) - centre) * sample_period_s / kSecondsPerDay;
+      }
+    }
+    for (int k = 0; k < 3; ++k) load_centred(c + k, test.col(k));
+  }
+};
+
+FdWlseEstimator::FdWlseEstimator(EstimatorSettings settings)
+    : settings_(settings), workspace_(std::make_unique<Workspace>()) {
+  settings_.validate();
+}
+
+FdWlseEstimator::~FdWlseEstimator() = default;
+
+double FdWlseEstimator::transform_only(const Eigen::Ref<const Readings>& reference_nT,
+                                       const Eigen::Ref<const Readings>& test_nT) {
+  const int p = settings_.trend ? 4 : 3;
+  workspace_->prepare(static_cast<std::size_t>(reference_nT.rows()), p + 3);
+  workspace_->load(reference_nT, test_nT, settings_.trend, 1.0);
+  fftw_execute(workspace_->plan);
+  return workspace_->output[1][0];
+}
+
+WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& reference_nT,
+                                         const Eigen::Ref<const Readings>& test_nT,
+                                         double sample_period_s) {
+  if (reference_nT.rows() != test_nT.rows()) {
+    throw std::invalid_argument("FdWlseEstimator: reference and test have different lengths");
+  }
+  if (!(sample_period_s > 0.0)) throw std::invalid_argument("FdWlseEstimator: sample period <= 0");
+
+  const int p = settings_.trend ? 4 : 3;  // regressors
+  const std::size_t length = static_cast<std::size_t>(reference_nT.rows());
+  WindowEstimate result;
+  result.samples = length;
+  result.sample_period_s = sample_period_s;
+  auto fail = [&](Quality q, const std::string& text) { return detail::failed_window_estimate(result, q, text); };
+
+  if (!reference_nT.allFinite() || !test_nT.allFinite()) {
+    return fail(Quality::kNotFinite, "window contains NaN or infinite readings");
+  }
+  // Harmonic j has frequency j / (N dt). Sum over m0..m, never the mean (0) nor Nyquist.
+  const double duration_s = static_cast<double>(length) * sample_period_s;
+  const long m0 = std::max(1L, static_cast<long>(std::ceil(settings_.band_low_hz * duration_s - 1e-9)));
+  const long m = std::min(static_cast<long>(std::floor(settings_.band_high_hz * duration_s + 1e-9)),
+                          static_cast<long>(length > 0 ? (length - 1) / 2 : 0));
+  result.harmonic_first = static_cast<int>(m0);
+  result.harmonic_last = static_cast<int>(m);
+  const long harmonics = m - m0 + 1;
+  if (length < 16 || harmonics < p + 2) {
+    std::ostringstream text;
+    text << "window of " << length << " samples (" << duration_s << " s) holds " << std::max(0L, harmonics)
+         << " harmonics in " << settings_.band_low_hz << "-" << settings_.band_high_hz
+         << " Hz; at least " << p + 2 << " are needed to estimate anything";
+    return fail(Quality::kTooFewSamples, text.str());
+  }
+
+  Workspace& ws = *workspace_;
+  ws.prepare(length, p + 3);
+  ws.load(reference_nT, test_nT, settings_.trend, sample_period_s);
+  fftw_execute(ws.plan);
+
+  using VectorP = Eigen::Matrix<std::complex<double>, Eigen::Dynamic, 1>;
+  VectorP wx(p);
+  Eigen::Vector3cd wt;
+  auto load_bin = [&](std::size_t j) {
+    for (int c = 0; c < p; ++c) wx(c) = ws.bin(c, j);
+    for (int k = 0; k < 3; ++k) wt(k) = ws.bin(p + k, j);
+  };
+  auto weight = [&](long j) {
+    return std::pow(2.0 * M_PI * static_cast<double>(j) / static_cast<double>(length), settings_.gamma);
+  };
+
+  // Pass 1: the two sums of Eq. 2.
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(p, p);
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(p, 3);
+  for (long j = m0; j <= m; ++j) {
+    load_bin(static_cast<std::size_t>(j));
+    const double g = weight(j);
+    a.noalias() += g * (wx * wx.adjoint()).real();
+    c.noalias() += g * (wx * wt.adjoint()).real();
+  }
+  // Solve with A scaled to unit diagonal: the trend column (nT^2 day^2 ...) and the field
+  // columns (nT^2) differ by many orders of magnitude.
+  const Eigen::VectorXd scale = a.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd a_scaled = scale.asDiagonal() * a * scale.asDiagonal();
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(a_scaled);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
+    return fail(Quality::kIllConditioned, "A = sum lambda^gamma Re I_RR is singular: no signal in the band");
+  }
+  const Eigen::MatrixXd a_inverse =
+      scale.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(p, p)) * scale.asDiagonal();
+  const Eigen::MatrixXd b = a_inverse * c;  // p x 3
+
+  // Pass 2: residual DFTs, sandwich middle, coherence and residual power.
+  Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(3 * p, 3 * p);
+  Eigen::VectorXd s(3 * p);
+  Eigen::Vector3d residual_power = Eigen::Vector3d::Zero();
+  Eigen::Vector3d test_power = Eigen::Vector3d::Zero();
+  for (long j = m0; j <= m; ++j) {
+    load_bin(static_cast<std::size_t>(j));
+    const double g = weight(j);
+    const Eigen::Vector3cd e = wt - b.transpose() * wx;
+    for (int l = 0; l < 3; ++l) {
+      s.segment(l * p, p) = g * (wx * std::conj(e(l))).real();
+      residual_power(l) += std::norm(e(l));
+      test_power(l) += std::norm(wt(l));
+    }
+    omega.noalias() += s * s.transpose();
+  }
+  const double dof_correction = 2.0 * harmonics / (2.0 * harmonics - p);
+  Eigen::MatrixXd bread = Eigen::MatrixXd::Zero(3 * p, 3 * p);
+  for (int l = 0; l < 3; ++l) bread.block(l * p, l * p, p, p) = a_inverse;
+  const Eigen::MatrixXd cov_b = dof_correction * bread * omega * bread.transpose();  // vec_col(B)
+
+  result.n = b.topRows(3);
+  for (int r = 0; r < 9; ++r) {
+    for (int q = 0; q < 9; ++q) {
+      // n(k, l) = B(k, l) sits at l * p + k in vec_col(B) and at 3k + l in row-major vec(n).
+      const int kr = r / 3, lr = r % 3, kq = q / 3, lq = q % 3;
+      result.n_covariance(r, q) = cov_b(lr * p + kr, lq * p + kq);
+    }
+  }
+  if (settings_.trend) {
+    result.trend_nT_per_day = b.row(3).transpose();
+    for (int l = 0; l < 3; ++l) {
+      result.trend_stderr_nT_per_day(l) = std::sqrt(std::max(0.0, cov_b(l * p + 3, l * p + 3)));
+    }
+  }
+  result.parameters = decompose(result.n, result.n_covariance);
+
+  result.coherence = (Eigen::Vector3d::Ones() - residual_power.cwiseQuotient(test_power));
+  // Parseval for the unnormalised DFT: in-band variance = 2 sum_band |E_j|^2 / N^2.
+  result.residual_rms_nT = (2.0 * residual_power).cwiseSqrt() / static_cast<double>(length);
+  apply_quality_rules(result, a.topLeftCorner<3, 3>(), harmonics, "harmonics", settings_);
+  return result;
+}
+
+void apply_quality_rules(WindowEstimate& e, const Eigen::Matrix3d& field_block_of_a, long harmonics,
+                         const char* harmonics_noun, const EstimatorSettings& settings) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(field_block_of_a);
+  const Eigen::Vector3d ev = eig.eigenvalues();
+  e.condition_number = ev(0) > 0.0 ? ev(2) / ev(0) : std::numeric_limits<double>::infinity();
+  std::ostringstream text;
+  if (harmonics < static_cast<long>(settings.min_harmonics)) {
+    e.quality = Quality::kTooFewHarmonics;
+    text << harmonics << " " << harmonics_noun << " in the band, fewer than min_harmonics = " << settings.min_harmonics;
+  } else if (!(e.condition_number <= settings.max_condition_number)) {
+    e.quality = Quality::kIllConditioned;
+    text << "condition number " << e.condition_number << " above " << settings.max_condition_number
+         << ": too little signal in one direction of the band";
+  } else if (e.coherence.minCoeff() < settings.min_coherence) {
+    Eigen::Index worst;
+    e.coherence.minCoeff(&worst);
+    e.quality = Quality::kLowCoherence;
+    text << "coherence of component " << worst << " is " << e.coherence(worst) << ", below " << settings.min_coherence;
+  } else {
+    e.quality = Quality::kOk;
+    text << "ok";
+  }
+  e.quality_text = text.str();
+}
+
+}  // namespace magnetometer_insitu_calibration

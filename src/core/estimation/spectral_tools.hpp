@@ -1,0 +1,136 @@
+// Internal helpers of the robust estimator, the band selection and the delay estimation:
+// real DFTs of any length (FFTW, plans cached per length), detrending, medians, masking.
+// Not installed: src/core only.
+#pragma once
+
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
+
+#include <Eigen/Core>
+#include <fftw3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstddef>
+#include <map>
+#include <vector>
+
+namespace magnetometer_insitu_calibration::detail {
+
+/// Unnormalised forward real DFT X_j = sum_t x_t e^{-2 pi i j t / L}, j = 0 .. L/2 (FFTW's
+/// convention). One plan per length, kept for the life of the object; one object per thread.
+class RealDft {
+ public:
+  RealDft() = default;
+  RealDft(const RealDft&) = delete;
+  RealDft& operator=(const RealDft&) = delete;
+  ~RealDft() {
+    std::lock_guard<std::mutex> lock(fftw_planner_lock());
+    for (auto& [length, plan] : plans_) {
+      fftw_destroy_plan(plan.plan);
+      fftw_free(plan.in);
+      fftw_free(plan.out);
+    }
+  }
+
+  /// Transforms x (length L) into out (L/2 + 1 bins).
+  void transform(const double* x, std::size_t length, Eigen::VectorXcd& out) {
+    Plan& p = plan(length);
+    std::copy(x, x + length, p.in);
+    fftw_execute(p.plan);
+    out.resize(static_cast<Eigen::Index>(length / 2 + 1));
+    for (std::size_t j = 0; j < length / 2 + 1; ++j) out(static_cast<Eigen::Index>(j)) = {p.out[j][0], p.out[j][1]};
+  }
+
+ private:
+  struct Plan {
+    double* in = nullptr;
+    fftw_complex* out = nullptr;
+    fftw_plan plan = nullptr;
+  };
+  Plan& plan(std::size_t length) {
+    auto it = plans_.find(length);
+    if (it != plans_.end()) return it->second;
+    Plan p;
+    p.in = fftw_alloc_real(length);
+    p.out = fftw_alloc_complex(length / 2 + 1);
+    if (p.in == nullptr || p.out == nullptr) throw std::bad_alloc();
+    {
+      std::lock_guard<std::mutex> lock(fftw_planner_lock());
+      p.plan = fftw_plan_dft_r2c_1d(static_cast<int>(length), p.in, p.out, FFTW_ESTIMATE);
+    }
+    if (p.plan == nullptr) throw std::runtime_error("FFTW could not plan a transform");
+    return plans_.emplace(length, p).first->second;
+  }
+  std::map<std::size_t, Plan> plans_;
+};
+
+/// Removes the least-squares line a + b t from x in place. A linear operator applied alike to
+/// every column of R and T keeps T = R n + d exactly (it only changes d), so detrending both
+/// instruments is not an approximation.
+inline void detrend(double* x, std::size_t length) {
+  if (length < 2) {
+    if (length == 1) x[0] = 0.0;
+    return;
+  }
+  const double centre = 0.5 * static_cast<double>(length - 1);
+  double mean = 0.0, slope_num = 0.0, slope_den = 0.0;
+  for (std::size_t i = 0; i < length; ++i) mean += x[i];
+  mean /= static_cast<double>(length);
+  for (std::size_t i = 0; i < length; ++i) {
+    const double t = static_cast<double>(i) - centre;
+    slope_num += t * (x[i] - mean);
+    slope_den += t * t;
+  }
+  const double slope = slope_num / slope_den;
+  for (std::size_t i = 0; i < length; ++i) x[i] -= mean + slope * (static_cast<double>(i) - centre);
+}
+
+/// Median of a copy (empty: NaN).
+inline double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  const std::size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  double m = v[mid];
+  if (v.size() % 2 == 0) {
+    m = 0.5 * (m + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)));
+  }
+  return m;
+}
+
+/// Replaces every run of masked samples, in every column of both R and T, by the straight line
+/// between the unmasked samples on either side (flat at the ends). The same weights at the
+/// same epochs in both instruments keep T = R n + d (as regularize_and_fill does for gaps).
+inline void fill_masked(Readings& reference, Readings& test, const std::vector<char>& mask) {
+  const std::size_t n = mask.size();
+  std::size_t i = 0;
+  while (i < n) {
+    if (!mask[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < n && mask[j]) ++j;  // run [i, j)
+    const bool has_left = i > 0, has_right = j < n;
+    for (Readings* r : {&reference, &test}) {
+      for (int c = 0; c < 3; ++c) {
+        const double left = has_left ? (*r)(static_cast<Eigen::Index>(i - 1), c) : std::nan("");
+        const double right = has_right ? (*r)(static_cast<Eigen::Index>(j), c) : std::nan("");
+        for (std::size_t k = i; k < j; ++k) {
+          double v;
+          if (has_left && has_right) {
+            const double a = static_cast<double>(k - i + 1) / static_cast<double>(j - i + 1);
+            v = left + a * (right - left);
+          } else {
+            v = has_left ? left : right;
+          }
+          (*r)(static_cast<Eigen::Index>(k), c) = v;
+        }
+      }
+    }
+    i = j;
+  }
+}
+
+}  // namespace magnetometer_insitu_calibration::detail

@@ -1,0 +1,289 @@
+// Delimited-text records; see csv_record.hpp.
+#include "magnetometer_insitu_calibration/formats/csv_record.hpp"
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+constexpr double kSentinelThreshold_nT = 88888.0;  // this and above: missing (IAGA convention)
+constexpr std::size_t kColumns = 4;                // time and three components
+
+char choose_delimiter(const std::string& line) {
+  std::size_t commas = 0;
+  std::size_t semicolons = 0;
+  std::size_t tabs = 0;
+  for (char c : line) {
+    if (c == ',') ++commas;
+    else if (c == ';') ++semicolons;
+    else if (c == '\t') ++tabs;
+  }
+  if (semicolons > commas && semicolons >= tabs) return ';';
+  if (tabs > commas && tabs > semicolons) return '\t';
+  return ',';
+}
+
+std::vector<std::string> split_fields(const std::string& line, char delimiter) {
+  std::vector<std::string> fields;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t end = line.find(delimiter, start);
+    std::string field =
+        trim_blanks(line.substr(start, end == std::string::npos ? std::string::npos : end - start));
+    if (field.size() >= 2 && field.front() == '"' && field.back() == '"') {
+      field = trim_blanks(field.substr(1, field.size() - 2));
+    }
+    fields.push_back(field);
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return fields;
+}
+
+bool is_nan_text(const std::string& text) {
+  return text.size() == 3 && (text[0] == 'n' || text[0] == 'N') &&
+         (text[1] == 'a' || text[1] == 'A') && (text[2] == 'n' || text[2] == 'N');
+}
+
+/// Time field to UNIX seconds; false with `why` set if it is neither a number nor ISO 8601.
+bool parse_time_field(const std::string& text, double& time_s, std::string& why) {
+  if (text.empty()) {
+    why = "empty";
+    return false;
+  }
+  if (parse_number(text, time_s)) {
+    if (std::isfinite(time_s)) return true;
+    why = "'" + text + "' is not a finite time";
+    return false;
+  }
+  try {
+    time_s = parse_iso8601(text);
+    return true;
+  } catch (const std::invalid_argument& error) {
+    why = "'" + text + "' is neither UNIX seconds nor an ISO 8601 UTC time (" + error.what() + ")";
+    return false;
+  }
+}
+
+bool looks_like_header(const std::vector<std::string>& fields) {
+  double time_s = 0.0;
+  std::string why;
+  if (parse_time_field(fields[0], time_s, why)) return false;
+  // A data line with a bad time still has numbers in the value columns: report it as data.
+  for (std::size_t i = 1; i < fields.size(); ++i) {
+    double value = 0.0;
+    if (!fields[i].empty() && !is_nan_text(fields[i]) && !parse_number(fields[i], value)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+VectorRecord read_csv_record(const std::string& path) {
+  TextLineReader reader(path);
+  VectorRecord record;
+  record.source = path;
+  std::array<std::string, kColumns> names{"time", "X", "Y", "Z"};
+  std::string comments;
+  bool have_comments = false;
+  char delimiter = 0;  // chosen from the first content line
+  std::vector<double> times;
+  std::vector<std::array<double, 3>> rows;
+  std::size_t previous_line = 0;
+
+  auto column = [&](std::size_t i) {
+    return "column " + std::to_string(i + 1) + " (" + names[i] + ")";
+  };
+
+  std::string line;
+  while (reader.next(line)) {
+    const std::size_t n = reader.line_number();
+    const std::size_t first = line.find_first_not_of(" \t");
+    if (first == std::string::npos) continue;
+    if (line[first] == '#') {
+      if (have_comments) comments += '\n';
+      comments += trim_blanks(line.substr(first + 1));
+      have_comments = true;
+      continue;
+    }
+    const bool first_content = delimiter == 0;
+    if (first_content) delimiter = choose_delimiter(line);
+    const std::vector<std::string> fields = split_fields(line, delimiter);
+    if (fields.size() != kColumns) {
+      const std::string expected = names[0] + delimiter + names[1] + delimiter + names[2] +
+                                   delimiter + names[3];
+      throw InputError(path, n,
+                       "expected " + std::to_string(kColumns) + " columns (" + expected +
+                           "), found " + std::to_string(fields.size()));
+    }
+    if (first_content && looks_like_header(fields)) {
+      for (std::size_t i = 0; i < kColumns; ++i) {
+        if (fields[i].empty()) {
+          throw InputError(path, n, "header: column " + std::to_string(i + 1) + " has no name");
+        }
+        names[i] = fields[i];
+      }
+      for (std::size_t i = 0; i < 3; ++i) record.components[i] = names[i + 1];
+      continue;
+    }
+
+    double time_s = 0.0;
+    std::string why;
+    if (!parse_time_field(fields[0], time_s, why)) throw InputError(path, n, column(0) + ": " + why);
+    std::array<double, 3> row{};
+    for (std::size_t i = 1; i < kColumns; ++i) {
+      const std::string& text = fields[i];
+      double value = std::numeric_limits<double>::quiet_NaN();
+      if (!text.empty() && !is_nan_text(text)) {
+        if (!parse_number(text, value) || std::isinf(value)) {
+          throw InputError(path, n, column(i) + ": '" + text + "' is not a number");
+        }
+        if (value >= kSentinelThreshold_nT) value = std::numeric_limits<double>::quiet_NaN();
+      }
+      row[i - 1] = value;
+    }
+    if (!times.empty() && !(time_s > times.back())) {
+      throw InputError(path, n,
+                       column(0) + ": " +
+                           (time_s == times.back() ? "duplicate time " : "time goes backwards: ") +
+                           time_for_message(time_s) + " is not after " +
+                           time_for_message(times.back()) + " on line " +
+                           std::to_string(previous_line));
+    }
+    times.push_back(time_s);
+    rows.push_back(row);
+    previous_line = n;
+  }
+
+  if (times.empty()) throw InputError(path, "no data lines");
+  if (have_comments) record.header["comments"] = comments;
+  record.time_s = std::move(times);
+  record.values_nT.resize(static_cast<Eigen::Index>(rows.size()), 3);
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    for (int c = 0; c < 3; ++c) record.values_nT(static_cast<Eigen::Index>(r), c) = rows[r][c];
+  }
+  return record;
+}
+
+namespace {
+
+/// Fewest decimals in {3, 6, 9} with which every time reads back exactly (9 if none does).
+int iso_decimals(const std::vector<double>& times) {
+  for (int decimals : {3, 6}) {
+    bool exact = true;
+    for (double t : times) {
+      if (parse_iso8601(format_iso8601(t, decimals)) != t) {
+        exact = false;
+        break;
+      }
+    }
+    if (exact) return decimals;
+  }
+  return 9;
+}
+
+std::string shortest_number(double value) {
+  char buffer[64];
+  const std::to_chars_result result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, result.ptr);
+}
+
+}  // namespace
+
+void write_csv_record(const std::string& path, const VectorRecord& record, bool iso_time,
+                      int decimals) {
+  const std::size_t n = record.size();
+  if (n == 0) throw InputError(path, "cannot write an empty record (no data lines)");
+  if (record.values_nT.rows() != static_cast<Eigen::Index>(n)) {
+    throw InputError(path, "record has " + std::to_string(n) + " times but " +
+                               std::to_string(record.values_nT.rows()) + " rows of values");
+  }
+  if (decimals < 0 || decimals > 17) {
+    throw InputError(path, "decimals " + std::to_string(decimals) + " outside 0..17");
+  }
+  for (std::size_t r = 0; r < n; ++r) {
+    const double t = record.time_s[r];
+    if (!std::isfinite(t)) throw InputError(path, "sample " + std::to_string(r) + ": time not finite");
+    if (r > 0 && !(t > record.time_s[r - 1])) {
+      throw InputError(path, "sample " + std::to_string(r) + ": time " + shortest_number(t) +
+                                 " s is not after the previous one");
+    }
+  }
+
+  std::string text;
+  text.reserve((n + 8) * 64);
+  auto comment_it = record.header.find("comments");
+  if (comment_it != record.header.end() && !comment_it->second.empty()) {
+    std::size_t start = 0;
+    for (;;) {
+      const std::size_t end = comment_it->second.find('\n', start);
+      text += "# " + comment_it->second.substr(start, end == std::string::npos ? std::string::npos
+                                                                                : end - start) +
+              "\n";
+      if (end == std::string::npos) break;
+      start = end + 1;
+    }
+  }
+  text += "time";
+  for (const std::string& name : record.components) {
+    double number = 0.0;
+    if (name.empty() || name.find_first_of(",;\t\"\r\n") != std::string::npos ||
+        parse_number(trim_blanks(name), number) || trim_blanks(name) != name) {
+      throw InputError(path, "component name '" + name +
+                                 "' is empty, a number, or has a delimiter, quote, newline or "
+                                 "surrounding blanks");
+    }
+    text += "," + name;
+  }
+  text += "\n";
+
+  const int time_decimals = iso_time ? iso_decimals(record.time_s) : 0;
+  char buffer[64];
+  for (std::size_t r = 0; r < n; ++r) {
+    const double t = record.time_s[r];
+    try {
+      text += iso_time ? format_iso8601(t, time_decimals) : shortest_number(t);
+    } catch (const std::invalid_argument& error) {
+      throw InputError(path, "sample " + std::to_string(r) + ": " + error.what());
+    }
+    for (int c = 0; c < 3; ++c) {
+      const double value = record.values_nT(static_cast<Eigen::Index>(r), c);
+      text += ',';
+      if (std::isnan(value)) {
+        text += "nan";
+        continue;
+      }
+      const int length = std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+      double back = 0.0;
+      if (std::isinf(value) || length <= 0 || length >= static_cast<int>(sizeof buffer) ||
+          !parse_number(std::string(buffer, static_cast<std::size_t>(length)), back) ||
+          back >= kSentinelThreshold_nT) {
+        throw InputError(path, "sample " + std::to_string(r) + ", component " +
+                                   record.components[c] + ": value " + std::to_string(value) +
+                                   " nT cannot be written (infinite, or would read back as "
+                                   "missing: >= 88888)");
+      }
+      text.append(buffer, static_cast<std::size_t>(length));
+    }
+    text += '\n';
+  }
+
+  TextFileWriter writer(path);
+  writer.write(text);
+  writer.close();
+}
+
+}  // namespace magnetometer_insitu_calibration

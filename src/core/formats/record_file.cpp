@@ -1,0 +1,112 @@
+// Format detection and dispatch; see record_file.hpp.
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
+
+#include "magnetometer_insitu_calibration/formats/csv_record.hpp"
+#include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <fstream>
+#include <optional>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+std::string upper(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return text;
+}
+
+// LEMI binary formats from the first bytes of the file; nullopt for text (or unreadable).
+std::optional<RecordFormat> detect_lemi_format(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;  // TextLineReader reports it
+  std::vector<std::uint8_t> bytes(1 << 16);
+  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  bytes.resize(static_cast<std::size_t>(in.gcount()));
+  const std::size_t size = bytes.size();
+  if (size >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b) return std::nullopt;  // gzip: text
+  if (size >= 7 && std::equal(bytes.begin(), bytes.begin() + 7, "LemiBin")) return RecordFormat::kLemiBin;
+  auto packet_at = [&](std::size_t p) {
+    return p + kLemi025PacketSize <= size && check_lemi025_structure(bytes.data() + p) == Lemi025Problem::kOk;
+  };
+  std::optional<std::size_t> first_packet;
+  for (std::size_t p = 0; p + kLemi025PacketSize <= size; ++p) {
+    if (bytes[p] != 'L' || !packet_at(p)) continue;
+    if (!first_packet) first_packet = p;
+    if (packet_at(p + kLemiBinRecordSize)) return RecordFormat::kLemiBin;
+    if (packet_at(p + kLemi025PacketSize)) return RecordFormat::kLemi025Stream;
+  }
+  for (std::size_t p = 0; p + kLemiFlashBlockSize <= size; p += kLemiFlashBlockSize) {
+    const std::uint8_t* block = bytes.data() + p;
+    const bool erased = std::all_of(block, block + kLemiFlashBlockSize, [](std::uint8_t b) { return b == 0x00; }) ||
+                        std::all_of(block, block + kLemiFlashBlockSize, [](std::uint8_t b) { return b == 0xFF; });
+    if (erased) continue;
+    try {
+      decode_lemi_flash_block(block);
+      return RecordFormat::kLemiCompactFlash;
+    } catch (const InputError&) {
+    }
+    break;
+  }
+  if (first_packet) return RecordFormat::kLemi025Stream;
+  return std::nullopt;
+}
+
+}  // namespace
+
+const char* record_format_name(RecordFormat format) {
+  switch (format) {
+    case RecordFormat::kIaga2002:
+      return "IAGA-2002";
+    case RecordFormat::kCsv:
+      return "CSV";
+    case RecordFormat::kLemiBin:
+      return "LemiBin";
+    case RecordFormat::kLemiCompactFlash:
+      return "LEMI compact flash";
+    case RecordFormat::kLemi025Stream:
+      return "LEMI-025 byte stream";
+  }
+  return "unknown";
+}
+
+RecordFormat detect_record_format(const std::string& path) {
+  if (const std::optional<RecordFormat> lemi = detect_lemi_format(path)) return *lemi;
+  TextLineReader reader(path);
+  std::string line;
+  while (reader.next(line)) {
+    const std::string content = upper(trim_blanks(line));
+    if (content.empty()) continue;
+    if (content.compare(0, 6, "FORMAT") == 0 && content.find("IAGA-2002") != std::string::npos) {
+      return RecordFormat::kIaga2002;
+    }
+    return RecordFormat::kCsv;
+  }
+  return RecordFormat::kCsv;
+}
+
+VectorRecord read_record(const std::string& path) { return read_record(path, LemiReadOptions(), nullptr); }
+
+VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_options,
+                         std::vector<std::string>* warnings) {
+  switch (detect_record_format(path)) {
+    case RecordFormat::kIaga2002:
+      return read_iaga2002(path);
+    case RecordFormat::kCsv:
+      break;
+    case RecordFormat::kLemiBin:
+      return read_lemi_bin(path, lemi_options, warnings);
+    case RecordFormat::kLemiCompactFlash:
+      return read_lemi_compact_flash(path, lemi_options, warnings);
+    case RecordFormat::kLemi025Stream:
+      return read_lemi025_stream(path, lemi_options, warnings);
+  }
+  return read_csv_record(path);
+}
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,147 @@
+// Line-by-line text input and output through zlib; see text_lines.hpp.
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+
+#include <zlib.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+gzFile as_gz(void* file) { return static_cast<gzFile>(file); }
+
+/// zlib's message for the last error on `file`, or strerror(errno) for a system error.
+std::string gz_error_text(gzFile file) {
+  int code = Z_OK;
+  const char* message = gzerror(file, &code);
+  if (code == Z_ERRNO) return std::strerror(errno);
+  return message != nullptr ? message : "unknown zlib error";
+}
+
+}  // namespace
+
+bool has_gz_suffix(const std::string& path) {
+  if (path.size() < 3) return false;
+  const std::string tail = path.substr(path.size() - 3);
+  return tail[0] == '.' && (tail[1] == 'g' || tail[1] == 'G') && (tail[2] == 'z' || tail[2] == 'Z');
+}
+
+std::string trim_blanks(const std::string& text) {
+  const char* blanks = " \t\r\n";
+  const std::size_t first = text.find_first_not_of(blanks);
+  if (first == std::string::npos) return std::string();
+  const std::size_t last = text.find_last_not_of(blanks);
+  return text.substr(first, last - first + 1);
+}
+
+bool parse_number(const std::string& text, double& value) {
+  const char* begin = text.data();
+  const char* end = begin + text.size();
+  if (begin != end && *begin == '+') {  // from_chars does not take a '+' sign
+    ++begin;
+    if (begin != end && (*begin == '+' || *begin == '-')) return false;  // "+-1"
+  }
+  if (begin == end) return false;
+  const std::from_chars_result result = std::from_chars(begin, end, value);
+  return result.ec == std::errc() && result.ptr == end;
+}
+
+TextLineReader::TextLineReader(const std::string& path) : path_(path) {
+  errno = 0;
+  gzFile file = gzopen(path.c_str(), "rb");
+  if (file == nullptr) {
+    throw InputError(path, std::string("cannot open: ") +
+                               (errno != 0 ? std::strerror(errno) : "out of memory"));
+  }
+  gzbuffer(file, 1 << 17);
+  file_ = file;
+}
+
+TextLineReader::~TextLineReader() {
+  if (file_ != nullptr) gzclose_r(as_gz(file_));
+}
+
+bool TextLineReader::next(std::string& line) {
+  line.clear();
+  if (at_end_) return false;
+  char buffer[4096];
+  bool got_any = false;
+  for (;;) {
+    errno = 0;
+    if (gzgets(as_gz(file_), buffer, sizeof buffer) == nullptr) {
+      at_end_ = true;
+      break;
+    }
+    got_any = true;
+    const std::size_t length = std::strlen(buffer);
+    line.append(buffer, length);
+    if (length > 0 && buffer[length - 1] == '\n') break;
+    if (gzeof(as_gz(file_))) {
+      at_end_ = true;
+      break;
+    }
+  }
+  if (at_end_) {
+    // The end of the data: a real end, a read error, or a gzip stream cut short.
+    int code = Z_OK;
+    gzerror(as_gz(file_), &code);
+    if (code == Z_BUF_ERROR) {
+      throw InputError(path_, line_number_ + 1, "read error: truncated gzip file");
+    }
+    if (code != Z_OK) {
+      throw InputError(path_, line_number_ + 1, "read error: " + gz_error_text(as_gz(file_)));
+    }
+  }
+  if (!got_any) return false;
+  if (!line.empty() && line.back() == '\n') line.pop_back();
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (line_number_ == 0 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 BOM
+  ++line_number_;
+  return true;
+}
+
+TextFileWriter::TextFileWriter(const std::string& path) : path_(path) {
+  // "T" asks zlib for plain (transparent) output.
+  const char* mode = has_gz_suffix(path) ? "wb9" : "wbT";
+  errno = 0;
+  gzFile file = gzopen(path.c_str(), mode);
+  if (file == nullptr) {
+    throw InputError(path, std::string("cannot create: ") +
+                               (errno != 0 ? std::strerror(errno) : "out of memory"));
+  }
+  gzbuffer(file, 1 << 17);
+  file_ = file;
+}
+
+TextFileWriter::~TextFileWriter() {
+  if (file_ != nullptr) gzclose_w(as_gz(file_));
+}
+
+void TextFileWriter::write(const std::string& text) {
+  if (file_ == nullptr) throw InputError(path_, "write failed: file already closed");
+  if (text.empty()) return;
+  errno = 0;
+  const int written = gzwrite(as_gz(file_), text.data(), static_cast<unsigned>(text.size()));
+  if (written <= 0 || static_cast<std::size_t>(written) != text.size()) {
+    throw InputError(path_, "write failed: " + gz_error_text(as_gz(file_)));
+  }
+}
+
+void TextFileWriter::close() {
+  if (file_ == nullptr) return;
+  gzFile file = as_gz(file_);
+  file_ = nullptr;
+  errno = 0;
+  const int code = gzclose_w(file);
+  if (code != Z_OK) {
+    throw InputError(path_, std::string("write failed: ") +
+                                (code == Z_ERRNO ? std::strerror(errno) : "zlib error on close"));
+  }
+}
+
+}  // namespace magnetometer_insitu_calibration

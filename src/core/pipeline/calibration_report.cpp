@@ -1,0 +1,232 @@
+// JSON and table reports of a pair calibration.
+#include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
+
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace magnetometer_insitu_calibration {
+namespace {
+
+using nlohmann::json;
+
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json vec3(const Eigen::Vector3d& v) { return json::array({number(v(0)), number(v(1)), number(v(2))}); }
+
+json pairs3(const Eigen::Vector3d& v) { return json{{"xy", number(v(0))}, {"xz", number(v(1))}, {"yz", number(v(2))}}; }
+
+template <typename Matrix>
+json rows(const Matrix& m) {
+  json out = json::array();
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    json row = json::array();
+    for (Eigen::Index c = 0; c < m.cols(); ++c) row.push_back(number(m(r, c)));
+    out.push_back(row);
+  }
+  return out;
+}
+
+}  // namespace
+
+json window_to_json(const CalibrationWindow& w) {
+  const WindowEstimate& e = w.estimate;
+  const CalibrationParameters& p = e.parameters;
+  return json{
+      {"label", w.label},
+      {"start", format_iso8601(w.start_s, 3)},
+      {"end", format_iso8601(w.end_s, 3)},
+      {"samples", e.samples},
+      {"sample_period_s", e.sample_period_s},
+      {"filled_samples", w.filled_samples},
+      {"harmonics", json::array({e.harmonic_first, e.harmonic_last})},
+      {"matrix", rows(e.n)},
+      {"matrix_stderr", rows(e.n_stderr())},
+      {"matrix_covariance", rows(e.n_covariance)},
+      {"trend_nT_per_day", vec3(e.trend_nT_per_day)},
+      {"trend_stderr_nT_per_day", vec3(e.trend_stderr_nT_per_day)},
+      {"scale_ratio", vec3(p.scale_ratio)},
+      {"scale_ratio_ci95", vec3(p.scale_ratio_ci95)},
+      {"nonorthogonality_deg", pairs3(p.nonorthogonality_deg)},
+      {"nonorthogonality_ci95_deg", pairs3(p.nonorthogonality_ci95_deg)},
+      {"misalignment_deg", vec3(p.misalignment_deg)},
+      {"misalignment_ci95_deg", vec3(p.misalignment_ci95_deg)},
+      {"axis_deviation_deg", vec3(p.axis_deviation_deg)},
+      {"axis_deviation_ci95_deg", vec3(p.axis_deviation_ci95_deg)},
+      {"condition_number", number(e.condition_number)},
+      {"coherence", vec3(e.coherence)},
+      {"residual_rms_nT", vec3(e.residual_rms_nT)},
+      {"quality", quality_name(e.quality)},
+      {"quality_text", e.quality_text},
+      {"method", e.method},
+      {"band_used_hz", json::array({number(e.band_low_hz), number(e.band_high_hz)})},
+      {"delay_s", number(e.delay_s)},
+      {"delay_ci95_s", number(e.delay_ci95_s)},
+      {"screened_fraction", e.screened_fraction},
+      {"downweighted_fraction", e.downweighted_fraction},
+  };
+}
+
+json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s, const ReportInputs& inputs) {
+  const PreprocessReport& r = c.report;
+  json windows = json::array();
+  for (const auto& w : c.windows) windows.push_back(window_to_json(w));
+  return json{
+      {"settings",
+       {{"reference", inputs.reference},
+        {"test", inputs.test},
+        {"model", "T = R n + trend, rows are samples (nT); column l of n is test axis l in reference coordinates"},
+        {"band_hz", json::array({s.estimator.band_low_hz, s.estimator.band_high_hz})},
+        {"gamma", s.estimator.gamma},
+        {"method", estimator_method_name(s.estimator.method)},
+        {"auto_band", s.estimator.robust.auto_band},
+        {"trend", s.estimator.trend},
+        {"intervals", s.windows.intervals},
+        {"window_s", s.windows.window_s},
+        {"step_s", s.windows.step_s},
+        {"pairing_tolerance_s", s.preprocess.pairing_tolerance_s},
+        {"output_period_s", s.preprocess.output_period_s},
+        {"despike", s.preprocess.despike},
+        {"max_fill_s", s.preprocess.gaps.max_fill_s},
+        {"max_filled_fraction", s.preprocess.max_filled_fraction},
+        {"min_harmonics", s.estimator.min_harmonics},
+        {"max_condition_number", s.estimator.max_condition_number},
+        {"min_coherence", s.estimator.min_coherence}}},
+      {"preprocessing",
+       {{"reference_samples", r.reference_samples},
+        {"test_samples", r.test_samples},
+        {"reference_period_s", r.reference_period_s},
+        {"test_period_s", r.test_period_s},
+        {"spikes_reference", r.spikes_reference},
+        {"spikes_test", r.spikes_test},
+        {"paired", r.paired},
+        {"unpaired_reference", r.unpaired_reference},
+        {"unpaired_test", r.unpaired_test},
+        {"duplicates", r.duplicates},
+        {"decimated", r.decimated},
+        {"grid_samples", r.grid_samples},
+        {"filled_samples", r.filled_samples},
+        {"long_gaps", r.long_gaps}}},
+      {"windows", windows},
+  };
+}
+
+namespace {
+
+std::string with_ci(double value, double ci, int decimals) {
+  if (!std::isfinite(value)) return "-";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f ± %.*f", decimals, value, decimals, ci);
+  return buffer;
+}
+
+}  // namespace
+
+std::string format_calibration_table(const PairCalibration& c, const ReportInputs& inputs) {
+  std::ostringstream out;
+  const PreprocessReport& r = c.report;
+  out << "reference: " << inputs.reference << "\ntest:      " << inputs.test << "\n"
+      << "model T = R n + trend; values ± half-width of the 95 % interval\n"
+      << "pre-processing: " << r.paired << " pairs (" << r.unpaired_reference << " reference and "
+      << r.unpaired_test << " test samples unpaired), spikes removed " << r.spikes_reference << " / "
+      << r.spikes_test << (r.decimated ? ", Gaussian FIR decimated" : "") << ", " << r.grid_samples
+      << " samples on the grid, " << r.filled_samples << " interpolated, " << r.long_gaps << " long gaps\n\n";
+
+  const char* axes[3] = {"x", "y", "z"};
+  const char* pairs[3] = {"xy", "xz", "yz"};
+  if (c.windows.size() <= 6) {
+    const int label_width = 26, column_width = 24;
+    auto row = [&](const std::string& label, auto cell) {
+      char head[64];
+      std::snprintf(head, sizeof head, "%-*s", label_width, label.c_str());
+      out << head;
+      for (const auto& w : c.windows) {
+        const std::string text = cell(w);
+        // pad by characters, not bytes ("±" is two bytes in UTF-8)
+        std::size_t chars = 0;
+        for (unsigned char ch : text) chars += (ch & 0xC0) != 0x80;
+        out << text << std::string(chars < column_width ? column_width - chars : 1, ' ');
+      }
+      out << "\n";
+    };
+    row("", [](const CalibrationWindow& w) { return w.label; });
+    row("start (UTC)", [](const CalibrationWindow& w) { return format_iso8601(w.start_s, 0); });
+    row("end (UTC)", [](const CalibrationWindow& w) { return format_iso8601(w.end_s, 0); });
+    row("samples", [](const CalibrationWindow& w) { return std::to_string(w.estimate.samples); });
+    row("method", [](const CalibrationWindow& w) { return w.estimate.method; });
+    row("band used Hz", [](const CalibrationWindow& w) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%.4g-%.4g", w.estimate.band_low_hz, w.estimate.band_high_hz);
+      return std::string(b);
+    });
+    row("harmonics m0..m", [](const CalibrationWindow& w) {
+      return std::to_string(w.estimate.harmonic_first) + ".." + std::to_string(w.estimate.harmonic_last);
+    });
+    row("delay test-ref s", [](const CalibrationWindow& w) {
+      return with_ci(w.estimate.delay_s, w.estimate.delay_ci95_s, 3);
+    });
+    for (int l = 0; l < 3; ++l) {
+      row(std::string("scale ratio K") + axes[l] + "t/K" + axes[l] + "r", [l](const CalibrationWindow& w) {
+        return with_ci(w.estimate.parameters.scale_ratio(l), w.estimate.parameters.scale_ratio_ci95(l), 5);
+      });
+    }
+    for (int k = 0; k < 3; ++k) {
+      row(std::string("non-orthogonality ") + pairs[k] + " deg", [k](const CalibrationWindow& w) {
+        return with_ci(w.estimate.parameters.nonorthogonality_deg(k), w.estimate.parameters.nonorthogonality_ci95_deg(k), 3);
+      });
+    }
+    for (int l = 0; l < 3; ++l) {
+      row(std::string("misalignment about ") + axes[l] + " deg", [l](const CalibrationWindow& w) {
+        return with_ci(w.estimate.parameters.misalignment_deg(l), w.estimate.parameters.misalignment_ci95_deg(l), 3);
+      });
+    }
+    for (int l = 0; l < 3; ++l) {
+      row(std::string("axis deviation ") + axes[l] + " deg", [l](const CalibrationWindow& w) {
+        return with_ci(w.estimate.parameters.axis_deviation_deg(l), w.estimate.parameters.axis_deviation_ci95_deg(l), 3);
+      });
+    }
+    for (int l = 0; l < 3; ++l) {
+      row(std::string("trend ") + axes[l] + " nT/day", [l](const CalibrationWindow& w) {
+        return with_ci(w.estimate.trend_nT_per_day(l), 1.959964 * w.estimate.trend_stderr_nT_per_day(l), 2);
+      });
+    }
+    row("coherence x/y/z", [](const CalibrationWindow& w) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%.4f/%.4f/%.4f", w.estimate.coherence(0), w.estimate.coherence(1), w.estimate.coherence(2));
+      return std::string(b);
+    });
+    row("residual rms x/y/z nT", [](const CalibrationWindow& w) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%.3f/%.3f/%.3f", w.estimate.residual_rms_nT(0), w.estimate.residual_rms_nT(1),
+                    w.estimate.residual_rms_nT(2));
+      return std::string(b);
+    });
+    row("condition number", [](const CalibrationWindow& w) {
+      char b[32];
+      std::snprintf(b, sizeof b, "%.1f", w.estimate.condition_number);
+      return std::string(b);
+    });
+    row("quality", [](const CalibrationWindow& w) { return std::string(quality_name(w.estimate.quality)); });
+    for (const auto& w : c.windows) {
+      if (w.estimate.quality != Quality::kOk) out << w.label << ": " << w.estimate.quality_text << "\n";
+    }
+  } else {
+    out << "window          start (UTC)            scale ratio x/y/z            non-orth xy/xz/yz deg   "
+           "misalignment x/y/z deg    quality\n";
+    for (const auto& w : c.windows) {
+      const auto& p = w.estimate.parameters;
+      char line[512];
+      std::snprintf(line, sizeof line,
+                    "%-15s %-22s %.5f/%.5f/%.5f  %+.3f/%+.3f/%+.3f  %+.3f/%+.3f/%+.3f  %s\n", w.label.c_str(),
+                    format_iso8601(w.start_s, 0).c_str(), p.scale_ratio(0), p.scale_ratio(1), p.scale_ratio(2),
+                    p.nonorthogonality_deg(0), p.nonorthogonality_deg(1), p.nonorthogonality_deg(2),
+                    p.misalignment_deg(0), p.misalignment_deg(1), p.misalignment_deg(2), quality_name(w.estimate.quality));
+      out << line;
+    }
+  }
+  return out.str();
+}
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,161 @@
+// The offline chain on simulated records with known truth: 10 Hz records with spikes and gaps
+// through despiking, pairing, Gaussian FIR decimation, gap filling, windows and FD-WLSE.
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+/// n within k standard errors of the truth, entry by entry.
+void expect_within(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth, double k, const std::string& what) {
+  const Eigen::Matrix3d se = e.n_stderr();
+  for (int i = 0; i < 9; ++i) {
+    const int r = i / 3, c = i % 3;
+    EXPECT_LT(std::abs(e.n(r, c) - truth(r, c)), k * se(r, c))
+        << what << ": n(" << r << "," << c << ") = " << e.n(r, c) << " truth " << truth(r, c) << " se " << se(r, c);
+  }
+}
+
+mic::SimulationSettings ten_hz_station(std::uint64_t seed) {
+  mic::SimulationSettings s;
+  s.seed = seed;
+  s.duration_s = 6 * 3600.0;
+  s.sample_period_s = 0.1;
+  s.start_time_s = 1747180800.0 - 0.3;  // LEMI-025 grid: samples at x.7, x.8, ... after the -0.3 s shift
+  s.keep_clean_field = false;
+  return s;
+}
+
+}  // namespace
+
+TEST(CalibrationPipeline, TenHertzRecordsWithSpikesAndGapsGiveTheTruth) {
+  mic::SimulationSettings s = ten_hz_station(11);
+  s.spikes_per_day = 400;   // 100 spikes of 50 nT in 6 h
+  s.gap_count = 3;
+  s.gap_length_s = 20.0;    // short gaps: filled
+  s.drift_nT_per_day = Eigen::Vector3d(3.0, -2.0, 5.0);
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+
+  mic::CalibrationSettings settings;
+  const mic::PairCalibration result = mic::calibrate_records(pair.reference, pair.test, settings);
+  EXPECT_TRUE(result.report.decimated);
+  EXPECT_EQ(result.report.spikes_reference + result.report.spikes_test, pair.spikes.size());
+  EXPECT_NEAR(result.report.grid_samples, 6 * 3600, 20);  // kernel support lost at the edges
+  ASSERT_EQ(result.windows.size(), 1u);
+  const mic::WindowEstimate& e = result.windows[0].estimate;
+  EXPECT_EQ(e.quality, mic::Quality::kOk) << e.quality_text;
+  EXPECT_DOUBLE_EQ(e.sample_period_s, 1.0);
+  expect_within(e, pair.n_true, 3.0, "10 Hz chain");
+  for (int l = 0; l < 3; ++l) {
+    EXPECT_NEAR(e.trend_nT_per_day(l), pair.trend_nT_per_day(l), 3.0 * e.trend_stderr_nT_per_day(l) + 1e-9);
+  }
+}
+
+TEST(CalibrationPipeline, IntervalsThenWholeRecordAreConsistent) {
+  mic::SimulationSettings s;
+  s.seed = 5;
+  s.keep_clean_field = false;  // one day at 1 Hz
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::CalibrationSettings settings;
+  settings.windows.intervals = 4;
+  const mic::PairCalibration result = mic::calibrate_records(pair.reference, pair.test, settings);
+  ASSERT_EQ(result.windows.size(), 5u);
+  EXPECT_EQ(result.windows[0].label, "interval 1/4");
+  EXPECT_EQ(result.windows[4].label, "whole record");
+  EXPECT_EQ(result.windows[4].estimate.samples, 86400u);
+  EXPECT_DOUBLE_EQ(result.windows[1].start_s, s.start_time_s + 6 * 3600.0);
+  for (const auto& w : result.windows) {
+    EXPECT_EQ(w.estimate.quality, mic::Quality::kOk) << w.label << ": " << w.estimate.quality_text;
+    expect_within(w.estimate, pair.n_true, 3.5, w.label);
+  }
+  // The whole day is more precise than any of its quarters.
+  EXPECT_LT(result.windows[4].estimate.n_stderr().maxCoeff(), result.windows[0].estimate.n_stderr().maxCoeff());
+}
+
+TEST(CalibrationPipeline, SwappedRolesGiveTheInverseMatrix) {
+  mic::SimulationSettings s;
+  s.seed = 8;
+  s.keep_clean_field = false;
+  s.test_white_nT = 0.01;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::CalibrationSettings settings;
+  const auto forward = mic::calibrate_records(pair.reference, pair.test, settings).windows[0].estimate;
+  const auto backward = mic::calibrate_records(pair.test, pair.reference, settings).windows[0].estimate;
+  const Eigen::Matrix3d product = forward.n * backward.n;
+  EXPECT_LT((product - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(),
+            3.0 * (forward.n_stderr().maxCoeff() + backward.n_stderr().maxCoeff()));
+  for (int l = 0; l < 3; ++l) {
+    EXPECT_NEAR(forward.parameters.scale_ratio(l) * backward.parameters.scale_ratio(l), 1.0,
+                forward.parameters.scale_ratio_ci95(l) + backward.parameters.scale_ratio_ci95(l));
+  }
+}
+
+TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
+  mic::SimulationSettings s;
+  s.seed = 21;
+  s.keep_clean_field = false;
+  s.gap_count = 1;
+  s.gap_length_s = 1800.0;  // half an hour
+  s.gap_instrument = mic::SimulatedInstrument::kTest;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  ASSERT_EQ(pair.gaps.size(), 1u);
+  mic::CalibrationSettings settings;
+  settings.windows.intervals = 4;
+  const auto result = mic::calibrate_records(pair.reference, pair.test, settings);
+  EXPECT_EQ(result.report.long_gaps, 1u);
+  const std::size_t gap_first = pair.gaps[0].first_index, gap_last = gap_first + pair.gaps[0].length - 1;
+  int flagged = 0;
+  for (const auto& w : result.windows) {
+    const std::size_t first = w.first_index, last = w.first_index + w.estimate.samples - 1;
+    const bool touches = gap_first <= last && gap_last >= first;
+    EXPECT_EQ(w.estimate.quality == mic::Quality::kGaps, touches) << w.label << " " << w.estimate.quality_text;
+    flagged += touches;
+  }
+  EXPECT_GE(flagged, 2);  // at least one interval and the whole record
+}
+
+TEST(CalibrationPipeline, SlidingWindowsAndJsonReport) {
+  mic::SimulationSettings s;
+  s.seed = 3;
+  s.duration_s = 12 * 3600.0;
+  s.keep_clean_field = false;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::CalibrationSettings settings;
+  settings.windows.window_s = 6 * 3600.0;
+  settings.windows.step_s = 3 * 3600.0;
+  const auto result = mic::calibrate_records(pair.reference, pair.test, settings);
+  ASSERT_EQ(result.windows.size(), 3u);  // 0-6, 3-9, 6-12 h
+  const nlohmann::json j = mic::calibration_to_json(result, settings, {"ref", "test"});
+  ASSERT_EQ(j["windows"].size(), 3u);
+  const auto& w = j["windows"][1];
+  EXPECT_EQ(w["start"], "2025-05-14T03:00:00.000Z");
+  EXPECT_EQ(w["samples"], 21600);
+  EXPECT_EQ(w["matrix"].size(), 3u);
+  EXPECT_EQ(w["matrix_covariance"].size(), 9u);
+  EXPECT_DOUBLE_EQ(w["matrix"][1][2].get<double>(), result.windows[1].estimate.n(1, 2));
+  EXPECT_DOUBLE_EQ(w["nonorthogonality_deg"]["yz"].get<double>(),
+                   result.windows[1].estimate.parameters.nonorthogonality_deg(2));
+  EXPECT_EQ(w["quality"], "ok");
+  EXPECT_EQ(j["settings"]["band_hz"][1], 0.01);
+}
+
+TEST(CalibrationPipeline, ImpossibleLayoutsAreRejectedByName) {
+  mic::WindowLayout layout;
+  layout.window_s = 3600;
+  layout.step_s = 7200;
+  try {
+    layout.validate();
+    FAIL();
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("step"), std::string::npos);
+  }
+  mic::PreprocessSettings p;
+  p.pairing_tolerance_s = -1;
+  EXPECT_THROW(p.validate(), std::exception);
+}

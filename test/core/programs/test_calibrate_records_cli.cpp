@@ -1,0 +1,110 @@
+// calibrate_records as a user runs it: exit status, JSON document, and bad input named.
+#include "magnetometer_insitu_calibration/formats/csv_record.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <sstream>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+using mic::test::ProgramRun;
+
+ProgramRun run(const std::string& args) { return mic::test::run_program(CALIBRATE_RECORDS_BIN, args); }
+
+class CalibrateRecordsCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = mic::test::make_temp_dir("cli");
+    mic::SimulationSettings s;
+    s.duration_s = 6 * 3600.0;
+    s.keep_clean_field = false;
+    pair_ = mic::simulate_pair(s);
+    mic::write_csv_record(dir_ + "/ref.csv", pair_.reference);
+    mic::write_csv_record(dir_ + "/test.csv", pair_.test);
+  }
+  static std::string dir_;
+  static mic::SimulatedPair pair_;
+};
+std::string CalibrateRecordsCli::dir_;
+mic::SimulatedPair CalibrateRecordsCli::pair_;
+
+}  // namespace
+
+TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
+  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --intervals 2 --json " + dir_ +
+                    "/out.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("scale ratio Kxt/Kxr"), std::string::npos);
+  std::ifstream in(dir_ + "/out.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["windows"].size(), 3u);
+  const auto& day = j["windows"][2];
+  for (const char* key : {"start", "end", "samples", "harmonics", "matrix", "matrix_stderr", "matrix_covariance",
+                          "trend_nT_per_day", "scale_ratio", "scale_ratio_ci95", "nonorthogonality_deg",
+                          "nonorthogonality_ci95_deg", "misalignment_deg", "misalignment_ci95_deg",
+                          "axis_deviation_deg", "condition_number", "coherence", "residual_rms_nT", "quality"}) {
+    EXPECT_TRUE(day.contains(key)) << key;
+  }
+  for (int k = 0; k < 9; ++k) {
+    const double value = day["matrix"][k / 3][k % 3], se = day["matrix_stderr"][k / 3][k % 3];
+    EXPECT_LT(std::abs(value - pair_.n_true(k / 3, k % 3)), 3.0 * se) << k;
+  }
+  EXPECT_EQ(day["harmonics"][0], 5);   // ceil(0.0002 * 21600)
+  EXPECT_EQ(day["harmonics"][1], 216);  // floor(0.01 * 21600)
+}
+
+TEST_F(CalibrateRecordsCli, MissingFileIsNamed) {
+  const ProgramRun r = run("--reference " + dir_ + "/nope.sec --test " + dir_ + "/test.csv");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("nope.sec"), std::string::npos) << r.output;
+}
+
+TEST_F(CalibrateRecordsCli, MalformedLineIsNamedWithItsNumber) {
+  {
+    std::ofstream bad(dir_ + "/bad.csv");
+    bad << "time,x,y,z\n1747180800,1,2,3\n1747180801,1,2,3\n1747180802,1,two,3\n";
+  }
+  const ProgramRun r = run("--reference " + dir_ + "/bad.csv --test " + dir_ + "/test.csv");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("bad.csv:4"), std::string::npos) << r.output;
+}
+
+TEST_F(CalibrateRecordsCli, RecordsThatDoNotOverlapAreRejected) {
+  {
+    std::ofstream later(dir_ + "/later.csv");
+    later << "time,x,y,z\n";
+    for (int i = 0; i < 100; ++i) later << 1800000000 + i << ",1,2,3\n";
+  }
+  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/later.csv");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("overlap"), std::string::npos) << r.output;
+}
+
+TEST_F(CalibrateRecordsCli, RecordOfNaNIsRejected) {
+  {
+    std::ofstream nan(dir_ + "/nan.csv");
+    nan << "time,x,y,z\n";
+    for (int i = 0; i < 3600; ++i) nan << 1747180800 + i << ",nan,nan,nan\n";
+  }
+  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/nan.csv");
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("nan.csv: no sample has three finite components"), std::string::npos) << r.output;
+}
+
+TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
+  ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 0.01:0.001");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("band"), std::string::npos) << r.output;
+  r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 1e-3");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("--band"), std::string::npos) << r.output;
+  r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --window 3600 --step 7200");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("step"), std::string::npos) << r.output;
+}
