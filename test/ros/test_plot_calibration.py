@@ -20,6 +20,7 @@ What is asserted:
 
 import argparse
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -130,6 +131,36 @@ class PlotCalibration(unittest.TestCase):
         rgb = self.check_png(png)
         red = ((abs(rgb[:, :, 0] - 214 / 255.0) < 0.03) & (abs(rgb[:, :, 1] - 39 / 255.0) < 0.03)).sum()
         self.assertGreater(red, 20, "the flagged window is drawn in red")
+
+    def test_response_view_draws_the_relative_response_of_the_whole_day(self):
+        png = os.path.join(WORK, "response.png")
+        code, out, err = plot(self.intervals_json, "-o", png, "--view", "response", "--summary")
+        self.assertEqual(code, 0, err)
+        summary = json.loads(out)
+        self.assertEqual(summary["window"], "whole record")
+        window = self.intervals["windows"][-1]
+        bands = window["relative_response"]
+        self.assertEqual(summary["frequency_hz"], [b["frequency_hz"] for b in bands])  # drawn = reported
+        freq = summary["frequency_hz"]
+        self.assertEqual(freq, sorted(freq))
+        self.assertLess(freq[0], 0.0005)
+        self.assertGreater(freq[-1], 0.05)
+        low, high = window["band_used_hz"]
+        for k, comp in enumerate(summary["components"]):
+            # Inside the estimator's band the response is flat: gain within 3 half-widths of 1.
+            inside = [(g, c) for f, g, c in zip(freq, comp["gain"], comp["gain_ci95"]) if low <= f <= high]
+            self.assertGreater(len(inside), 8)
+            flat = sum(abs(g - 1.0) <= 3 * c for g, c in inside)
+            self.assertGreaterEqual(flat, 0.9 * len(inside), "component %d" % k)
+            # The phase is the FGE's 2.86 s lag (independent cross-spectral check, data/README.md):
+            # a delay fitted to the bands below 0.05 Hz lies within 2.6-3.1 s.
+            pts = [(2 * math.pi * f, -p * math.pi / 180, c * math.pi / 180 / 1.96)
+                   for f, p, c in zip(freq, comp["phase_deg"], comp["phase_ci95_deg"]) if f < 0.05]
+            num = sum(w * p / s ** 2 for w, p, s in pts)
+            den = sum(w * w / s ** 2 for w, p, s in pts)
+            self.assertTrue(2.6 < num / den < 3.1, "component %d delay %.2f s" % (k, num / den))
+        with open(png, "rb") as f:
+            self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
 
     def test_bad_input_is_named(self):
         code, out, err = plot(os.path.join(WORK, "missing.json"))

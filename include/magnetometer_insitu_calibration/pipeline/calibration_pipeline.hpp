@@ -4,6 +4,7 @@
 
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
@@ -50,6 +51,8 @@ struct CalibrationSettings {
   PreprocessSettings preprocess;
   EstimatorSettings estimator;
   WindowLayout windows;
+  bool relative_response = true;  ///< estimate each window's relative frequency response
+  RelativeResponseSettings response;
 
   void validate() const;
 };
@@ -81,6 +84,9 @@ struct CalibrationWindow {
   std::size_t filled_samples = 0;
   bool overlaps_long_gap = false;
   WindowEstimate estimate;
+  /// Gain and phase of T against R n per test component (relative_response.hpp), lowest band
+  /// first; empty when not asked for or when no band has enough harmonics.
+  std::vector<ResponseBand> relative_response;
 };
 
 struct PairCalibration {

@@ -38,6 +38,7 @@ void CalibrationSettings::validate() const {
   preprocess.validate();
   estimator.validate();
   windows.validate();
+  if (relative_response) response.validate();
 }
 
 double median_sample_period(const VectorRecord& record) {
@@ -154,8 +155,13 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
     for (const auto& gap : prepared.gaps.long_gaps) {
       w.overlaps_long_gap |= gap.first < span.first + span.count && gap.second >= span.first;
     }
-    w.estimate = estimator.estimate(p.reference_nT.middleRows(span.first, span.count),
-                                    p.test_nT.middleRows(span.first, span.count), prepared.sample_period_s);
+    const auto reference = p.reference_nT.middleRows(span.first, span.count);
+    const auto test = p.test_nT.middleRows(span.first, span.count);
+    w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
+    if (settings.relative_response) {
+      w.relative_response = relative_response(reference, test, w.estimate.n, prepared.sample_period_s,
+                                              settings.response);
+    }
     const double filled_fraction = static_cast<double>(w.filled_samples) / static_cast<double>(span.count);
     if (w.estimate.quality == Quality::kOk &&
         (w.overlaps_long_gap || filled_fraction > settings.preprocess.max_filled_fraction)) {

@@ -31,6 +31,21 @@ json rows(const Matrix& m) {
 
 }  // namespace
 
+/// relative_response: one object per band, ci95 = 95 % half-widths as the other keys.
+json response_to_json(const std::vector<ResponseBand>& bands) {
+  json out = json::array();
+  for (const auto& b : bands) {
+    out.push_back(json{{"frequency_hz", number(b.frequency_hz)},
+                       {"band_hz", json::array({number(b.low_hz), number(b.high_hz)})},
+                       {"harmonics", b.harmonics},
+                       {"gain", vec3(b.gain)},
+                       {"gain_ci95", vec3(b.gain_ci95)},
+                       {"phase_deg", vec3(b.phase_deg)},
+                       {"phase_ci95_deg", vec3(b.phase_ci95_deg)}});
+  }
+  return out;
+}
+
 json window_to_json(const CalibrationWindow& w) {
   const WindowEstimate& e = w.estimate;
   const CalibrationParameters& p = e.parameters;
@@ -66,6 +81,7 @@ json window_to_json(const CalibrationWindow& w) {
       {"delay_ci95_s", number(e.delay_ci95_s)},
       {"screened_fraction", e.screened_fraction},
       {"downweighted_fraction", e.downweighted_fraction},
+      {"relative_response", response_to_json(w.relative_response)},
   };
 }
 
@@ -201,6 +217,21 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
       char b[64];
       std::snprintf(b, sizeof b, "%.3f/%.3f/%.3f", w.estimate.residual_rms_nT(0), w.estimate.residual_rms_nT(1),
                     w.estimate.residual_rms_nT(2));
+      return std::string(b);
+    });
+    // Relative response over the band used: largest |gain - 1| and group delay (relative_response.hpp).
+    row("response |gain-1| max", [](const CalibrationWindow& w) {
+      const auto r = summarise_response(w.relative_response, w.estimate.band_low_hz, w.estimate.band_high_hz);
+      char b[48];
+      if (r.bands == 0) return std::string("-");
+      std::snprintf(b, sizeof b, "%.4f ± %.4f", r.max_gain_departure, r.max_gain_departure_ci95);
+      return std::string(b);
+    });
+    row("response group delay s", [](const CalibrationWindow& w) {
+      const auto r = summarise_response(w.relative_response, w.estimate.band_low_hz, w.estimate.band_high_hz);
+      char b[32];
+      if (r.bands == 0) return std::string("-");
+      std::snprintf(b, sizeof b, "%.2f", r.group_delay_s);
       return std::string(b);
     });
     row("condition number", [](const CalibrationWindow& w) {
