@@ -1,6 +1,6 @@
 // Benchmark (a program, not a test): the full FD-WLSE estimate (load, FFT of 7 columns, band
 // sums, covariance, decomposition) against the FFTW transforms alone (load + the same batched
-// plan) on the same simulated 1 Hz data, 2 and 10 days; and the default robust estimator. README "Speed" quotes its output:
+// plan) on the same simulated 1 Hz data, 2 and 10 days; and the default robust estimator. docs/performance.md quotes its output:
 //   build/devel/lib/magnetometer_insitu_calibration/bench_estimator --benchmark_repetitions=5
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"

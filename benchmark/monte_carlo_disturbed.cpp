@@ -1,6 +1,6 @@
 // Monte Carlo of the robust and the plain (Eq. 2) estimators against known truth, and the two
 // estimators side by side on the real WIC pair. A program, not a test (minutes of run time);
-// its figures are quoted in the README ("Robust estimation").
+// its figures are quoted in docs/accuracy.md.
 //
 //   monte_carlo_disturbed disturbed [seeds=50] [days=5] [first_seed=1000]
 //                                                       disturbed station, both estimators

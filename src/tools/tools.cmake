@@ -23,7 +23,7 @@ target_include_directories(export_corrected PRIVATE ${CATKIN_DEVEL_PREFIX}/inclu
 target_link_libraries(export_corrected ${PROJECT_NAME}_bag ${PROJECT_NAME}_archive ${PROJECT_NAME}_ros)
 add_dependencies(export_corrected ${PROJECT_NAME}_generate_messages_cpp)
 
-# A program, not a test: its figures go in the README ("Archived records").
+# A program, not a test: its figures go in docs/archived_records.md.
 add_executable(benchmark_bag_read src/tools/benchmark_bag_read.cpp)
 target_link_libraries(benchmark_bag_read ${PROJECT_NAME}_bag)
 
