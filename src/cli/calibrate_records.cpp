@@ -75,6 +75,8 @@ int main(int argc, char** argv) {
   app.add_option("--eiv-ratio", settings.estimator.robust.eiv_noise_ratio,
                  "robust, --eiv ratio: reference noise PSD / test noise PSD (1 for two instruments of one class)")
       ->capture_default_str();
+  app.add_flag("--response-model", settings.response_model,
+               "fit a delay + 1-pole low-pass per component to the relative response; estimate n through it");
   app.add_option("--method", method, "estimator: robust (default) or plain (Eq. 2 as printed)")->capture_default_str();
   app.add_flag("--auto-band", settings.estimator.robust.auto_band,
                "choose the band from the coherence between the instruments (reported per window)");

@@ -51,6 +51,11 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
                                             const Eigen::Matrix3d& n, double period_s,
                                             const RelativeResponseSettings& settings = {});
 
+/// Two-sided 95 % quantile of Student's t with dof degrees of freedom (Cornish-Fisher expansion;
+/// within 0.2 % of the exact value for dof >= 6). A band's standard error in gain or phase
+/// direction is its ci95 / student_t95(2 (harmonics - 2)).
+double student_t95(double dof);
+
 /// Summary for diagnostics: the largest |gain - 1| over the bands whose frequency lies in
 /// [low_hz, high_hz] (NaN when none) with that band's 95 % half-width (a departure inside it is
 /// not significant), and the group delay, s, of the phase against angular

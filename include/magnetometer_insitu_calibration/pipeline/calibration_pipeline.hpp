@@ -5,6 +5,7 @@
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
+#include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
@@ -53,6 +54,10 @@ struct CalibrationSettings {
   WindowLayout windows;
   bool relative_response = true;  ///< estimate each window's relative frequency response
   RelativeResponseSettings response;
+  /// Fit a delay + first-order low-pass per component to the response and, where a corner is
+  /// significant, estimate n again on the test record with that filter removed (response_model.hpp).
+  bool response_model = false;
+  ResponseModelSettings model;
 
   void validate() const;
 };
@@ -87,6 +92,7 @@ struct CalibrationWindow {
   /// Gain and phase of T against R n per test component (relative_response.hpp), lowest band
   /// first; empty when not asked for or when no band has enough harmonics.
   std::vector<ResponseBand> relative_response;
+  ResponseModel response_model;  ///< fitted when CalibrationSettings::response_model
 };
 
 struct PairCalibration {

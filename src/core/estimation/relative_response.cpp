@@ -16,14 +16,16 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-/// Two-sided 95 % quantile of Student's t with dof degrees of freedom (Cornish-Fisher expansion
-/// about the normal 1.959964; within 0.2 % of the exact value for dof >= 6).
-double t95(double dof) {
+}  // namespace
+
+double student_t95(double dof) {
   const double z = 1.959963984540054;
   const double z3 = z * z * z, z5 = z3 * z * z, z7 = z5 * z * z;
   return z + (z3 + z) / (4.0 * dof) + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * dof * dof) +
          (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * dof * dof * dof);
 }
+
+namespace {
 
 /// First difference, then a 10 % split-cosine bell (5 % at each end), in place on a copy.
 Eigen::VectorXd whitened_tapered(const Eigen::VectorXd& x) {
@@ -120,7 +122,7 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
       // Var(H0) = sigma^2 [(X^H X)^-1]_00 with sigma^2 = residual / (M - 2); half of it in the
       // real (gain) and half in the imaginary (phase) direction of H0.
       const double var_h = residual / (m - 2.0) * std::abs(inverse(0, 0));
-      const double half = t95(2.0 * (m - 2.0)) * std::sqrt(0.5 * var_h);
+      const double half = student_t95(2.0 * (m - 2.0)) * std::sqrt(0.5 * var_h);
       const double gain = std::abs(h(0));
       band.gain(k) = gain;
       band.gain_ci95(k) = half;

@@ -38,7 +38,8 @@ void CalibrationSettings::validate() const {
   preprocess.validate();
   estimator.validate();
   windows.validate();
-  if (relative_response) response.validate();
+  if (relative_response || response_model) response.validate();
+  if (response_model) model.validate();
 }
 
 double median_sample_period(const VectorRecord& record) {
@@ -158,9 +159,19 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
     const auto reference = p.reference_nT.middleRows(span.first, span.count);
     const auto test = p.test_nT.middleRows(span.first, span.count);
     w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
-    if (settings.relative_response) {
+    if (settings.relative_response || settings.response_model) {
       w.relative_response = relative_response(reference, test, w.estimate.n, prepared.sample_period_s,
                                               settings.response);
+    }
+    if (settings.response_model) {
+      w.response_model = fit_response_model(w.relative_response, settings.model);
+      if (w.response_model.applied) {
+        w.estimate = estimator.estimate(reference, remove_modelled_filter(test, prepared.sample_period_s, w.response_model),
+                                        prepared.sample_period_s);
+        w.relative_response = relative_response(reference, test, w.estimate.n, prepared.sample_period_s,
+                                                settings.response);
+      }
+      if (!settings.relative_response) w.relative_response.clear();
     }
     const double filled_fraction = static_cast<double>(w.filled_samples) / static_cast<double>(span.count);
     if (w.estimate.quality == Quality::kOk &&

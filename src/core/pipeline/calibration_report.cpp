@@ -46,6 +46,21 @@ json response_to_json(const std::vector<ResponseBand>& bands) {
   return out;
 }
 
+/// response_model: null when not fitted; corner_hz null per component without a significant corner.
+json model_to_json(const ResponseModel& m) {
+  if (!m.fitted) return json{{"fitted", false}, {"text", m.text}};
+  json corners = json::array(), inverse = json::array(), inverse_ci = json::array();
+  for (int k = 0; k < 3; ++k) {
+    corners.push_back(m.inverse_corner_s(k) > 0.0 ? number(m.corner_hz(k)) : json(nullptr));
+    inverse.push_back(number(m.inverse_corner_s(k)));
+    inverse_ci.push_back(number(m.inverse_corner_ci95_s(k)));
+  }
+  return json{{"fitted", true}, {"applied", m.applied}, {"delay_s", number(m.delay_s)},
+              {"delay_ci95_s", number(m.delay_ci95_s)}, {"corner_hz", corners},
+              {"inverse_corner_s", inverse}, {"inverse_corner_ci95_s", inverse_ci},
+              {"fit_max_hz", number(m.fit_max_hz)}, {"chi2_per_dof", number(m.chi2_per_dof)}, {"text", m.text}};
+}
+
 json window_to_json(const CalibrationWindow& w) {
   const WindowEstimate& e = w.estimate;
   const CalibrationParameters& p = e.parameters;
@@ -82,6 +97,7 @@ json window_to_json(const CalibrationWindow& w) {
       {"screened_fraction", e.screened_fraction},
       {"downweighted_fraction", e.downweighted_fraction},
       {"relative_response", response_to_json(w.relative_response)},
+      {"response_model", model_to_json(w.response_model)},
   };
 }
 
@@ -240,6 +256,9 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
       return std::string(b);
     });
     row("quality", [](const CalibrationWindow& w) { return std::string(quality_name(w.estimate.quality)); });
+    for (const auto& w : c.windows) {
+      if (w.response_model.fitted || !w.response_model.text.empty()) out << w.label << ": " << w.response_model.text << "\n";
+    }
     for (const auto& w : c.windows) {
       if (w.estimate.quality != Quality::kOk) out << w.label << ": " << w.estimate.quality_text << "\n";
     }

@@ -1,0 +1,240 @@
+#include "magnetometer_insitu_calibration/estimation/response_model.hpp"
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "spectral_tools.hpp"
+
+#include <Eigen/Dense>
+#include <fftw3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+
+namespace magnetometer_insitu_calibration {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kParameters = 7;  // tau, g_x, g_y, g_z, q_x, q_y, q_z (q = 1 / fc, s)
+using Params = Eigen::Matrix<double, kParameters, 1>;
+
+std::complex<double> model(const Params& p, int k, double f) {
+  const std::complex<double> delay = std::exp(std::complex<double>(0.0, -2.0 * kPi * f * p(0)));
+  return p(1 + k) * delay / std::complex<double>(1.0, f * p(4 + k));
+}
+
+/// Weighted residuals (real and imaginary parts, / their standard errors) of the bands used.
+Eigen::VectorXd residuals(const Params& p, const std::vector<ResponseBand>& bands) {
+  Eigen::VectorXd r(static_cast<Eigen::Index>(bands.size() * 6));
+  Eigen::Index i = 0;
+  for (const auto& b : bands) {
+    const double t = student_t95(2.0 * (static_cast<double>(b.harmonics) - 2.0));
+    for (int k = 0; k < 3; ++k) {
+      const std::complex<double> measured = std::polar(b.gain(k), b.phase_deg(k) * kPi / 180.0);
+      const std::complex<double> d = measured - model(p, k, b.frequency_hz);
+      const double sd = std::max(1e-12, b.gain_ci95(k) / t);
+      r(i++) = d.real() / sd;
+      r(i++) = d.imag() / sd;
+    }
+  }
+  return r;
+}
+
+struct Fit {
+  Params p = Params::Zero();
+  Eigen::Matrix<double, kParameters, kParameters> covariance = Eigen::Matrix<double, kParameters, kParameters>::Zero();
+  double chi2_per_dof = 0.0;
+  bool ok = false;
+};
+
+/// Levenberg-Marquardt on the weighted residuals, q >= 0 kept by clamping; q_k held at 0 where
+/// free_corner(k) is false.
+Fit fit(const std::vector<ResponseBand>& bands, double initial_delay_s,
+        const Eigen::Array<bool, 3, 1>& free_corner = Eigen::Array<bool, 3, 1>::Constant(true)) {
+  Fit out;
+  Params p;
+  p << initial_delay_s, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0;
+  double lambda = 1e-3;
+  Eigen::VectorXd r = residuals(p, bands);
+  double cost = r.squaredNorm();
+  Eigen::MatrixXd jac(r.size(), kParameters);
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    for (int c = 0; c < kParameters; ++c) {
+      Params q = p;
+      const double h = 1e-6 * std::max(1.0, std::abs(p(c)));
+      q(c) += h;
+      jac.col(c) = (residuals(q, bands) - r) / h;
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (!free_corner(k)) jac.col(4 + k).setZero();
+    }
+    Eigen::Matrix<double, kParameters, kParameters> jtj = jac.transpose() * jac;
+    for (int k = 0; k < 3; ++k) {
+      if (!free_corner(k)) jtj(4 + k, 4 + k) = 1.0;  // held: the step leaves it at 0
+    }
+    const Params g = jac.transpose() * r;
+    bool improved = false;
+    for (int attempt = 0; attempt < 20 && !improved; ++attempt) {
+      Eigen::Matrix<double, kParameters, kParameters> a = jtj;
+      a.diagonal() *= 1.0 + lambda;
+      Params next = p - a.ldlt().solve(g);
+      for (int k = 0; k < 3; ++k) next(4 + k) = std::clamp(next(4 + k), 0.0, 1e4);
+      const Eigen::VectorXd rn = residuals(next, bands);
+      const double cn = rn.squaredNorm();
+      if (std::isfinite(cn) && cn < cost) {
+        const double change = cost - cn;
+        p = next;
+        r = rn;
+        cost = cn;
+        lambda = std::max(1e-9, lambda / 10.0);
+        improved = true;
+        if (change < 1e-10 * std::max(1.0, cost)) iteration = 1000;
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!improved) break;
+  }
+  for (int c = 0; c < kParameters; ++c) {
+    Params q = p;
+    const double h = 1e-6 * std::max(1.0, std::abs(p(c)));
+    q(c) += h;
+    jac.col(c) = (residuals(q, bands) - r) / h;
+  }
+  const int held = 3 - static_cast<int>(free_corner.count());
+  Eigen::Matrix<double, kParameters, kParameters> jtj = jac.transpose() * jac;
+  for (int k = 0; k < 3; ++k) {
+    if (!free_corner(k)) {
+      jtj.row(4 + k).setZero();
+      jtj.col(4 + k).setZero();
+      jtj(4 + k, 4 + k) = 1.0;
+    }
+  }
+  const double dof = static_cast<double>(r.size() - kParameters + held);
+  out.p = p;
+  out.chi2_per_dof = cost / dof;
+  out.covariance = jtj.inverse() * std::max(1.0, out.chi2_per_dof);
+  out.ok = out.covariance.allFinite();
+  return out;
+}
+
+}  // namespace
+
+void ResponseModelSettings::validate() const {
+  if (!(fit_max_hz > 0.0)) throw InputError("response_model.fit_max_hz", "must be > 0 Hz");
+  if (!(min_fit_max_hz > 0.0) || min_fit_max_hz > fit_max_hz) {
+    throw InputError("response_model.min_fit_max_hz", "must be > 0 and at most fit_max_hz");
+  }
+  if (!(max_chi2_per_dof >= 1.0)) throw InputError("response_model.max_chi2_per_dof", "must be >= 1");
+  if (!(min_significance > 0.0)) throw InputError("response_model.min_significance", "must be > 0");
+}
+
+ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const ResponseModelSettings& settings) {
+  settings.validate();
+  ResponseModel m;
+  std::vector<ResponseBand> used;
+  for (const auto& b : bands) {
+    if (b.frequency_hz <= settings.fit_max_hz) used.push_back(b);
+  }
+  const double initial_delay = summarise_response(used, 0.0, settings.min_fit_max_hz).group_delay_s;
+  // Lower the top of the fit band by band until the model fits.
+  while (used.size() >= 5 && used.back().frequency_hz >= settings.min_fit_max_hz) {
+    const Fit f = fit(used, std::isfinite(initial_delay) ? initial_delay : 0.0);
+    if (f.ok && f.chi2_per_dof <= settings.max_chi2_per_dof) {
+      m.fitted = true;
+      m.fit_max_hz = used.back().frequency_hz;
+      Eigen::Array<bool, 3, 1> significant;
+      for (int k = 0; k < 3; ++k) {
+        const double q = f.p(4 + k), se = std::sqrt(f.covariance(4 + k, 4 + k));
+        significant(k) = q > settings.min_significance * se && q * m.fit_max_hz >= 1.0;
+      }
+      // The delay and the corners that count, fitted again without the others (a corner far above
+      // the data trades its phase against the delay).
+      const Fit final_fit = significant.all() ? f : fit(used, f.p(0), significant);
+      m.chi2_per_dof = final_fit.chi2_per_dof;
+      m.delay_s = final_fit.p(0);
+      m.delay_ci95_s = 1.959964 * std::sqrt(final_fit.covariance(0, 0));
+      for (int k = 0; k < 3; ++k) {
+        const double q = final_fit.p(4 + k), se = std::sqrt(f.covariance(4 + k, 4 + k));
+        m.inverse_corner_ci95_s(k) = 1.959964 * se;
+        // A corner counts when it is significant AND inside the fitted range, where its roll-off
+        // was seen: above it, a small fitted 1/fc is what reference noise does to the measured
+        // gain at high frequency (errors in variables), not a filter.
+        if (significant(k)) {
+          m.inverse_corner_s(k) = q;
+          m.corner_hz(k) = 1.0 / q;
+          m.applied = true;
+        }
+      }
+      break;
+    }
+    used.pop_back();
+  }
+  char text[256];
+  if (!m.fitted) {
+    std::snprintf(text, sizeof text, "response model: no fit (too few bands or chi2/dof > %.1f above %.3g Hz)",
+                  settings.max_chi2_per_dof, settings.min_fit_max_hz);
+  } else {
+    char corners[3][24];
+    for (int k = 0; k < 3; ++k) {
+      if (m.inverse_corner_s(k) > 0.0) {
+        std::snprintf(corners[k], sizeof corners[k], "%.3g", m.corner_hz(k));
+      } else {
+        std::snprintf(corners[k], sizeof corners[k], "none");
+      }
+    }
+    std::snprintf(text, sizeof text, "response model to %.3g Hz (chi2/dof %.2f): delay %.2f s, corner x/y/z %s/%s/%s Hz%s",
+                  m.fit_max_hz, m.chi2_per_dof, m.delay_s, corners[0], corners[1], corners[2],
+                  m.applied ? ", filter removed before estimating n" : "");
+  }
+  m.text = text;
+  return m;
+}
+
+Readings remove_modelled_filter(const Readings& test, double period_s, const ResponseModel& model) {
+  if (!model.applied || test.rows() < 4) return test;
+  const auto n = static_cast<std::size_t>(test.rows());
+  Readings out = test;
+  std::vector<double> buffer(n);
+  std::vector<fftw_complex> spectrum(n / 2 + 1);
+  fftw_plan forward, backward;
+  {
+    std::lock_guard<std::mutex> lock(fftw_planner_lock());
+    forward = fftw_plan_dft_r2c_1d(static_cast<int>(n), buffer.data(), spectrum.data(), FFTW_ESTIMATE);
+    backward = fftw_plan_dft_c2r_1d(static_cast<int>(n), spectrum.data(), buffer.data(), FFTW_ESTIMATE);
+  }
+  const double df = 1.0 / (static_cast<double>(n) * period_s);
+  for (int k = 0; k < 3; ++k) {
+    const double q = model.inverse_corner_s(k);
+    if (!(q > 0.0)) continue;
+    // The line through the end samples (no wrap-around step). 1 + i f q is 1 + (q / 2 pi) d/dt in
+    // time: it maps the line a + b t to a + b t + b q / (2 pi).
+    const double first = test(0, k), last = test(static_cast<Eigen::Index>(n - 1), k);
+    const double slope = (last - first) / (static_cast<double>(n - 1) * period_s);  // nT/s
+    for (std::size_t i = 0; i < n; ++i) {
+      buffer[i] = test(static_cast<Eigen::Index>(i), k) - (first + slope * static_cast<double>(i) * period_s);
+    }
+    fftw_execute(forward);
+    for (std::size_t j = 0; j < n / 2 + 1; ++j) {
+      const double f = std::min(static_cast<double>(j) * df, model.fit_max_hz);
+      const std::complex<double> x(spectrum[j][0], spectrum[j][1]);
+      const std::complex<double> y = x * std::complex<double>(1.0, f * q) / static_cast<double>(n);
+      spectrum[j][0] = y.real();
+      spectrum[j][1] = y.imag();
+    }
+    if (n % 2 == 0) spectrum[n / 2][1] = 0.0;  // the Nyquist term of a real series is real
+    fftw_execute(backward);
+    for (std::size_t i = 0; i < n; ++i) {
+      out(static_cast<Eigen::Index>(i), k) =
+          buffer[i] + first + slope * (static_cast<double>(i) * period_s + q / (2.0 * kPi));
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(fftw_planner_lock());
+    fftw_destroy_plan(forward);
+    fftw_destroy_plan(backward);
+  }
+  return out;
+}
+
+}  // namespace magnetometer_insitu_calibration
