@@ -172,6 +172,10 @@ WindowResult estimate_window_with(WindowData window, const EstimateFunction& est
   const double edge_gap_s = static_cast<double>(std::max(r.leading_missing, r.trailing_missing)) * period;
   r.long_gap = !gaps.long_gaps.empty() || edge_gap_s > rule.gaps.max_fill_s;
   r.estimate = estimate(window.paired.reference_nT, window.paired.test_nT, period);
+  r.relative_response = relative_response(window.paired.reference_nT, window.paired.test_nT, r.estimate.n, period);
+  const double band_low = std::isfinite(r.estimate.band_low_hz) ? r.estimate.band_low_hz : 0.0;
+  const double band_high = std::isfinite(r.estimate.band_high_hz) ? r.estimate.band_high_hz : 0.5 / period;
+  r.response = summarise_response(r.relative_response, band_low, band_high);
   estimate_offset(r, window.paired);
   const double fraction = static_cast<double>(r.missing()) / static_cast<double>(window.expected_samples);
   if (r.long_gap || fraction > rule.max_filled_fraction) {

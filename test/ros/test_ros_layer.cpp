@@ -240,6 +240,11 @@ TEST(EstimateWindow, CompleteWindowIsAcceptedAndGapsAreFlagged) {
   EXPECT_LT(z.maxCoeff(), 4.0) << "|n - n_true| / se:\n" << z << "\nse:\n" << ok.estimate.n_stderr();
   const Eigen::Vector3d mean_r = full.paired.reference_nT.colwise().mean().transpose();
   EXPECT_LT((ok.reference_mean_nT - mean_r).norm(), 1e-9) << ok.reference_mean_nT.transpose();
+  // The simulated pair has no relative filter or delay: its response over the band is flat (for
+  // the diagnostics' summary) within the half-width and the group delay is near 0 s.
+  ASSERT_GT(ok.response.bands, 0u);
+  EXPECT_LE(ok.response.max_gain_departure, 2.0 * ok.response.max_gain_departure_ci95);
+  EXPECT_LT(std::abs(ok.response.group_delay_s), 1.0);
 
   // 30 s inside: filled, not flagged.
   const mic::WindowResult small = mic::estimate_window(without_rows(full, 1000, 30), estimator, rule);

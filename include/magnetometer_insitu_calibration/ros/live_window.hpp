@@ -4,6 +4,7 @@
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
@@ -110,6 +111,10 @@ struct WindowResult {
   std::size_t interpolated = 0;       ///< epochs filled inside (regularize_and_fill)
   bool long_gap = false;              ///< a gap (inside or at an edge) longer than max_fill_s
   WindowEstimate estimate;            ///< quality kGaps when the gap rule fails
+  /// Relative response of the test against R n (relative_response.hpp) and its summary over the
+  /// band used: largest |gain - 1| with its half-width, group delay (s), for the diagnostics.
+  std::vector<ResponseBand> relative_response;
+  ResponseSummary response;
   /// Baseline of the test relative to the reference (test frame, nT), model
   /// T = R n + d + trend (t - t_c) + e with t_c the mean epoch of the window's samples (the trend
   /// column is centred there, so d is the offset at the window centre):
