@@ -53,7 +53,7 @@
 //     c. reported: Cov = D S D, D_kk = sqrt(max(1, J_kk / S_kk)) (the sandwich raised to the
 //        jackknife entry by entry, its correlations kept); the sandwich alone when fewer than 6
 //        sections carry weight (windows under 18 h at the default band).
-//     Measured coverage and the reasoning: robust_estimator.cpp (combine_covariances) and
+//     Measured coverage and the reasoning: section_jackknife.cpp (combine_covariances) and
 //     docs/robust_estimation.md.
 //
 // The plain estimator (FdWlseEstimator, Eq. 2 on the whole window) stays available through

@@ -63,7 +63,7 @@ void EstimatorSettings::validate() const {
   if (min_harmonics < 5) fail("min_harmonics", "must be at least 5");
   if (!(max_condition_number > 1.0)) fail("max_condition_number", "must be above 1");
   if (!(min_coherence >= 0.0 && min_coherence < 1.0)) fail("min_coherence", "must be in [0, 1)");
-  robust.validate();  // defined in robust_estimator.cpp
+  robust.validate();  // defined in estimator_settings.cpp
 }
 
 const char* quality_name(Quality q) {

@@ -1,0 +1,99 @@
+// Internal pieces of the robust estimator (robust_estimator.hpp, steps 3-6): the cells (one
+// harmonic of one section), the weighted normal equations with their errors-in-variables
+// solve (weighted_eiv_solve.cpp), the IRLS (section_irls.cpp) and the delete-one-section
+// jackknife (section_jackknife.cpp). Not installed: src/core only.
+#pragma once
+
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+namespace magnetometer_insitu_calibration::detail::robust {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kLn2 = 0.69314718055994531;
+constexpr double kCellRejection = 5.0;  // sigmas (d) beyond which a cell gets weight 0
+constexpr double kLevelCap = 25.0;      // cap of a cell's d^2 in its section's level
+// Errors in variables, ratio mode: a cell's residual power |e_l|^2 enters the reference-noise
+// estimate capped at kNoiseCap times its bin's robust scale and divided by
+// E[min(X, c)] = 1 - e^-c (X ~ Exp(1), the law of |e|^2 / sigma^2 for Gaussian noise), so that
+// the capped sum is unbiased on clean cells and an outlier adds at most c times its share.
+// c = 9, not lower: inside a low-frequency bin the noise PSD (1/f) varies by up to 2x, and a
+// cell whose mean is r times the bin's scale keeps 1 - e^{-c/r} of it under the cap (r = 1.5:
+// 93 % for c = 4, 99.75 % for c = 9), so a low cap under-estimates N (measured 1-2 % low).
+constexpr double kNoiseCap = 9.0;
+// Fewest weighted sections for which the jackknife enters the covariance (step 6c).
+constexpr std::size_t kMinJackknifeSections = 6;
+
+/// One harmonic of one section.
+struct Cell {
+  int section = 0;
+  int bin = 0;           ///< scale bin (neighbouring frequencies)
+  double frequency_hz = 0.0;
+  double g = 0.0;        ///< lambda^gamma
+  std::size_t length = 0;  ///< section length, samples
+  Eigen::Vector3cd x, y;
+};
+
+/// n from the weighted sums (solve_weighted, solve_frozen): Eq. 2, n = A^-1 C, or, where the
+/// reference noise N (nT^2) has power, corrected for it: n = (A - N)^-1 C. ok is false when A
+/// is singular; without N, or when A - N is singular, eiv_applied is false and n, a_inverse
+/// are Eq. 2's.
+struct WeightedSolution {
+  bool ok = false;
+  bool eiv_applied = false;
+  Eigen::Matrix3d n_uncorrected = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();                      ///< weighted, uncorrected
+  Eigen::Matrix3d a_inverse_uncorrected = Eigen::Matrix3d::Zero();  ///< of A
+  Eigen::Matrix3d a_inverse = Eigen::Matrix3d::Zero();              ///< of the (corrected) A
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();                  ///< N applied, zero if none
+};
+
+/// The IRLS: the solution with its last weights, and those weights.
+struct IrlsResult : WeightedSolution {
+  std::vector<double> weight;          ///< per cell (cell x section)
+  std::vector<double> section_weight;
+  std::vector<Eigen::Vector3d> scale2; ///< per bin, sigma_l^2
+  int iterations = 0;
+};
+
+/// Weighted sums of Eq. 2 over the cells (cell weight w times lambda^gamma g; cells of weight 0
+/// and of section `exclude` left out, -1 for none): A = sum w g Re(x x^H) and
+/// C = sum w g Re(x y^H) (nT^2), and in given mode the reference's expected noise periodogram
+/// N = sum w g E|X_noise|^2 (nT^2, diagonal; zero in the other modes).
+struct NormalEquations {
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d given_noise = Eigen::Matrix3d::Zero();
+};
+
+/// Delete-one-section jackknife of row-major vec(n) (step 6b).
+struct JackknifeResult {
+  Matrix9d covariance = Matrix9d::Constant(kNaN);
+  std::size_t sections = 0;  ///< sections that carried weight (the jackknife's groups)
+};
+
+// weighted_eiv_solve.cpp
+Eigen::Vector3d ratio_noise_power(const Eigen::Vector3d& e2, const Eigen::Vector3d& scale2, double share);
+NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                          const RobustSettings& rs, double sample_period_s, int exclude);
+WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise);
+WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                              const std::vector<Eigen::Vector3d>& scale2, const RobustSettings& rs,
+                              double sample_period_s, int exclude, const Eigen::Matrix3d& n_start);
+
+// section_irls.cpp: steps 3 and 5, IRLS over the cells.
+IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,
+                double sample_period_s);
+
+// section_jackknife.cpp: step 6b and 6c.
+JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
+                                  const RobustSettings& rs, double sample_period_s);
+Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& jack);
+
+}  // namespace magnetometer_insitu_calibration::detail::robust
