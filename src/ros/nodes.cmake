@@ -28,4 +28,5 @@ endmacro()
 
 mic_add_node(calibration_node src/ros/calibration_node_settings.cpp)
 mic_add_node(correction_node)
-mic_add_node(lemi025_driver)
+mic_add_node(lemi025_driver src/ros/lemi025_driver_port.cpp src/ros/lemi025_driver_timing.cpp
+  src/ros/lemi025_driver_diagnostics.cpp)

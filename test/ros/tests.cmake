@@ -30,7 +30,12 @@ add_rostest(test/ros/test_calibration_change.test DEPENDENCIES rostest_calibrati
 add_rostest(test/ros/test_calibration_resume.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 # test/ros/pty_link.cpp (the pseudo-terminal serial port) and test/ros/driver_test_support.cpp
 # (parameters, waiting, packet bytes, stamps, diagnostics) are shared by the two driver rostests.
-add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros/test_lemi025_driver.cpp test/ros/test_simulated_station.cpp test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
+# test_lemi025_driver: the driver on a pty (test_lemi025_driver.cpp, with main()), on recordings
+# (_recordings.cpp) and with impossible parameters (_parameters.cpp), and the simulated station.
+add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros/test_lemi025_driver.cpp
+  test/ros/test_lemi025_driver_recordings.cpp test/ros/test_lemi025_driver_parameters.cpp
+  test/ros/lemi025_test_packets.cpp test/ros/driver_process.cpp test/ros/test_simulated_station.cpp
+  test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
 target_link_libraries(test_lemi025_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 add_dependencies(test_lemi025_driver lemi025_driver lemi025_simulator calibration_node correction_node)
 add_rostest(test/ros/test_simulated_station.test DEPENDENCIES test_lemi025_driver)

@@ -178,7 +178,14 @@ class Lemi025Driver {
     std::uint64_t slots = 0;     ///< packets received after it
   };
 
+  // Port handling (lemi025_driver_port.cpp).
+  /// Opens the source ~source names into source_ (a serial port that is absent is retried by
+  /// the source; a recording that cannot be read throws ParameterError naming ~file).
+  void open_source();
+  /// The reading thread: waits on the source, logs disconnections and reconnections, publishes.
   void run();
+  bool pace(std::uint64_t index);
+  // Packet timing (lemi025_driver_timing.cpp).
   /// Every packet from the source: GPS-time screening, then publish_packet (or hold / drop).
   void handle(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s);
   /// Publishes a GPS-stamped packet and makes its GPS second the reference.
@@ -189,7 +196,9 @@ class Lemi025Driver {
   void release_held();
   /// Stamps and publishes the packet's readings and temperatures, updates the diagnostics state.
   void publish_packet(const Lemi025Packet& packet, double arrival_s, double recorded_pc_s);
-  bool pace(std::uint64_t index);
+  // Diagnostics (lemi025_driver_diagnostics.cpp).
+  /// Adds the "packet rate", "link" and "instrument" tasks and starts their timer.
+  void setup_diagnostics();
   void diagnose_link(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnose_instrument(diagnostic_updater::DiagnosticStatusWrapper& status);
 
