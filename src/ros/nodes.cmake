@@ -26,7 +26,8 @@ macro(mic_add_node name)
   install(TARGETS ${name} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endmacro()
 
-mic_add_node(calibration_node src/ros/calibration_node_settings.cpp)
+mic_add_node(calibration_node src/ros/calibration_node_settings.cpp src/ros/calibration_node_windows.cpp
+  src/ros/calibration_node_output.cpp src/ros/calibration_node_diagnostics.cpp)
 mic_add_node(correction_node)
 mic_add_node(lemi025_driver src/ros/lemi025_driver_port.cpp src/ros/lemi025_driver_timing.cpp
   src/ros/lemi025_driver_diagnostics.cpp)

@@ -12,8 +12,12 @@ if(TARGET test_ros_layer)
   target_compile_options(test_ros_layer PRIVATE -Wall -Wextra)
 endif()
 
-# One gtest binary; each .test file runs one of its TESTs (--gtest_filter in the .test).
-add_rostest_gtest(rostest_calibration test/ros/nominal.test test/ros/rostest_calibration.cpp)
+# One gtest binary; each .test file runs one of its TESTs (--gtest_filter in the .test). The
+# sources group the TESTs by what they test; test/ros/calibration_harness.hpp is their harness.
+add_rostest_gtest(rostest_calibration test/ros/nominal.test test/ros/rostest_calibration_main.cpp
+  test/ros/rostest_calibration_nominal.cpp test/ros/rostest_calibration_streams.cpp
+  test/ros/rostest_calibration_correction.cpp test/ros/rostest_calibration_parameters.cpp
+  test/ros/rostest_calibration_lifecycle.cpp)
 target_link_libraries(rostest_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})
 target_compile_options(rostest_calibration PRIVATE -Wall -Wextra)

@@ -24,6 +24,10 @@
 //
 // Time: windows, pairing, jumps use the message stamps (header.stamp); silence is measured in
 // ROS time (wall clock, or /clock with /use_sim_time) between arrivals.
+//
+// Sources: calibration_node.cpp (subscriptions, pairing, decimation), calibration_node_windows.cpp
+// (window queue, worker, estimate, change check), calibration_node_output.cpp (message, YAML
+// file, resume), calibration_node_diagnostics.cpp, calibration_node_settings.cpp (parameters).
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
@@ -107,14 +111,23 @@ class CalibrationNode {
     std::string reference_frame_id, test_frame_id;
   };
 
+  // Streams (calibration_node.cpp): callback thread.
   void on_reference(const sensor_msgs::MagneticField::ConstPtr& message);
   void on_test(std::size_t channel, const sensor_msgs::MagneticField::ConstPtr& message);
   void drain_pairs(std::size_t channel);
   void reset_pipeline(Channel& channel);
+  // Windows (calibration_node_windows.cpp): enqueue on the callback thread, the rest on the worker.
   void enqueue(std::size_t channel, WindowData&& window);
   void run_worker();
   void process(Job& job, WindowEstimator& estimator);
+  // Output (calibration_node_output.cpp).
+  /// The message of a window estimate (job's window already moved out; period in s).
+  MagnetometerCalibration calibration_message(const Job& job, const WindowResult& result, double period) const;
+  /// Writes an accepted calibration to the channel's file, then publishes it; returns the file
+  /// error ("" when written or not accepted).
+  std::string publish_calibration(Channel& channel, const MagnetometerCalibration& message);
   void resume_from_file(Channel& channel);
+  // Diagnostics (calibration_node_diagnostics.cpp).
   void diagnose_reference(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnose_channel(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status);
 

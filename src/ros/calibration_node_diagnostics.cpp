@@ -1,0 +1,145 @@
+// calibration_node, diagnostics (/diagnostics, every ~diagnostic_period of ROS time): the
+// reference stream, and per test instrument its stream, pairing, windows, last estimate, file
+// and change check (see calibration_node.hpp).
+#include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
+
+#include "calibration_node_channel.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/ros/parameters.hpp"
+
+#include <cmath>
+#include <utility>
+
+namespace magnetometer_insitu_calibration {
+
+using diagnostic_msgs::DiagnosticStatus;
+using diagnostic_updater::DiagnosticStatusWrapper;
+
+void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
+  const double now = ros::Time::now().toSec();
+  if (started_s_ == 0.0 && now > 0.0) started_s_ = now;
+  status.summary(DiagnosticStatus::OK, "receiving");
+  status.add("topic", nh_.resolveName(reference_.topic));
+  status.add("frame_id", reference_.frame_id);
+  status.add("messages", reference_.messages);
+  status.add("newest stamp", reference_.messages > 0 ? time_for_message(reference_.newest_stamp_s) : std::string("none"));
+  status.add("stamp jumps forward", reference_.jumps_forward);
+  status.add("stamp jumps backward", reference_.jumps_backward);
+  status.add("stray stamps", reference_.stray);
+  const double silence = reference_.silence_s(now, started_s_);
+  status.add("silent for (s)", silence);
+  if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
+    status.mergeSummary(DiagnosticStatus::WARN, reference_.messages > 0
+                                                    ? "reference topic silent for " + number_text(std::round(silence)) + " s"
+                                                    : "no reference message yet");
+  }
+}
+
+void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrapper& status) {
+  Channel& ch = *channels_[index];
+  const double now = ros::Time::now().toSec();
+  if (started_s_ == 0.0 && now > 0.0) started_s_ = now;
+  status.summary(DiagnosticStatus::OK, "ok");
+  std::vector<std::pair<unsigned char, std::string>> problems;
+
+  status.add("test topic", nh_.resolveName(ch.test.topic));
+  status.add("calibration topic", nh_.resolveName(ch.settings.calibration_topic));
+  status.add("calibration file", ch.settings.calibration_file);
+  status.add("test frame_id", ch.test.frame_id);
+  status.add("test messages", ch.test.messages);
+  status.add("test newest stamp", ch.test.messages > 0 ? time_for_message(ch.test.newest_stamp_s) : std::string("none"));
+  status.add("test stamp jumps forward", ch.test.jumps_forward);
+  status.add("test stamp jumps backward", ch.test.jumps_backward);
+  status.add("test stray stamps", ch.test.stray);
+  const double silence = ch.test.silence_s(now, started_s_);
+  status.add("test silent for (s)", silence);
+  if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
+    problems.emplace_back(DiagnosticStatus::WARN, ch.test.messages > 0
+                                                      ? "test topic silent for " + number_text(std::round(silence)) + " s"
+                                                      : "no test message yet");
+  }
+
+  const PairingCounters c = ch.counters();
+  status.add("paired", c.paired);
+  status.add("unpaired reference", c.unpaired_reference);
+  status.add("unpaired test", c.unpaired_test);
+  status.add("late", c.late);
+  status.add("duplicates", c.duplicates);
+  status.add("invalid stamps", c.invalid);
+  status.add("pending reference", ch.pairer.pending_reference());
+  status.add("pending test", ch.pairer.pending_test());
+  if (c.late > ch.reported_late || c.duplicates > ch.reported_duplicates) {
+    problems.emplace_back(DiagnosticStatus::WARN, std::to_string(c.late - ch.reported_late) + " late and " +
+                                                      std::to_string(c.duplicates - ch.reported_duplicates) +
+                                                      " duplicate samples since the last report");
+  }
+  ch.reported_late = c.late;
+  ch.reported_duplicates = c.duplicates;
+  status.add("decimating", settings_.decimating());
+  status.add("decimator restarts", ch.decimator_restarts);
+  status.add("pipeline resets (stamps backwards)", ch.pipeline_resets);
+  status.add("buffered samples", ch.windows.buffered());
+  status.add("windows queued", ch.windows.windows_emitted());
+  status.add("windows skipped (no data)", ch.windows.windows_skipped_empty());
+  const std::size_t dropped = ch.dropped_busy.load();
+  status.add("windows dropped (worker busy)", dropped);
+  if (dropped > ch.reported_dropped) {
+    problems.emplace_back(DiagnosticStatus::WARN, std::to_string(dropped - ch.reported_dropped) +
+                                                      " windows dropped: estimator busy");
+  }
+  ch.reported_dropped = dropped;
+  {
+    std::size_t pending = 0;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      for (const Job& job : queue_) pending += job.channel == index;
+    }
+    status.add("windows pending", pending);
+  }
+  {
+    std::lock_guard<std::mutex> lock(ch.results_mutex);
+    status.add("windows estimated", ch.estimated);
+    status.add("windows accepted", ch.accepted);
+    status.add("windows flagged", ch.flagged);
+    status.add("windows failed", ch.failed);
+    status.add("last window", ch.last_window.empty() ? std::string("none") : ch.last_window);
+    status.add("last window quality", ch.last_quality);
+    status.add("last window accepted", ch.last_accepted);
+    status.add("last estimate duration (s)", ch.last_duration_s);
+    status.add("last accepted window", ch.last_accepted_window.empty() ? std::string("none") : ch.last_accepted_window);
+    status.add("last accepted stamp", ch.last_accepted_stamp);
+    status.add("calibration files written", ch.files_written);
+    status.add("method", ch.last_method.empty() ? estimator_method_name(settings_.estimator.method) : ch.last_method);
+    status.add("last band used (Hz)", ch.last_band);
+    status.add("last delay (s)", ch.last_delay_s);
+    status.add("last delay ci95 (s)", ch.last_delay_ci95_s);
+    status.add("last offset at window end (nT)", ch.last_offset);
+    status.add("resume at start", ch.resume_state);
+    status.add("loaded from file", ch.resume_state == "resumed from file");
+    status.add("accepted calibration (change check)", ch.baseline ? ch.baseline_window : std::string("none"));
+    status.add("accepted calibration source", ch.baseline_source);
+    status.add("calibration changes detected", ch.changes_detected);
+    if (ch.change_checked) {
+      status.add("change check window", ch.last_change_window);
+      status.add("change status", calibration_change_status_name(ch.last_change.status));
+      status.add("change chi2 (9 dof)", ch.last_change.chi2);
+      status.add("change p-value", ch.last_change.p_value);
+      status.add("change max z (scale)", ch.last_change.scale_z.maxCoeff());
+      status.add("change max z (nonorthogonality)", ch.last_change.nonorthogonality_z.maxCoeff());
+      status.add("change max z (misalignment)", ch.last_change.misalignment_z.maxCoeff());
+      status.add("change text", ch.last_change.text);
+      if (ch.last_change.status == CalibrationChangeStatus::kChanged) {
+        problems.emplace_back(DiagnosticStatus::WARN, "calibration changed: " + ch.last_change.text);
+      }
+    }
+    status.add("calibration file error", ch.file_error);
+    if (ch.last_failed) problems.emplace_back(DiagnosticStatus::ERROR, "window failed: " + ch.last_failure);
+    if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
+    if (ch.estimated > 0 && !ch.last_accepted && !ch.last_failed) {
+      problems.emplace_back(DiagnosticStatus::WARN, "last window rejected (" + ch.last_quality + ")");
+    }
+  }
+  for (const auto& problem : problems) status.mergeSummary(problem.first, problem.second);
+}
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,324 @@
+// Shared by the rostest_calibration sources: the Harness that publishes a simulated reference /
+// test pair (core simulator, known n_true) with a fast /clock and records what calibration_node
+// and correction_node publish (calibrations, corrected samples, diagnostics), and small helpers.
+// Private parameters of the test node: topic names and calibration file of the .test launch.
+// Units: nT in the harness, tesla on the topics; the reference stream is in "reference_frame",
+// the test stream in "test_frame".
+#pragma once
+
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+
+#include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/MagneticField.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace calibration_rostest {
+
+inline constexpr double kTeslaPerNanotesla = 1e-9;
+
+struct DiagnosticRecord {
+  double sim_time_s = 0.0;  ///< /clock when it arrived
+  int level = 0;
+  std::string message;
+  std::map<std::string, std::string> values;
+};
+
+struct CorrectedSample {
+  double stamp_s = 0.0;
+  Eigen::Vector3d field_nT;
+  Eigen::Matrix3d covariance_nT2;
+  std::string frame_id;
+};
+
+inline std::string param(const std::string& name, const std::string& fallback = "") {
+  std::string value;
+  return ros::param::get("~" + name, value) ? value : fallback;
+}
+
+/// Publishes the simulated pair and records what the nodes publish.
+class Harness {
+ public:
+  explicit Harness(const mic::SimulationSettings& settings)
+      : settings_(settings), pair_(mic::simulate_pair(settings)), spinner_(2) {
+    reference_topic_ = param("reference_topic", "/sim/reference/magnetic_field");
+    test_topic_ = param("test_topic", "/sim/test/magnetic_field");
+    calibration_topic_ = param("calibration_topic", "/sim/calibration");
+    clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 100000);
+    reference_pub_ = nh_.advertise<sensor_msgs::MagneticField>(reference_topic_, 100000);
+    test_pub_ = nh_.advertise<sensor_msgs::MagneticField>(test_topic_, 100000);
+    calibration_sub_ = nh_.subscribe(calibration_topic_, 1000, &Harness::on_calibration, this);
+    diagnostics_sub_ = nh_.subscribe("/diagnostics", 10000, &Harness::on_diagnostics, this);
+    // Test noise actually simulated (nT rms per component, test frame): T - B n_true.
+    // (about its mean: the test's baseline offset is not noise).
+    mic::Readings noise = pair_.test.values_nT - pair_.field_nT * pair_.n_true;
+    noise.rowwise() -= noise.colwise().mean();
+    test_noise_rms_nT_ = (noise.array().square().colwise().mean()).sqrt().transpose();
+    spinner_.start();
+  }
+
+  ~Harness() {
+    if (testing::Test::HasFailure()) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      dump_diagnostics();
+    }
+    spinner_.stop();
+  }
+
+  /// Also publishes the test stream on `topic` with `frame_id` (a second test instrument).
+  void add_test_copy(const std::string& topic, const std::string& frame_id) {
+    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id});
+  }
+
+  /// Records MagnetometerCalibration messages of another topic (see calibrations_of()).
+  void subscribe_calibration(const std::string& topic) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    extra_calibration_subs_.push_back(nh_.subscribe<mic::MagnetometerCalibration>(
+        topic, 1000, [this, topic](const mic::MagnetometerCalibration::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          calibrations_of_[topic].push_back(*m);
+        }));
+  }
+  const std::vector<mic::MagnetometerCalibration>& calibrations_of(const std::string& topic) {
+    return calibrations_of_[topic];
+  }
+
+  /// One raw test message (sample k of the simulation) with any stamp and frame_id.
+  void publish_test_sample(std::size_t k, double stamp_s, const std::string& frame_id) {
+    test_pub_.publish(field_message(ros::Time().fromSec(stamp_s), frame_id, pair_.test.values_nT.row(k), test_noise_rms_nT_));
+  }
+
+  std::size_t test_subscribers(std::size_t copy) const { return test_copies_.at(copy).first.getNumSubscribers(); }
+
+  void subscribe_corrected(const std::string& topic) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    corrected_subs_.push_back(nh_.subscribe<sensor_msgs::MagneticField>(
+        topic, 100000, [this, topic](const sensor_msgs::MagneticField::ConstPtr& m) { on_corrected(topic, m); }));
+  }
+
+  /// Waits (wall time) until the nodes are connected.
+  bool wait_for_connections(std::size_t reference_subscribers, std::size_t test_subscribers, double timeout_s = 30.0,
+                            bool calibration_publisher = true) {
+    return wait([&] {
+      bool corrected_ok = true;
+      for (const auto& s : corrected_subs_) corrected_ok = corrected_ok && s.getNumPublishers() > 0;
+      return reference_pub_.getNumSubscribers() >= reference_subscribers &&
+             test_pub_.getNumSubscribers() >= test_subscribers &&
+             (!calibration_publisher || calibration_sub_.getNumPublishers() > 0) && corrected_ok;
+    }, timeout_s);
+  }
+
+  /// Publishes samples [first, last) of the simulation: /clock = start + k * period (never
+  /// jumps), stamps = that + stamp_offset_s; reference and/or test. ~rate samples per wall second.
+  void publish(std::size_t first, std::size_t last, bool reference, bool test, double stamp_offset_s = 0.0,
+               double rate = -1.0) {
+    if (rate < 0.0) {
+      rate = 2500.0;  // samples per wall second; 0: as fast as possible
+      ros::param::get("~rate", rate);
+    }
+    const ros::WallTime started = ros::WallTime::now();
+    for (std::size_t k = first; k < last; ++k) {
+      const double clock_s = pair_.reference.time_s[k];
+      rosgraph_msgs::Clock clock;
+      clock.clock = ros::Time().fromSec(clock_s);
+      clock_pub_.publish(clock);
+      const ros::Time stamp = ros::Time().fromSec(clock_s + stamp_offset_s);
+      if (reference) reference_pub_.publish(field_message(stamp, "reference_frame", pair_.reference.values_nT.row(k), Eigen::Vector3d::Constant(0.01)));
+      if (test) {
+        test_pub_.publish(field_message(stamp, "test_frame", pair_.test.values_nT.row(k), test_noise_rms_nT_));
+        for (auto& copy : test_copies_) {
+          copy.first.publish(field_message(stamp, copy.second, pair_.test.values_nT.row(k), test_noise_rms_nT_));
+        }
+      }
+      last_clock_s_ = clock_s;
+      if (rate > 0.0 && (k - first) % 50 == 49) {
+        const double due = static_cast<double>(k - first + 1) / rate;
+        const double ahead = due - (ros::WallTime::now() - started).toSec();
+        if (ahead > 0) ros::WallDuration(ahead).sleep();
+      }
+    }
+  }
+
+  /// Keeps /clock running for `seconds` of simulated time without data (lets timers fire).
+  void tick_clock(double seconds, double step_s = 1.0) {
+    for (double t = 0; t < seconds; t += step_s) {
+      last_clock_s_ = last_clock_s_ + step_s;
+      rosgraph_msgs::Clock clock;
+      clock.clock = ros::Time().fromSec(last_clock_s_);
+      clock_pub_.publish(clock);
+      ros::WallDuration(0.0005).sleep();
+    }
+  }
+
+  bool wait(const std::function<bool()>& done, double timeout_s) {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+    while (ros::WallTime::now() < deadline) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (done()) return true;
+      }
+      ros::WallDuration(0.02).sleep();
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    return done();
+  }
+
+  /// wait(), advancing /clock by one second every 20 ms (timers and diagnostics run on it).
+  bool wait_ticking(const std::function<bool()>& done, double timeout_s) {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+    while (ros::WallTime::now() < deadline) {
+      if (wait(done, 0.0)) return true;
+      tick_clock(1.0);
+      ros::WallDuration(0.02).sleep();
+    }
+    return wait(done, 0.0);
+  }
+
+  // Recorded data; lock mutex() while reading when the spinner runs.
+  std::mutex& mutex() { return mutex_; }
+  const std::vector<mic::MagnetometerCalibration>& calibrations() const { return calibrations_; }
+  const std::vector<CorrectedSample>& corrected(const std::string& topic) { return corrected_[topic]; }
+  const std::vector<DiagnosticRecord>& diagnostics(const std::string& name) { return diagnostics_[name]; }
+  /// Latest diagnostics of the status whose name contains `part`.
+  const DiagnosticRecord* latest_diagnostic(const std::string& part) {
+    for (auto& entry : diagnostics_) {
+      if (entry.first.find(part) != std::string::npos && !entry.second.empty()) return &entry.second.back();
+    }
+    return nullptr;
+  }
+  std::vector<const DiagnosticRecord*> all_diagnostics(const std::string& part) {
+    std::vector<const DiagnosticRecord*> out;
+    for (auto& entry : diagnostics_) {
+      if (entry.first.find(part) == std::string::npos) continue;
+      for (const auto& r : entry.second) out.push_back(&r);
+    }
+    return out;
+  }
+
+  /// Prints the latest status of every diagnostic name (call with mutex() held).
+  void dump_diagnostics() {
+    for (const auto& entry : diagnostics_) {
+      if (entry.second.empty()) continue;
+      const DiagnosticRecord& r = entry.second.back();
+      std::printf("[ diag ] %s: level %d: %s\n", entry.first.c_str(), r.level, r.message.c_str());
+      for (const auto& kv : r.values) std::printf("[ diag ]     %s = %s\n", kv.first.c_str(), kv.second.c_str());
+    }
+  }
+
+  const mic::SimulatedPair& pair() const { return pair_; }
+  /// From sample `first` on, the test stream is `other`'s (a step change of the instrument).
+  void splice_test(const mic::SimulatedPair& other, std::size_t first) {
+    const auto rows = static_cast<Eigen::Index>(pair_.test.values_nT.rows()) - static_cast<Eigen::Index>(first);
+    pair_.test.values_nT.bottomRows(rows) = other.test.values_nT.bottomRows(rows);
+  }
+  const mic::SimulationSettings& settings() const { return settings_; }
+  double start_s() const { return pair_.reference.time_s.front(); }
+  double last_clock_s() const { return last_clock_s_; }
+  const Eigen::Vector3d& test_noise_rms_nT() const { return test_noise_rms_nT_; }
+
+ private:
+  static sensor_msgs::MagneticField field_message(const ros::Time& stamp, const std::string& frame,
+                                                  const Eigen::Vector3d& value_nT, const Eigen::Vector3d& sigma_nT) {
+    sensor_msgs::MagneticField m;
+    m.header.stamp = stamp;
+    m.header.frame_id = frame;
+    m.magnetic_field.x = value_nT(0) * kTeslaPerNanotesla;
+    m.magnetic_field.y = value_nT(1) * kTeslaPerNanotesla;
+    m.magnetic_field.z = value_nT(2) * kTeslaPerNanotesla;
+    for (int i = 0; i < 3; ++i) m.magnetic_field_covariance[4 * i] = std::pow(sigma_nT(i) * kTeslaPerNanotesla, 2);
+    return m;
+  }
+
+  void on_calibration(const mic::MagnetometerCalibration::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    calibrations_.push_back(*m);
+  }
+
+  void on_corrected(const std::string& topic, const sensor_msgs::MagneticField::ConstPtr& m) {
+    CorrectedSample s;
+    s.stamp_s = m->header.stamp.toSec();
+    s.field_nT = Eigen::Vector3d(m->magnetic_field.x, m->magnetic_field.y, m->magnetic_field.z) / kTeslaPerNanotesla;
+    for (int k = 0; k < 9; ++k) s.covariance_nT2(k / 3, k % 3) = m->magnetic_field_covariance[k] / (kTeslaPerNanotesla * kTeslaPerNanotesla);
+    s.frame_id = m->header.frame_id;
+    std::lock_guard<std::mutex> lock(mutex_);
+    corrected_[topic].push_back(s);
+  }
+
+  void on_diagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& array) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& status : array->status) {
+      DiagnosticRecord r;
+      r.sim_time_s = last_clock_s_;
+      r.level = status.level;
+      r.message = status.message;
+      for (const auto& kv : status.values) r.values[kv.key] = kv.value;
+      diagnostics_[status.name].push_back(r);
+    }
+  }
+
+  ros::NodeHandle nh_;
+  mic::SimulationSettings settings_;
+  mic::SimulatedPair pair_;
+  ros::AsyncSpinner spinner_;
+  std::string reference_topic_, test_topic_, calibration_topic_;
+  ros::Publisher clock_pub_, reference_pub_, test_pub_;
+  ros::Subscriber calibration_sub_, diagnostics_sub_;
+  std::vector<ros::Subscriber> corrected_subs_, extra_calibration_subs_;
+  std::vector<std::pair<ros::Publisher, std::string>> test_copies_;
+  Eigen::Vector3d test_noise_rms_nT_ = Eigen::Vector3d::Zero();
+  std::atomic<double> last_clock_s_{0.0};
+
+  std::mutex mutex_;
+  std::vector<mic::MagnetometerCalibration> calibrations_;
+  std::map<std::string, std::vector<CorrectedSample>> corrected_;
+  std::map<std::string, std::vector<mic::MagnetometerCalibration>> calibrations_of_;
+  std::map<std::string, std::vector<DiagnosticRecord>> diagnostics_;
+};
+
+inline mic::SimulationSettings simulation(double duration_s, std::uint64_t seed, double period_s = 1.0) {
+  mic::SimulationSettings s;
+  s.duration_s = duration_s;
+  s.sample_period_s = period_s;
+  s.seed = seed;
+  return s;
+}
+
+inline Eigen::Matrix3d matrix_of(const mic::MagnetometerCalibration& c) {
+  Eigen::Matrix3d n;
+  for (int k = 0; k < 9; ++k) n(k / 3, k % 3) = c.matrix[k];
+  return n;
+}
+
+inline Eigen::Matrix3d stderr_of(const mic::MagnetometerCalibration& c) {
+  Eigen::Matrix3d s;
+  for (int k = 0; k < 9; ++k) s(k / 3, k % 3) = std::sqrt(c.matrix_covariance[10 * k]);
+  return s;
+}
+
+/// True when the nominal window [window_start, window_end] contains an epoch of [low, high].
+inline bool overlaps(const mic::MagnetometerCalibration& c, double low_s, double high_s) {
+  return c.window_start.toSec() <= high_s && c.window_end.toSec() >= low_s;
+}
+
+inline std::size_t value_of(const DiagnosticRecord* r, const std::string& key) {
+  if (r == nullptr) return 0;
+  const auto it = r->values.find(key);
+  return it == r->values.end() ? 0 : static_cast<std::size_t>(std::stoull(it->second));
+}
+
+}  // namespace calibration_rostest

@@ -1,0 +1,200 @@
+// rostest_calibration, the accepted calibration over a node's life:
+//   Calibration.ChangeDetected      test_calibration_change.test  scale ratio steps mid-run: change
+//                                                                 WARN after the step, never before
+//   Calibration.ResumeAfterRestart  test_calibration_resume.test  calibration_node started, stopped
+//                                                                 and restarted by the test: the
+//                                                                 persisted calibration at once
+#include "calibration_harness.hpp"
+#include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+
+using namespace calibration_rostest;
+
+TEST(Calibration, ChangeDetected) {
+  // Windows of 1 h every 30 min (test_calibration_change.test). 5 h of pairs; from 3 h on the test
+  // instrument's x scale ratio is 2 % larger (1-h windows give it +- 0.3 %; the same field and noise: a second simulation with
+  // the same seed spliced in). The accepted calibration is the first window's; every window is
+  // checked against it: no change before the step, a WARN with the check's text after it.
+  const std::size_t samples = 18000, change_index = 10800;
+  mic::SimulationSettings before = simulation(static_cast<double>(samples), 23);
+  mic::SimulationSettings after = before;
+  after.scale_ratio(0) += 0.02;
+  Harness h(before);
+  const mic::SimulatedPair changed = mic::simulate_pair(after);
+  ASSERT_TRUE(changed.reference.values_nT.isApprox(h.pair().reference.values_nT)) << "not the same field";
+  h.splice_test(changed, change_index);
+  const double change_s = h.pair().reference.time_s[change_index];
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  const ros::WallTime started = ros::WallTime::now();
+  h.publish(0, samples, true, true);
+  // Every window that ends inside the data estimated; the diagnostics report the latest.
+  const std::size_t expected_windows = 9;  // starts 0, 0.5, ..., 4 h (if t0 is on the 30-min grid)
+  const bool done = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("calibration_chg: chg");
+    return h.calibrations().size() >= expected_windows - 1 && d != nullptr &&
+           value_of(d, "windows estimated") == h.calibrations().size();
+  }, 60.0);
+  h.tick_clock(120.0);
+  ros::WallDuration(0.3).sleep();
+  std::lock_guard<std::mutex> lock(h.mutex());
+  EXPECT_TRUE(done) << "timed out waiting for the windows";
+  std::printf("[ timing ] %zu pairs, %zu windows in %.2f s wall\n", samples, h.calibrations().size(),
+              (ros::WallTime::now() - started).toSec());
+  for (const auto& c : h.calibrations()) {
+    std::printf("[ result ] window %.0f .. %.0f s: accepted %d, scale x %.6f +- %.6f\n", c.window_start.toSec() - h.start_s(),
+                c.window_end.toSec() - h.start_s(), c.accepted, c.scale_ratio[0], c.scale_ratio_ci95[0]);
+  }
+  std::size_t warn_before = 0, warn_after = 0, checked_before = 0;
+  bool changed_reported = false;
+  for (const DiagnosticRecord* r : h.all_diagnostics("calibration_chg: chg")) {
+    const bool warn = r->level == 1 && r->message.find("calibration changed") != std::string::npos;
+    const auto status = r->values.find("change status");
+    if (r->sim_time_s < change_s) {
+      warn_before += warn;
+      checked_before += status != r->values.end() && status->second == "unchanged";
+      EXPECT_EQ(value_of(r, "calibration changes detected"), 0u) << "change reported at " << r->sim_time_s - h.start_s();
+    } else {
+      warn_after += warn;
+      changed_reported |= status != r->values.end() && status->second == "changed";
+    }
+  }
+  EXPECT_EQ(warn_before, 0u) << "change WARN before the step";
+  EXPECT_GT(checked_before, 0u) << "no window was checked (unchanged) before the step";
+  EXPECT_GT(warn_after, 0u) << "no change WARN after the step";
+  EXPECT_TRUE(changed_reported);
+  const DiagnosticRecord* last = h.latest_diagnostic("calibration_chg: chg");
+  ASSERT_NE(last, nullptr);
+  EXPECT_EQ(last->level, 1) << last->message;
+  EXPECT_NE(last->message.find("calibration changed"), std::string::npos) << last->message;
+  EXPECT_EQ(last->values.at("change status"), "changed");
+  EXPECT_EQ(last->values.at("accepted calibration source"), "first window accepted since start");
+  EXPECT_GE(value_of(last, "calibration changes detected"), 1u);
+  // The windows wholly after the step measure the new scale ratio.
+  const auto& last_window = h.calibrations().back();
+  EXPECT_GE(last_window.window_start.toSec(), change_s);
+  EXPECT_NEAR(last_window.scale_ratio[0], after.scale_ratio(0), 3.0 * last_window.scale_ratio_ci95[0] / 1.96 + 1e-12);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+/// Starts `program` with `arguments` (stdout/stderr shared with the test); returns its pid.
+pid_t spawn(const std::string& program, const std::vector<std::string>& arguments) {
+  std::vector<std::string> all{program};
+  all.insert(all.end(), arguments.begin(), arguments.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(&a[0]);
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::execv(program.c_str(), argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+/// SIGINT (as roslaunch does), then waits up to timeout_s wall seconds; SIGKILL if it hangs.
+/// Returns true when it exited by itself.
+bool stop_process(pid_t pid, double timeout_s = 15.0) {
+  if (pid <= 0) return false;
+  ::kill(pid, SIGINT);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  int status = 0;
+  while (ros::WallTime::now() < deadline) {
+    if (::waitpid(pid, &status, WNOHANG) == pid) return true;
+    ros::WallDuration(0.05).sleep();
+  }
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, &status, 0);
+  return false;
+}
+
+/// A spawned node, stopped when the test returns (also on a failed ASSERT).
+struct Child {
+  pid_t pid = -1;
+  ~Child() { stop(); }
+  bool stop() {
+    const bool clean = stop_process(pid);
+    pid = -1;
+    return clean;
+  }
+};
+
+}  // namespace
+
+TEST(Calibration, ResumeAfterRestart) {
+  // The test starts calibration_node itself (windows of 30 min every 15 min), feeds it 1 h of
+  // pairs until windows are accepted and written, stops it (SIGINT), and starts it again with the
+  // same parameters and no data: the restarted node publishes the persisted calibration (latched)
+  // at once, equal to the file and to the last one the first instance published, and reports it
+  // loaded from file.
+  const std::string file = param("calibration_file");
+  ASSERT_FALSE(file.empty());
+  std::remove(file.c_str());
+  const std::vector<std::string> arguments = {
+      "__name:=resume_calibration_node", "_reference_topic:=" + param("reference_topic"), "_test_topic:=" + param("test_topic"),
+      "_calibration_topic:=" + param("calibration_topic"), "_calibration_file:=" + file, "_test_name:=resume",
+      "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5"};
+  Harness h(simulation(3700.0, 31));
+  Child first{spawn(CALIBRATION_NODE_PATH, arguments)};
+  ASSERT_GT(first.pid, 0);
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "first calibration_node did not connect";
+  h.publish(0, h.pair().reference.size(), true, true);
+  const bool accepted = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+    return h.calibrations().size() >= 2 && d != nullptr && value_of(d, "windows estimated") == h.calibrations().size();
+  }, 60.0);
+  mic::MagnetometerCalibration last_published;
+  {
+    std::lock_guard<std::mutex> lock(h.mutex());
+    ASSERT_TRUE(accepted) << "the first instance accepted no calibration";
+    last_published = h.calibrations().back();
+  }
+  ASSERT_TRUE(last_published.accepted) << last_published.quality_text;
+  const bool first_stopped = first.stop();
+  EXPECT_TRUE(first_stopped) << "first instance did not exit on SIGINT";
+  mic::MagnetometerCalibration persisted;
+  ASSERT_NO_THROW(persisted = mic::load_calibration_file(file));
+  std::string difference;
+  EXPECT_TRUE(mic::calibrations_equal(persisted, last_published, &difference)) << "file differs in " << difference;
+
+  // Restart: no data, no clock advance until the calibration is in.
+  std::size_t before_restart = 0;
+  {
+    std::lock_guard<std::mutex> lock(h.mutex());
+    before_restart = h.calibrations().size();
+  }
+  const ros::WallTime restarted = ros::WallTime::now();
+  Child second{spawn(CALIBRATION_NODE_PATH, arguments)};
+  ASSERT_GT(second.pid, 0);
+  const bool resumed = h.wait([&] { return h.calibrations().size() > before_restart; }, 20.0);
+  const double resume_wall_s = (ros::WallTime::now() - restarted).toSec();
+  // Diagnostics of the restarted node (they run on /clock).
+  const bool diagnosed = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+    return d != nullptr && d->values.count("loaded from file") && d->values.at("loaded from file") == "True";
+  }, 20.0);
+  const bool second_stopped = second.stop();
+  std::lock_guard<std::mutex> lock(h.mutex());
+  std::printf("[ timing ] restarted node published the persisted calibration %.2f s (wall) after its start\n",
+              resume_wall_s);
+  ASSERT_TRUE(resumed) << "the restarted node published nothing";
+  EXPECT_LT(resume_wall_s, 10.0);
+  EXPECT_EQ(h.calibrations().size(), before_restart + 1) << "more than the persisted calibration";
+  const mic::MagnetometerCalibration& again = h.calibrations().back();
+  EXPECT_TRUE(mic::calibrations_equal(again, persisted, &difference)) << "differs from the file in " << difference;
+  EXPECT_TRUE(diagnosed) << "no 'loaded from file' diagnostic";
+  const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->values.at("resume at start"), "resumed from file");
+  EXPECT_EQ(d->values.at("accepted calibration source"), "file (loaded at start)");
+  EXPECT_EQ(value_of(d, "windows estimated"), 0u);
+  EXPECT_TRUE(second_stopped);
+  std::remove(file.c_str());
+}

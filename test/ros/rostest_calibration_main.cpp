@@ -1,0 +1,28 @@
+// rostest with a real master: simulated reference and test streams (core simulator, known
+// n_true, 1 Hz) published with a /clock much faster than real time into calibration_node and
+// correction_node (launched by the .test files of this folder). One TEST per .test file, picked
+// with --gtest_filter (sources: rostest_calibration_<topic>.cpp, harness: calibration_harness.hpp):
+//   Calibration.Nominal        nominal.test       accepted calibration within 4 se of n_true,
+//                                                 offset within its interval, YAML file, corrected
+//                                                 stream equal to the clean field (absolute level),
+//                                                 bad calibration files
+//   Calibration.ChangeDetected test_calibration_change.test  scale ratio steps mid-run: change WARN
+//                                                 after the step, never before
+//   Calibration.ResumeAfterRestart test_calibration_resume.test  calibration_node started, killed
+//                                                 and restarted by the test: the persisted
+//                                                 calibration is published at once
+//   Calibration.SilentTopic    silent_topic.test  test stream stops for 20 min
+//   Calibration.TimeJump       time_jump.test     stamps jump forward by an hour
+//   Calibration.Decimation10Hz decimation.test    10 Hz inputs decimated to 1 Hz in the node
+//   Calibration.TwoInstruments two_instruments.test  a ~tests list: two test instruments, one node
+//   Calibration.CorrectionFileReload correction_reload.test  correction_node's calibration file
+//   Calibration.BadParameters  bad_parameters.test  impossible parameters: the node exits naming them
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "calibration_rostest");
+  ros::NodeHandle keep_alive;  // roscpp (and its logging) stays up for every TEST
+  return RUN_ALL_TESTS();
+}

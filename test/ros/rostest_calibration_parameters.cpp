@@ -1,0 +1,62 @@
+// rostest_calibration, bad_parameters.test (Calibration.BadParameters): calibration_node and
+// correction_node started with impossible parameters exit 1 with a FATAL naming the parameter.
+#include "calibration_harness.hpp"
+
+#include <sys/wait.h>
+
+#include <cstdio>
+
+using namespace calibration_rostest;
+
+namespace {
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;
+};
+
+RunResult run(const std::string& command) {
+  RunResult r;
+  FILE* pipe = ::popen(("timeout 30 " + command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return r;
+  char buffer[4096];
+  std::size_t got;
+  while ((got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) r.output.append(buffer, got);
+  const int status = ::pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+}  // namespace
+
+TEST(Calibration, BadParameters) {
+  const std::string calibration = CALIBRATION_NODE_PATH, correction = CORRECTION_NODE_PATH;
+  const std::string ok = " _reference_topic:=/r _test_topic:=/t _calibration_file:=/tmp/unused.yaml";
+  struct Case {
+    std::string command, expected;
+  };
+  const std::vector<Case> cases = {
+      {calibration + " __name:=bad_step" + ok + " _window:=3600 _step:=7200", "parameter ~step: (7200 s) is longer than ~window"},
+      {calibration + " __name:=bad_window" + ok + " _window:=-3600", "parameter ~window: must be > 0 s"},
+      {calibration + " __name:=bad_band" + ok + " _band_low:=0.01 _band_high:=0.005", "parameter ~band_high:"},
+      {calibration + " __name:=bad_short" + ok + " _window:=600 _step:=60", "parameter ~window: (600 s) holds only"},
+      {calibration + " __name:=bad_type" + ok + " _step:=ten", "parameter ~step: must be a number"},
+      {calibration + " __name:=no_reference _test_topic:=/t _calibration_file:=/tmp/x.yaml", "parameter ~reference_topic: is required"},
+      {calibration + " __name:=no_file _reference_topic:=/r _test_topic:=/t", "parameter ~calibration_file: is required"},
+      {calibration + " __name:=bad_tolerance" + ok + " _pairing_tolerance:=0.7", "parameter ~pairing_tolerance:"},
+      {calibration + " __name:=bad_method" + ok + " _method:=fast", "parameter ~method:"},
+      {calibration + " __name:=bad_eiv" + ok + " _eiv:=given", "parameter ~eiv: 'given' needs the reference noise"},
+      {calibration + " __name:=bad_ratio" + ok + " _eiv_noise_ratio:=-1", "parameter ~eiv_noise_ratio:"},
+      {calibration + " __name:=bad_delay" + ok + " _estimate_delay:=false", "parameter ~correct_delay:"},
+      {correction + " __name:=bad_offset _test_topic:=/t _apply_offset:=maybe", "parameter ~apply_offset:"},
+      {correction + " __name:=no_test_topic", "parameter ~test_topic: is required"},
+      {correction + " __name:=bad_queue _test_topic:=/t _queue_size:=0", "parameter ~queue_size:"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.command);
+    const RunResult r = run(c.command);
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_NE(r.output.find(c.expected), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("FATAL"), std::string::npos) << r.output;
+  }
+}

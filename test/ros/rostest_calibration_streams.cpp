@@ -1,0 +1,228 @@
+// rostest_calibration, what the input streams do to calibration_node:
+//   Calibration.SilentTopic     silent_topic.test     test stream stops for 20 min
+//   Calibration.TimeJump        time_jump.test        stamps jump forward by an hour; correction
+//                                                     policy for another frame_id / old stamps
+//   Calibration.Decimation10Hz  decimation.test       10 Hz inputs decimated to 1 Hz in the node
+//   Calibration.TwoInstruments  two_instruments.test  a ~tests list: two test instruments, one node
+#include "calibration_harness.hpp"
+#include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
+
+#include <cstdio>
+
+using namespace calibration_rostest;
+
+TEST(Calibration, SilentTopic) {
+  // Windows of 30 min every 5 min. The test stream stops from t0 + 2400 s to t0 + 3600 s.
+  const double silent_first = 2400.0, silent_end = 3600.0;
+  Harness h(simulation(7000.0, 11));
+  ASSERT_TRUE(h.wait_for_connections(1, 2)) << "nodes did not connect";
+  const double t0 = h.start_s();
+  h.publish(0, 2400, true, true);
+  h.publish(2400, 3600, true, false);  // test topic silent for 20 min (reference and /clock go on)
+  // The silence shows in the diagnostics while it lasts (silent_timeout 300 s, diagnostics every
+  // 5 s; a timeout much shorter than the arrival skew of the topics at 2500x real time, about
+  // 0.1 s wall = 250 s simulated, would also warn about the reference now and then).
+  EXPECT_TRUE(h.wait([&] {
+    for (const DiagnosticRecord* r : h.all_diagnostics("calibration_sim: sim")) {
+      if (r->level == 1 && r->message.find("test topic silent") != std::string::npos) return true;
+    }
+    return false;
+  }, 10.0)) << "no silence warning";
+  {
+    std::lock_guard<std::mutex> lock(h.mutex());
+    const DiagnosticRecord* reference = h.latest_diagnostic("calibration_sim: reference");
+    ASSERT_NE(reference, nullptr);
+    EXPECT_EQ(reference->level, 0) << reference->message;
+  }
+  h.publish(3600, 7000, true, true);
+  const double last_window_start = t0 + 5100.0;  // [5100, 6900): the last complete window
+  EXPECT_TRUE(h.wait([&] {
+    return !h.calibrations().empty() && h.calibrations().back().window_start.toSec() >= last_window_start;
+  }, 20.0));
+  h.tick_clock(20.0);
+  ros::WallDuration(0.2).sleep();
+
+  std::lock_guard<std::mutex> lock(h.mutex());
+  std::size_t accepted_before = 0, flagged_across = 0, accepted_after = 0;
+  for (const auto& c : h.calibrations()) {
+    const double start = c.window_start.toSec() - t0;
+    if (overlaps(c, t0 + silent_first, t0 + silent_end - 1.0)) {
+      EXPECT_FALSE(c.accepted) << "window starting at t0 + " << start << " s accepted across the silence";
+      EXPECT_EQ(c.quality, mic::MagnetometerCalibration::QUALITY_GAPS) << c.quality_text;
+      EXPECT_GT(c.filled_samples, 0u);
+      ++flagged_across;
+    } else if (c.window_end.toSec() < t0 + silent_first) {
+      accepted_before += c.accepted;
+    } else {
+      accepted_after += c.accepted;
+    }
+  }
+  // Windows starting 900..3300 s overlap the silence (the ones wholly inside it have no data: skipped).
+  EXPECT_EQ(flagged_across, 9u);
+  EXPECT_EQ(accepted_before, 3u);  // [0, 1800), [300, 2100), [600, 2400)
+  EXPECT_EQ(accepted_after, 6u);   // [3600, 5400) .. [5100, 6900)
+  const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
+  ASSERT_NE(cal, nullptr);
+  EXPECT_EQ(cal->message.find("silent"), std::string::npos) << "still silent after the stream resumed";
+  EXPECT_GT(value_of(cal, "unpaired reference"), 1000u);
+  EXPECT_EQ(value_of(cal, "windows skipped (no data)"), 0u);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Calibration, TimeJump) {
+  // Both streams' stamps jump forward by one hour at t0 + 2400 s (the clock does not).
+  const double jump_s = 3600.0;
+  Harness h(simulation(4801.0, 13));
+  h.subscribe_corrected(param("corrected_topic", "/sim/corrected"));
+  ASSERT_TRUE(h.wait_for_connections(1, 2)) << "nodes did not connect";
+  const double t0 = h.start_s();
+  h.publish(0, 2400, true, true);
+  h.publish(2400, 4801, true, true, jump_s);  // stamps t0 + 6000 .. t0 + 8400
+  EXPECT_TRUE(h.wait([&] {
+    return !h.calibrations().empty() && h.calibrations().back().window_start.toSec() >= t0 + 6600.0;
+  }, 20.0));
+  h.tick_clock(20.0);
+  ros::WallDuration(0.2).sleep();
+
+  {
+  std::lock_guard<std::mutex> lock(h.mutex());
+  std::size_t accepted_before = 0, flagged_across = 0, accepted_after = 0;
+  for (const auto& c : h.calibrations()) {
+    if (overlaps(c, t0 + 2400.0, t0 + 2400.0 + jump_s - 1.0)) {
+      EXPECT_FALSE(c.accepted) << "window " << c.window_start.toSec() - t0 << " s spanning the jump accepted";
+      ++flagged_across;
+    } else if (c.window_end.toSec() < t0 + 2400.0) {
+      accepted_before += c.accepted;
+    } else {
+      accepted_after += c.accepted;
+    }
+  }
+  EXPECT_EQ(accepted_before, 3u);   // [0, 1800) .. [600, 2400)
+  EXPECT_GE(flagged_across, 10u);   // [900, 2700) .. [2100, 3900) and [4500, 6300) .. [5700, 7500)
+  EXPECT_EQ(accepted_after, 3u);    // [6000, 7800), [6300, 8100), [6600, 8400)
+  const DiagnosticRecord* reference = h.latest_diagnostic("calibration_sim: reference");
+  const DiagnosticRecord* test = h.latest_diagnostic("calibration_sim: sim");
+  ASSERT_NE(reference, nullptr);
+  ASSERT_NE(test, nullptr);
+  EXPECT_EQ(value_of(reference, "stamp jumps forward"), 1u);
+  EXPECT_EQ(value_of(test, "test stamp jumps forward"), 1u);
+  // Pairs around the jump can be lost: a sample whose partner is still in transit when the other
+  // stream's stamps are already pairing_max_wait (600 s) ahead is dropped (StreamPairer ages
+  // samples in stamp time). At most the transport jitter's worth of samples.
+  EXPECT_GE(value_of(test, "paired"), 4700u);
+  // The correction node went on across the jump.
+  const auto& out = h.corrected(param("corrected_topic", "/sim/corrected"));
+  ASSERT_FALSE(out.empty());
+  EXPECT_GE(out.back().stamp_s, t0 + 8400.0);
+  }
+
+  // Correction policy, with the last calibration (window t0 + 6600 .. 8399 s) in use:
+  // 5 samples of another frame_id are not corrected (counted); 5 samples stamped before the
+  // window are corrected with it (counted); neither disturbs the calibration node beyond a
+  // stray stamp and, for the second old sample in a row, a restart of its pairing.
+  const std::string corrected = param("corrected_topic", "/sim/corrected");
+  std::size_t corrected_before = 0, received_before = 0;
+  {
+    std::lock_guard<std::mutex> lock(h.mutex());
+    corrected_before = h.corrected(corrected).size();
+    received_before = value_of(h.latest_diagnostic("correction_sim"), "received");
+  }
+  for (std::size_t k = 0; k < 5; ++k) h.publish_test_sample(4000 + k, t0 + 8401.0 + k, "another_frame");
+  for (std::size_t k = 0; k < 5; ++k) h.publish_test_sample(100 + k, t0 + 100.0 + k, "test_frame");
+  EXPECT_TRUE(h.wait_ticking([&] {
+    return value_of(h.latest_diagnostic("correction_sim"), "received") == received_before + 10 &&
+           h.corrected(corrected).size() == corrected_before + 5;
+  }, 10.0));
+  std::lock_guard<std::mutex> lock(h.mutex());
+  const DiagnosticRecord* d = h.latest_diagnostic("correction_sim");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(value_of(d, "dropped, frame_id mismatch"), 5u);
+  EXPECT_EQ(value_of(d, "corrected, before window"), 5u);
+  const auto& out = h.corrected(corrected);
+  ASSERT_EQ(out.size(), corrected_before + 5);
+  for (std::size_t i = corrected_before; i < out.size(); ++i) {
+    EXPECT_DOUBLE_EQ(out[i].stamp_s, t0 + 100.0 + (i - corrected_before));
+    EXPECT_EQ(out[i].frame_id, "reference_frame");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Calibration, Decimation10Hz) {
+  // 10 Hz inputs (input_period 0.1 s), low-passed and decimated to 1 Hz in calibration_node;
+  // windows of 30 min every 5 min. The decimator's first output comes h = 3.9 s after the first
+  // sample, so the first window starts at t0 + 300 s.
+  Harness h(simulation(2500.0, 17, 0.1));
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  const double t0 = h.start_s();
+  const ros::WallTime started = ros::WallTime::now();
+  const std::size_t n = h.pair().reference.size();
+  h.publish(0, n, true, true);
+  const double publish_wall_s = (ros::WallTime::now() - started).toSec();
+  EXPECT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 20.0));
+  h.tick_clock(20.0);
+  ros::WallDuration(0.2).sleep();
+  std::printf("[ timing ] published %zu pairs at 10 Hz in %.2f s wall (%.0f samples/s per stream)\n", n, publish_wall_s,
+              n / publish_wall_s);
+
+  std::lock_guard<std::mutex> lock(h.mutex());
+  ASSERT_EQ(h.calibrations().size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto& c = h.calibrations()[i];
+    SCOPED_TRACE("calibration " + std::to_string(i));
+    EXPECT_TRUE(c.accepted) << c.quality_text;
+    EXPECT_DOUBLE_EQ(c.window_start.toSec(), t0 + 300.0 * (i + 1));
+    EXPECT_DOUBLE_EQ(c.sample_period, 1.0);
+    EXPECT_EQ(c.samples, 1800u);
+    EXPECT_EQ(c.filled_samples, 0u);
+    const Eigen::Matrix3d n_hat = matrix_of(c), se = stderr_of(c), n_true = h.pair().n_true;
+    for (int k = 0; k < 9; ++k) {
+      EXPECT_LE(std::abs(n_hat(k / 3, k % 3) - n_true(k / 3, k % 3)), 3.0 * se(k / 3, k % 3)) << "entry " << k;
+    }
+    std::printf("[ result ] 10 Hz window %zu: max |n - n_true| / se = %.2f\n", i,
+                ((n_hat - n_true).cwiseAbs().array() / se.array()).maxCoeff());
+  }
+  const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
+  ASSERT_NE(cal, nullptr);
+  EXPECT_EQ(cal->values.at("decimating"), "True");
+  EXPECT_EQ(value_of(cal, "paired"), n);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Calibration, TwoInstruments) {
+  // One calibration_node with a ~tests list of two instruments (the second one sees the same
+  // simulated test readings under another frame_id): one calibration topic and file each.
+  Harness h(simulation(2401.0, 19));
+  h.add_test_copy("/sim/test_b/magnetic_field", "test_b_frame");
+  h.subscribe_calibration("/sim/b/calibration");
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  ASSERT_TRUE(h.wait([&] { return h.test_subscribers(0) >= 1; }, 20.0));
+  h.publish(0, 2401, true, true);
+  EXPECT_TRUE(h.wait([&] {
+    return h.calibrations().size() >= 3 && h.calibrations_of("/sim/b/calibration").size() >= 3;
+  }, 20.0));
+  std::lock_guard<std::mutex> lock(h.mutex());
+  const auto& a = h.calibrations();
+  const auto& b = h.calibrations_of("/sim/b/calibration");
+  ASSERT_EQ(a.size(), 3u);  // [0, 1800), [300, 2100), [600, 2400)
+  ASSERT_EQ(b.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_TRUE(a[i].accepted) << a[i].quality_text;
+    EXPECT_TRUE(b[i].accepted) << b[i].quality_text;
+    EXPECT_EQ(a[i].test_name, "a");
+    EXPECT_EQ(b[i].test_name, "b");
+    EXPECT_EQ(a[i].test_frame_id, "test_frame");
+    EXPECT_EQ(b[i].test_frame_id, "test_b_frame");
+    EXPECT_EQ(a[i].window_start, b[i].window_start);
+    for (int k = 0; k < 9; ++k) EXPECT_EQ(a[i].matrix[k], b[i].matrix[k]);  // same data, same estimate
+  }
+  for (const std::string& file : {param("file_a"), param("file_b")}) {
+    SCOPED_TRACE(file);
+    mic::MagnetometerCalibration loaded;
+    ASSERT_NO_THROW(loaded = mic::load_calibration_file(file));
+    EXPECT_EQ(loaded.window_start, a.back().window_start);
+    std::remove(file.c_str());
+  }
+}
