@@ -114,6 +114,13 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("last delay (s)", ch.last_delay_s);
     status.add("last delay ci95 (s)", ch.last_delay_ci95_s);
     status.add("last offset at window end (nT)", ch.last_offset);
+    // Relative frequency response of the test against R n over the band used (relative_response.hpp).
+    if (ch.last_response.bands > 0) {
+      status.add("response bands in the band used", ch.last_response.bands);
+      status.add("response largest |gain - 1| in the band", ch.last_response.max_gain_departure);
+      status.add("response largest |gain - 1| ci95", ch.last_response.max_gain_departure_ci95);
+      status.add("response group delay (s)", ch.last_response.group_delay_s);
+    }
     status.add("resume at start", ch.resume_state);
     status.add("loaded from file", ch.resume_state == "resumed from file");
     status.add("accepted calibration (change check)", ch.baseline ? ch.baseline_window : std::string("none"));

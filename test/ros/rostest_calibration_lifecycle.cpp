@@ -7,6 +7,7 @@
 #include "calibration_harness.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
+#include <cmath>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -73,6 +74,10 @@ TEST(Calibration, ChangeDetected) {
   EXPECT_NE(last->message.find("calibration changed"), std::string::npos) << last->message;
   EXPECT_EQ(last->values.at("change status"), "changed");
   EXPECT_EQ(last->values.at("accepted calibration source"), "first window accepted since start");
+  // The relative response summary (simulated pair: no filter, no delay between the instruments).
+  ASSERT_EQ(last->values.count("response group delay (s)"), 1u);
+  EXPECT_LT(std::abs(std::stod(last->values.at("response group delay (s)"))), 1.0);
+  EXPECT_GT(std::stod(last->values.at("response bands in the band used")), 0.0);
   EXPECT_GE(value_of(last, "calibration changes detected"), 1u);
   // The windows wholly after the step measure the new scale ratio.
   const auto& last_window = h.calibrations().back();
