@@ -16,10 +16,21 @@ target_link_libraries(${PROJECT_NAME}_ros PUBLIC ${PROJECT_NAME}_core ${catkin_L
 target_compile_options(${PROJECT_NAME}_ros PRIVATE -Wall -Wextra)
 add_dependencies(${PROJECT_NAME}_ros ${PROJECT_NAME}_generate_messages_cpp)
 
+# The node classes (src/ros/<name>.cpp and the extra sources of mic_add_node) are one shared
+# library, linked by the executables (src/ros/<name>_main.cpp) and by the nodelets
+# (src/ros/<name>_nodelet.cpp): one class per node in both forms.
+add_library(${PROJECT_NAME}_nodes "")
+target_include_directories(${PROJECT_NAME}_nodes PUBLIC include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})
+target_link_libraries(${PROJECT_NAME}_nodes PUBLIC ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+target_compile_options(${PROJECT_NAME}_nodes PRIVATE -Wall -Wextra)
+target_precompile_headers(${PROJECT_NAME}_nodes PRIVATE ${MIC_PCH_EXE_ROS})  # its own (-fPIC)
+add_dependencies(${PROJECT_NAME}_nodes ${PROJECT_NAME}_generate_messages_cpp)
+
 macro(mic_add_node name)
-  add_executable(${name} src/ros/${name}.cpp src/ros/${name}_main.cpp ${ARGN})
+  target_sources(${PROJECT_NAME}_nodes PRIVATE src/ros/${name}.cpp ${ARGN})
+  add_executable(${name} src/ros/${name}_main.cpp)
   target_include_directories(${name} PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})
-  target_link_libraries(${name} ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+  target_link_libraries(${name} ${PROJECT_NAME}_nodes ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
   target_compile_options(${name} PRIVATE -Wall -Wextra)
   add_dependencies(${name} ${PROJECT_NAME}_generate_messages_cpp)
   mic_use_precompiled_headers(${name} EXE_ROS)
@@ -29,3 +40,17 @@ endmacro()
 mic_add_node(calibration_node src/ros/calibration_node_settings.cpp)
 mic_add_node(correction_node)
 mic_add_node(lemi025_driver)
+
+# Nodelets (nodelets.xml, exported in package.xml): magnetometer_insitu_calibration/<node>.
+add_library(${PROJECT_NAME}_nodelets
+  src/ros/calibration_node_nodelet.cpp
+  src/ros/correction_node_nodelet.cpp
+  src/ros/lemi025_driver_nodelet.cpp)
+target_link_libraries(${PROJECT_NAME}_nodelets ${PROJECT_NAME}_nodes ${catkin_LIBRARIES})
+target_compile_options(${PROJECT_NAME}_nodelets PRIVATE -Wall -Wextra)
+
+install(TARGETS ${PROJECT_NAME}_ros ${PROJECT_NAME}_nodes ${PROJECT_NAME}_nodelets
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
+install(FILES nodelets.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})

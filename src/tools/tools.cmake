@@ -39,4 +39,8 @@ if(TARGET calibrate_records)
 endif()
 
 catkin_install_python(PROGRAMS scripts/plot_calibration DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
-install(FILES launch/replay.launch DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/launch)
+install(TARGETS ${PROJECT_NAME}_archive ${PROJECT_NAME}_bag
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
+# launch/ (replay.launch with the others) is installed by CMakeLists.txt.
