@@ -22,7 +22,7 @@ log="$tmp/log"
 mkdir -p "$ws/src/magnetometer_insitu_calibration" "$overlay/src" "$log"
 cleanup() {
   local status=$?
-  [ -n "${launch_pid:-}" ] && kill -INT "$launch_pid" 2>/dev/null && wait "$launch_pid" 2>/dev/null
+  if [ -n "${launch_pid:-}" ]; then kill -INT "$launch_pid" 2>/dev/null; wait "$launch_pid" 2>/dev/null; fi
   if [ "$status" -ne 0 ]; then echo "check_catkin_workspace: FAILED (logs in $log)" >&2
   elif [ -z "${MIC_CHECK_KEEP:-}" ]; then rm -rf "$tmp"; fi
 }
@@ -31,12 +31,11 @@ trap cleanup EXIT
 export PATH="/usr/bin:$PATH"
 t_start=$(date +%s)
 phase() { echo "check_catkin_workspace: $1 ($(( $(date +%s) - t_start )) s)"; }
-# The clean environment of a new shell: nothing sourced, a writable ROS_HOME, a host name that resolves.
-clean_env() {
-  env -i HOME="$tmp" PATH=/usr/bin:/bin LANG=C.UTF-8 ROS_HOME="$tmp/ros_home" ROS_LOG_DIR="$tmp/ros_home/log" \
-    ROS_HOSTNAME=localhost ROS_MASTER_URI="$master" bash -c "source '$1' && $2"
-}
-master="http://localhost:$((20000 + RANDOM % 20000))"
+# The clean environment of a new shell: nothing sourced, a writable ROS_HOME, a host name that
+# resolves, a master port of its own.
+clean=(HOME="$tmp" PATH=/usr/bin:/bin LANG=C.UTF-8 ROS_HOME="$tmp/ros_home" ROS_LOG_DIR="$tmp/ros_home/log"
+       ROS_HOSTNAME=localhost ROS_MASTER_URI="http://localhost:$((20000 + RANDOM % 20000))")
+clean_env() { env -i "${clean[@]}" bash -c "source '$1' && $2"; }
 
 # 1. The package, without build folders, into the workspace; catkin_make install.
 tar -C "$here" --exclude=./build --exclude=./build_fuzz --exclude='./build_*' --exclude=./.git -cf - . |
@@ -85,7 +84,9 @@ phase "rosrun calibrate_records on the WIC demo"
 
 run_station() {  # $1: extra roslaunch arguments
   local echo_log="$log/calibration_topic$2.log"
-  clean_env "$setup" "exec roslaunch magnetometer_insitu_calibration simulated_station.launch speed:=100 \
+  clean[-1]="ROS_MASTER_URI=http://localhost:$((20000 + RANDOM % 20000))"  # a master of its own
+  # Not through a function: $! is then roslaunch itself (env and bash exec it), which stops on SIGINT.
+  env -i "${clean[@]}" bash -c "source '$setup' && exec roslaunch magnetometer_insitu_calibration simulated_station.launch speed:=100 \
       start:=2025-05-13T23:55:00Z duration:=3000 simulator_args:= \
       'calibration_params:={input_period: 0.1, window: 1800, step: 600, band_low: 0.002, band_high: 0.05, silent_timeout: 30}' \
       reference_link:=$tmp/ros_home/reference_link test_link:=$tmp/ros_home/test_link \
