@@ -1,9 +1,11 @@
 # Shared pieces of the ROS benchmarks (scripts/bench_*.sh), sourced after
 #   here=<package dir>; build=<catkin build dir with devel/>; source "$build/devel/setup.bash"
+# (devel=<devel space> when it is not $build/devel, e.g. a catkin workspace's devel/).
 #
-# bench_build_ros NAME   compiles benchmark/ros/NAME.cpp (roscpp + the core library + the package's
-#                        messages; not in the CMake build) into $build/NAME when missing or older
-#                        than its source, and prints that path.
+# bench_build_ros NAME [LIB...]
+#                        compiles benchmark/ros/NAME.cpp (roscpp + the core library + the package's
+#                        messages + LIB..., e.g. -lnodeletlib; not in the CMake build) into
+#                        $build/NAME when missing or older than its source, and prints that path.
 # bench_start_roscore DIR
 #                        starts a private roscore on a random port (a running master is not
 #                        disturbed), exports ROS_MASTER_URI, ROS_IP, ROS_HOME=DIR/ros_home and
@@ -13,11 +15,12 @@
 
 bench_build_ros() {
   local name="$1" bin="$build/$1"
+  shift
   if [ ! -x "$bin" ] || [ "$here/benchmark/ros/$name.cpp" -nt "$bin" ]; then
     g++ -std=c++17 -O2 -o "$bin" "$here/benchmark/ros/$name.cpp" \
-      -I "$here/include" -I "$build/devel/include" -I /usr/include/eigen3 \
+      -I "$here/include" -I "${devel:-$build/devel}/include" -I /usr/include/eigen3 \
       $(pkg-config --cflags --libs roscpp sensor_msgs) \
-      -Wl,-rpath,"$build/devel/lib" "$build/devel/lib/libmagnetometer_insitu_calibration_core.so" -lfftw3 >&2
+      -Wl,-rpath,"${devel:-$build/devel}/lib" "${devel:-$build/devel}/lib/libmagnetometer_insitu_calibration_core.so" -lfftw3 "$@" >&2
   fi
   echo "$bin"
 }

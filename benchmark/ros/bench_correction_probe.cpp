@@ -16,11 +16,15 @@
 //   latency_ms samples=N received=N lost=N median=.. p90=.. p99=.. max=.. mean=.. late_ticks=N
 // (late_ticks: samples published more than 10 ms behind their schedule: the probe itself
 // was starved of CPU) and, with --csv FILE, one row per sample (k, stamp, latency_ms or nan).
+// With --load-nodelet NAME the probe is also the nodelet manager: it loads the correction_node
+// nodelet (magnetometer_insitu_calibration/correction_node, the same class, parameters under
+// NAME) into its own process, so that the samples reach it and come back in-process (no TCP).
 //
 //   bench_correction_probe --rate 10 --duration 120 [--warmup 5] [--test-topic /probe/test]
 //                          [--corrected-topic /probe/corrected] [--calibration-topic /probe/calibration]
-//                          [--frame probe_test] [--csv latencies.csv]
+//                          [--frame probe_test] [--csv latencies.csv] [--load-nodelet /probe_correction]
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+#include <nodelet/loader.h>
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>
 
@@ -55,7 +59,7 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "bench_correction_probe", ros::init_options::AnonymousName);
   double rate = 10.0, duration = 120.0, warmup = 5.0;
   std::string test_topic = "/probe/test", corrected_topic = "/probe/corrected",
-              calibration_topic = "/probe/calibration", frame = "probe_test", csv_path;
+              calibration_topic = "/probe/calibration", frame = "probe_test", csv_path, nodelet_name;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string o = argv[i];
     const char* v = argv[i + 1];
@@ -67,6 +71,7 @@ int main(int argc, char** argv) {
     else if (o == "--calibration-topic") calibration_topic = v;
     else if (o == "--frame") frame = v;
     else if (o == "--csv") csv_path = v;
+    else if (o == "--load-nodelet") nodelet_name = v;
     else {
       std::fprintf(stderr, "bench_correction_probe: unknown option %s\n", o.c_str());
       return 2;
@@ -90,6 +95,16 @@ int main(int argc, char** argv) {
   const Clock::time_point t_ref = Clock::now();
 
   ros::NodeHandle nh;
+  // In-process correction: this process is its nodelet manager (no ROS services: a plain loader).
+  std::unique_ptr<nodelet::Loader> manager;
+  if (!nodelet_name.empty()) {
+    manager = std::make_unique<nodelet::Loader>(false);
+    if (!manager->load(nodelet_name, "magnetometer_insitu_calibration/correction_node", nodelet::M_string(),
+                       nodelet::V_string())) {
+      std::fprintf(stderr, "bench_correction_probe: cannot load the correction_node nodelet as %s\n", nodelet_name.c_str());
+      return 1;
+    }
+  }
   ros::Subscriber sub = nh.subscribe<sensor_msgs::MagneticField>(
       corrected_topic, 100000,
       [&](const sensor_msgs::MagneticField::ConstPtr& m) {

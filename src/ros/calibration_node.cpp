@@ -20,8 +20,8 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : nh_(nh),
       private_nh_(private_nh),
       settings_(CalibrationNodeSettings::load(private_nh)),
-      node_name_(ros::this_node::getName()),
-      updater_(nh, private_nh) {
+      node_name_(private_nh.getNamespace()),  // the node's name; a nodelet's own name in a manager
+      updater_(nh, private_nh, private_nh.getNamespace()) {
   for (const std::string& name : unknown_private_parameters(private_nh_, CalibrationNodeSettings::known_parameters())) {
     ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
   }

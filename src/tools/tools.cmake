@@ -5,6 +5,12 @@
 #    master) and the --bag input of calibrate_records;
 #  - programs records_to_bag, export_corrected, benchmark_bag_read;
 #  - calibrate_records (built by CMakeLists.txt from src/cli) gets the bag input.
+# catkin_lint (-W2): this package's generated message headers are in ${CATKIN_DEVEL_PREFIX}/include
+# (external_directory), and the in-package libraries carry ${catkin_INCLUDE_DIRS} as PUBLIC
+# include paths for their users in this package; no CMake target is exported
+# (external_interface_path): other packages get the core through catkin_package().
+#catkin_lint: ignore external_directory
+#catkin_lint: ignore external_interface_path
 add_library(${PROJECT_NAME}_archive src/tools/archive_records.cpp)
 target_include_directories(${PROJECT_NAME}_archive PUBLIC include src/tools)
 target_link_libraries(${PROJECT_NAME}_archive PUBLIC ${PROJECT_NAME}_core)
@@ -39,4 +45,8 @@ if(TARGET calibrate_records)
 endif()
 
 catkin_install_python(PROGRAMS scripts/plot_calibration DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
-install(FILES launch/replay.launch DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/launch)
+install(TARGETS ${PROJECT_NAME}_archive ${PROJECT_NAME}_bag
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
+# launch/ (replay.launch with the others) is installed by CMakeLists.txt.
