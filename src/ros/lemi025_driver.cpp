@@ -16,7 +16,8 @@ namespace {
 
 const std::vector<std::string> kKnownParameters = {
     "source", "device", "baud", "file", "rate", "checksum", "field", "frame_id", "noise_nT", "reopen_interval",
-    "gps_required", "expected_packet_rate", "min_supply", "publisher_queue_size", "diagnostic_period"};
+    "gps_required", "expected_packet_rate", "min_supply", "publisher_queue_size", "diagnostic_period",
+    "wait_for_subscribers"};
 
 }  // namespace
 
@@ -73,6 +74,8 @@ Lemi025DriverSettings Lemi025DriverSettings::load(const ros::NodeHandle& p) {
   require_non_negative("min_supply", s.min_supply_V, "V (0 = no check)");
   s.publisher_queue_size = param_int(p, "publisher_queue_size", s.publisher_queue_size);
   if (s.publisher_queue_size < 1) throw ParameterError("publisher_queue_size", "must be >= 1 message");
+  s.wait_for_subscribers = param_int(p, "wait_for_subscribers", s.wait_for_subscribers);
+  if (s.wait_for_subscribers < 0) throw ParameterError("wait_for_subscribers", "must be >= 0 subscribers");
   s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
   require_positive("diagnostic_period", s.diagnostic_period_s, "s");
   return s;

@@ -37,8 +37,10 @@ void Lemi025Driver::setup_diagnostics() {
   });
   updater_.add("link", [this](DiagnosticStatusWrapper& status) { diagnose_link(status); });
   updater_.add("instrument", [this](DiagnosticStatusWrapper& status) { diagnose_instrument(status); });
-  diagnostic_timer_ = nh_.createTimer(ros::Duration(s.diagnostic_period_s),
-                                      [this](const ros::TimerEvent&) { updater_.force_update(); });
+  // Wall time: the driver's health is reported in real time, also under a paused or stepped
+  // simulated /clock (the message stamps stay ros::Time::now()).
+  diagnostic_timer_ = nh_.createWallTimer(ros::WallDuration(s.diagnostic_period_s),
+                                          [this](const ros::WallTimerEvent&) { updater_.force_update(); });
 }
 
 void Lemi025Driver::diagnose_link(DiagnosticStatusWrapper& status) {
@@ -60,6 +62,12 @@ void Lemi025Driver::diagnose_link(DiagnosticStatusWrapper& status) {
   status.add("time jumps", p.time_jumps);
   status.add("disconnects", st.stats.disconnects);
   status.add("reconnects", st.stats.reconnects);
+  status.add("reopen attempts", st.stats.reopen_attempts);
+  status.add("last disconnect", st.last_disconnect.empty() ? std::string("none") : st.last_disconnect);
+  status.add("connection problem", st.connected ? std::string() : st.connection_problem);
+  status.add("disconnected for (s)", st.connected || st.disconnected_since_wall_s < 0.0
+                                         ? std::string("0")
+                                         : number_text(wall_now_s() - st.disconnected_since_wall_s));
   status.add("readings published", st.readings_published);
   status.add("readings published as NaN (invalid)", st.readings_invalid);
   status.add("readings dropped (stamp not after the previous)", st.readings_dropped_time);
@@ -74,8 +82,10 @@ void Lemi025Driver::diagnose_link(DiagnosticStatusWrapper& status) {
 
   if (st.at_end) status.summary(DiagnosticStatus::OK, "end of recording");
   if (!st.connected && !st.at_end) {
-    status.mergeSummary(DiagnosticStatus::ERROR, "disconnected: reopening every " + number_text(settings_.reopen_interval_s) +
-                                                     " s");
+    status.mergeSummary(DiagnosticStatus::ERROR,
+                        "disconnected: reopening every " + number_text(settings_.reopen_interval_s) + " s (" +
+                            std::to_string(st.stats.reopen_attempts) + " attempts" +
+                            (st.connection_problem.empty() ? std::string() : ", " + st.connection_problem) + ")");
   }
   auto report = [&status](std::uint64_t now, std::uint64_t& reported, const std::string& what) {
     if (now > reported) status.mergeSummary(DiagnosticStatus::WARN, std::to_string(now - reported) + " " + what);

@@ -65,19 +65,36 @@ bool Lemi025Driver::pace(std::uint64_t index) {
   return !stop_cv_.wait_until(lock, due, [this] { return stopping_.load(); });
 }
 
+bool Lemi025Driver::wait_for_subscribers() {
+  const auto wanted = static_cast<std::uint32_t>(settings_.wait_for_subscribers);
+  ROS_INFO("%s: replay starts when %s has %u subscriber(s) (~wait_for_subscribers)", node_name_.c_str(),
+           nh_.resolveName("magnetic_field").c_str(), wanted);
+  std::unique_lock<std::mutex> lock(stop_mutex_);
+  while (field_publisher_.getNumSubscribers() < wanted) {
+    if (!ros::ok() || stop_cv_.wait_for(lock, std::chrono::milliseconds(50), [this] { return stopping_.load(); })) {
+      return false;
+    }
+  }
+  return true;
+}
+
 void Lemi025Driver::run() {
+  if (settings_.recorded() && settings_.wait_for_subscribers > 0 && !wait_for_subscribers()) return;
   bool end_reported = false;
   while (!stopping_ && ros::ok()) {
     const std::optional<Lemi025Packet> packet = source_->next(kReadTimeout_s);
     const double arrival_s = ros::Time::now().toSec();
-    std::string last_warning;
+    std::string last_warning, last_disconnect;
     for (const std::string& warning : source_->take_warnings()) {
       if (warning.rfind("reconnected", 0) == 0) {
         ROS_INFO("%s: %s", node_name_.c_str(), warning.c_str());
       } else {
         ROS_WARN("%s: %s", node_name_.c_str(), warning.c_str());
       }
-      if (warning.rfind("disconnected", 0) == 0) pc_clock_.reset();
+      if (warning.rfind("disconnected", 0) == 0) {
+        pc_clock_.reset();
+        last_disconnect = warning;
+      }
       last_warning = warning;
     }
     if (packet) {
@@ -93,9 +110,17 @@ void Lemi025Driver::run() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       state_.stats = source_->stats();
-      state_.connected = source_->connected();
+      const bool connected = source_->connected();
+      if (connected) {
+        state_.disconnected_since_wall_s = -1.0;
+      } else if (state_.disconnected_since_wall_s < 0.0) {
+        state_.disconnected_since_wall_s = wall_now_s();
+      }
+      state_.connected = connected;
+      state_.connection_problem = source_->connection_problem();
       state_.at_end = at_end;
       if (!last_warning.empty()) state_.last_warning = time_for_message(wall_now_s()) + " " + last_warning;
+      if (!last_disconnect.empty()) state_.last_disconnect = time_for_message(wall_now_s()) + " " + last_disconnect;
     }
     if (at_end && !packet) {
       release_held();

@@ -44,17 +44,6 @@ std::vector<sensor_msgs::MagneticField> FieldInbox::fields_from(std::size_t firs
   return std::vector<sensor_msgs::MagneticField>(fields_.begin() + static_cast<std::ptrdiff_t>(first), fields_.end());
 }
 
-std::vector<sensor_msgs::MagneticField> FieldInbox::write_and_collect(PtyLink& port,
-                                                                      const std::vector<std::uint8_t>& bytes,
-                                                                      std::size_t expected) {
-  const std::size_t before = field_count();
-  port.write(bytes);
-  EXPECT_TRUE(wait_for([&] { return field_count() >= before + expected; }, 10.0))
-      << "got " << field_count() - before << " of " << expected << " readings";
-  ros::WallDuration(0.3).sleep();  // nothing more may come
-  return fields_from(before);
-}
-
 void FieldInbox::expect_all_stamps_increasing() {
   const auto all = all_fields();
   for (std::size_t i = 1; i < all.size(); ++i) {
@@ -117,7 +106,12 @@ bool DriverDiagnostics::any_since(std::size_t mark, const std::string& task, std
 
 void DriverDiagnostics::fresh() {
   const std::size_t n0 = diagnostics_seen();
-  wait_for([&] { return diagnostics_seen() >= n0 + 2; }, 3.0);
+  EXPECT_TRUE(wait_for([&] { return diagnostics_seen() >= n0 + 2; })) << "no diagnostics from the driver";
+}
+
+ros::Time DriverDiagnostics::last_stamp() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_stamp_;
 }
 
 std::size_t DriverDiagnostics::diagnostics_seen() {
@@ -135,12 +129,31 @@ void DriverDiagnostics::on_diagnostics(const diagnostic_msgs::DiagnosticArray::C
       ours = true;
     }
   }
-  if (ours) ++diagnostics_seen_;
+  if (ours) {
+    ++diagnostics_seen_;
+    last_stamp_ = m->header.stamp;
+  }
+}
+
+void DriverInbox::wait_all_read(const PtyLink& port) {
+  const auto written = static_cast<long long>(port.bytes_written());
+  EXPECT_GE(wait_counter("link", "bytes read", written), written) << "the driver did not read every byte written";
+}
+
+std::vector<sensor_msgs::MagneticField> DriverInbox::write_and_collect(PtyLink& port,
+                                                                       const std::vector<std::uint8_t>& bytes,
+                                                                       std::size_t expected) {
+  const std::size_t before = field_count();
+  port.write(bytes);
+  EXPECT_TRUE(wait_for([&] { return field_count() >= before + expected; }))
+      << "got " << field_count() - before << " of " << expected << " readings";
+  wait_all_read(port);
+  return fields_from(before);
 }
 
 void assert_driver_on_pty(const std::function<bool()>& topics_connected, DriverDiagnostics& diagnostics) {
-  ASSERT_TRUE(wait_for(topics_connected, 20.0)) << "driver topics not connected";
-  ASSERT_TRUE(wait_for([&] { return diagnostics.value("link", "connected") == "True"; }, 20.0))
+  ASSERT_TRUE(wait_for(topics_connected)) << "driver topics not connected";
+  ASSERT_TRUE(wait_for([&] { return diagnostics.value("link", "connected") == "True"; }))
       << "driver not connected to the pty: " << diagnostics.value("link", "last warning");
 }
 

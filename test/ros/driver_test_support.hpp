@@ -27,9 +27,15 @@ namespace test {
 /// The test node's private parameter ~name (a string), `fallback` when it is not set.
 std::string param(const std::string& name, const std::string& fallback = "");
 
+/// How long a test waits for a condition, wall s: the one generous timeout that turns a hang
+/// into a failure. The tests wait for conditions (readings arrived, a diagnostics counter
+/// reached, the driver read every byte written), never for a duration, so a busy machine only
+/// makes them slower; this bound is never reached unless something is broken.
+constexpr double kPatience_s = 60.0;
+
 /// Polls `done` every 0.01 s (wall clock) until it holds or timeout_s (s) have passed; returns
 /// done() once more at the end.
-bool wait_for(const std::function<bool()>& done, double timeout_s);
+bool wait_for(const std::function<bool()>& done, double timeout_s = kPatience_s);
 
 /// The bytes of packet p with checksum sum8 (the checksum the .test files give the driver).
 std::vector<std::uint8_t> encode(const Lemi025Packet& p);
@@ -49,10 +55,6 @@ class FieldInbox {
   std::size_t field_count();
   std::vector<sensor_msgs::MagneticField> fields_from(std::size_t first);
   std::vector<sensor_msgs::MagneticField> all_fields() { return fields_from(0); }
-  /// Writes `bytes` into the pty, waits (up to 10 s) for `expected` more readings (a gtest
-  /// failure when they do not come), then 0.3 s for anything extra; returns what came.
-  std::vector<sensor_msgs::MagneticField> write_and_collect(PtyLink& port, const std::vector<std::uint8_t>& bytes,
-                                                            std::size_t expected);
   /// A gtest failure at the first reading whose stamp is not after the one before.
   void expect_all_stamps_increasing();
 
@@ -81,13 +83,17 @@ class DriverDiagnostics {
   long long counter(const std::string& task, const std::string& key);
   /// Waits (up to timeout_s, s) until the counter reaches at least `target`; returns the last
   /// value seen.
-  long long wait_counter(const std::string& task, const std::string& key, long long target, double timeout_s = 5.0);
+  long long wait_counter(const std::string& task, const std::string& key, long long target,
+                         double timeout_s = kPatience_s);
+  /// header.stamp of the newest diagnostics message of the driver: the driver's ros::Time::now()
+  /// when it published it (its simulated clock under /use_sim_time); zero before the first.
+  ros::Time last_stamp();
   /// How many statuses have arrived so far (a mark for any_since; a WARN lasts one period).
   std::size_t history_size();
   /// Whether a status of `task` at `level` whose message contains `text` arrived after `mark`.
   bool any_since(std::size_t mark, const std::string& task, std::uint8_t level, const std::string& text);
-  /// Waits (up to 3 s) for two more diagnostics messages of the driver, so that the counters
-  /// reflect what was sent before the call.
+  /// Waits for two more diagnostics messages of the driver, so that the counters reflect what
+  /// the driver had done before the call.
   void fresh();
 
  private:
@@ -99,12 +105,31 @@ class DriverDiagnostics {
   std::map<std::string, diagnostic_msgs::DiagnosticStatus> statuses_;
   std::vector<std::pair<std::string, diagnostic_msgs::DiagnosticStatus>> history_;
   std::size_t diagnostics_seen_ = 0;  ///< messages that held a status of the driver
+  ros::Time last_stamp_;
   ros::Subscriber subscriber_;
 };
 
+/// A driver's readings and diagnostics together: writing into its pty and waiting until the
+/// driver has consumed it.
+class DriverInbox : public FieldInbox, public DriverDiagnostics {
+ public:
+  DriverInbox(const std::string& driver_namespace, const std::string& driver_node)
+      : FieldInbox(driver_namespace), DriverDiagnostics(driver_node) {}
+
+  /// Waits until the driver's "bytes read" reaches every byte written into `port` (the driver
+  /// has read them; the packets they held have been handled: published, held or dropped).
+  /// A gtest failure if not within kPatience_s.
+  void wait_all_read(const PtyLink& port);
+  /// Writes `bytes` into the pty, waits for `expected` more readings (a gtest failure when they
+  /// do not come), then until the driver has read every byte (so anything extra it published
+  /// would be here too); returns the readings that came after the write.
+  std::vector<sensor_msgs::MagneticField> write_and_collect(PtyLink& port, const std::vector<std::uint8_t>& bytes,
+                                                            std::size_t expected);
+};
+
 /// Fixture set-up of the tests of the driver started by the .test file: a fatal gtest failure
-/// unless `topics_connected` holds within 20 s and then the driver's link reports the pty
-/// connected within 20 s.
+/// unless `topics_connected` holds and then the driver's link reports the pty connected, each
+/// within kPatience_s.
 void assert_driver_on_pty(const std::function<bool()>& topics_connected, DriverDiagnostics& diagnostics);
 
 }  // namespace test

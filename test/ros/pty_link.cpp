@@ -19,7 +19,7 @@ PtyLink::PtyLink(std::string link) : link_(std::move(link)) {}
 
 PtyLink::~PtyLink() {
   close();
-  ::unlink(link_.c_str());
+  for (int fd : replaced_) ::close(fd);
 }
 
 std::string PtyLink::open() {
@@ -42,7 +42,15 @@ std::string PtyLink::open() {
   return "";
 }
 
+std::string PtyLink::replace() {
+  replaced_.push_back(master_);
+  replaced_.push_back(slave_);
+  master_ = slave_ = -1;
+  return open();
+}
+
 void PtyLink::close() {
+  ::unlink(link_.c_str());
   if (slave_ >= 0) ::close(slave_);
   if (master_ >= 0) ::close(master_);
   slave_ = master_ = -1;
@@ -57,6 +65,7 @@ void PtyLink::write(const std::vector<std::uint8_t>& bytes) {
       return;
     }
     done += static_cast<std::size_t>(n);
+    bytes_written_ += static_cast<std::uint64_t>(n);
   }
 }
 

@@ -118,7 +118,7 @@ TEST(CalibrationFaults, NanWindowRejectedAndDuplicatesPairedOnce) {
     std::lock_guard<std::mutex> lock(mutex);
     return calibrations.size() >= 2;
   }, 40.0)) << "calibrations published: " << calibrations.size();
-  EXPECT_TRUE(wait_for([&] { return counter("windows failed") + counter("windows estimated") >= 3; }, 10.0));
+  EXPECT_TRUE(wait_for([&] { return counter("windows failed") + counter("windows estimated") >= 3; }, 60.0));
   ros::WallDuration(0.5).sleep();
   std::vector<mic::MagnetometerCalibration> got;
   {
@@ -153,7 +153,7 @@ TEST(CalibrationFaults, NanWindowRejectedAndDuplicatesPairedOnce) {
   }
   EXPECT_EQ(counter("calibration changes detected"), 0);
   // Diagnostics: duplicates counted, each stamp paired once, nothing unpaired in good windows.
-  EXPECT_TRUE(wait_for([&] { return counter("test messages") >= static_cast<long long>(4 * kWindow + 1); }, 5.0));
+  EXPECT_TRUE(wait_for([&] { return counter("test messages") >= static_cast<long long>(4 * kWindow + 1); }, 60.0));
   EXPECT_EQ(counter("duplicates"), static_cast<long long>(kWindow));
   EXPECT_LE(counter("paired"), static_cast<long long>(3 * kWindow + 1));
   EXPECT_GE(counter("paired"), static_cast<long long>(2 * kWindow));

@@ -48,6 +48,7 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -102,11 +103,9 @@ void append(std::vector<std::uint8_t>& to, const std::vector<std::uint8_t>& byte
 }
 
 /// What the driver publishes: its readings (FieldInbox) and its diagnostics (DriverDiagnostics).
-class Inbox : public mic::test::FieldInbox, public mic::test::DriverDiagnostics {
+class Inbox : public mic::test::DriverInbox {
  public:
-  Inbox()
-      : FieldInbox(param("driver_namespace", "/faults")),
-        DriverDiagnostics(param("driver_node_name", "faults/lemi_driver")) {}
+  Inbox() : DriverInbox(param("driver_namespace", "/faults"), param("driver_node_name", "faults/lemi_driver")) {}
   bool connected() const { return fields_connected(); }
 };
 
@@ -122,7 +121,7 @@ class DriverFaults : public testing::Test {
   Inbox& inbox() { return *g_inbox; }
   mic::test::PtyLink& port() { return *g_port; }
 
-  /// Writes `bytes`, waits for `expected` readings, then 0.3 s more for anything extra.
+  /// Writes `bytes`, waits for `expected` readings, then until the driver has read every byte.
   std::vector<sensor_msgs::MagneticField> write_and_collect(const std::vector<std::uint8_t>& bytes,
                                                             std::size_t expected) {
     return inbox().write_and_collect(port(), bytes, expected);
@@ -153,15 +152,15 @@ TEST_F(DriverFaults, LineCutMidPacketAndRestored) {
   append(bytes, half);
   const std::size_t before = inbox().field_count();
   port().write(bytes);
-  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 20; }, 10.0));
-  ros::WallDuration(0.3).sleep();  // the driver has read the half packet too
-  port().close();                  // cut mid-packet
-  EXPECT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "False"; }, 10.0));
+  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 20; }));
+  inbox().wait_all_read(port());  // the driver has read the half packet too
+  port().close();                 // cut mid-packet
+  EXPECT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "False"; }));
   diagnostic_msgs::DiagnosticStatus link;
   ASSERT_TRUE(inbox().status("link", link));
   EXPECT_EQ(link.level, diagnostic_msgs::DiagnosticStatus::ERROR) << link.message;
   ASSERT_EQ(port().open(), "");  // restored: a new pty under the same link
-  ASSERT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "True"; }, 10.0));
+  ASSERT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "True"; }));
   // The rest of the cut packet never comes; the instrument goes on with whole packets.
   std::vector<std::uint8_t> after = encode(kT0 + 3);
   append(after, encode(kT0 + 4));
@@ -180,11 +179,12 @@ TEST_F(DriverFaults, LineStallsMidPacket) {
   half.resize(100);
   const std::size_t before = inbox().field_count();
   port().write(half);
-  ros::WallDuration(1.0).sleep();  // silence: the rest never comes
+  inbox().wait_all_read(port());  // the driver has the half packet; the rest never comes
   // kT0 + 6 follows the lost kT0 + 5: ahead of the packet count, so held until the next packet
   // confirms it (documented 1-packet delay), then published with it; nothing is lost.
   port().write(encode(kT0 + 6));
-  ros::WallDuration(1.5).sleep();
+  inbox().wait_all_read(port());  // read and handled (held)
+  inbox().fresh();
   EXPECT_EQ(inbox().field_count(), before) << "a packet after a lost one is published before it is confirmed";
   std::vector<std::uint8_t> more = encode(kT0 + 7);
   append(more, encode(kT0 + 8));
@@ -287,7 +287,7 @@ TEST_F(DriverFaults, DuplicatedPacketPublishedOnce) {
   expect_packets(fields, {kT0 + 18, kT0 + 19, kT0 + 20});
   EXPECT_EQ(inbox().wait_counter("link", kDropped, dropped0 + 20), dropped0 + 20);
   EXPECT_TRUE(wait_for(
-      [&] { return inbox().any_since(mark, "link", diagnostic_msgs::DiagnosticStatus::WARN, "readings dropped"); }, 3.0))
+      [&] { return inbox().any_since(mark, "link", diagnostic_msgs::DiagnosticStatus::WARN, "readings dropped"); }))
       << "no WARN 'readings dropped' in the link diagnostics";
   expect_all_increasing();
 }
@@ -336,8 +336,7 @@ TEST_F(DriverFaults, SingleForwardGlitchDoesNotBlockData) {
   EXPECT_TRUE(wait_for(
       [&] {
         return inbox().any_since(mark, "link", diagnostic_msgs::DiagnosticStatus::WARN, "isolated GPS time jump");
-      },
-      3.0))
+      }))
       << "no WARN 'isolated GPS time jump' in the link diagnostics";
   inbox().fresh();
   EXPECT_EQ(inbox().counter("link", kDropped), dropped0) << "good readings dropped after the glitch";
@@ -358,49 +357,46 @@ class DriverPcClock : public testing::Test {
     ASSERT_NE(g_port, nullptr);
     ASSERT_TRUE(ros::Time::isSimTime()) << "needs /use_sim_time (test_faults_driver_pc_clock.test)";
     clock_pub_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10);
-    ASSERT_TRUE(wait_for([&] { return clock_pub_.getNumSubscribers() > 0 && g_inbox->connected(); }, 20.0));
-    // Diagnostics run on the driver's ROS timer: advance the clock until it reports the link.
-    double t = kP0 - 30.0;
-    ASSERT_TRUE(wait_for(
-        [&] {
-          set_clock(t += 0.25);
-          return g_inbox->value("link", "connected") == "True";
-        },
-        20.0))
+    ASSERT_TRUE(wait_for([&] { return clock_pub_.getNumSubscribers() > 0 && g_inbox->connected(); }));
+    set_clock(kP0 - 30.0);
+    ASSERT_TRUE(wait_for([&] { return g_inbox->value("link", "connected") == "True"; }))
         << "driver not connected to the pty";
+    packets_ = std::max(0LL, g_inbox->counter("link", "packets"));
   }
+  /// Sets the PC clock to `t_s` and waits until the driver has seen it: its diagnostics (on a
+  /// wall-clock timer) are stamped with its ros::Time::now(). Published again while waiting: a
+  /// message sent before the driver's /clock subscription is connected is lost (the subscriber
+  /// count also counts this test's own subscription).
   void set_clock(double t_s) {
     rosgraph_msgs::Clock clock;
     clock.clock = ros::Time(t_s);
-    clock_pub_.publish(clock);
-    ros::WallDuration(0.05).sleep();
+    EXPECT_TRUE(wait_for([&] {
+      clock_pub_.publish(clock);
+      return g_inbox->last_stamp() == clock.clock;
+    }))
+        << "the driver's clock did not reach " << t_s << " (its diagnostics say " << g_inbox->last_stamp() << ")";
   }
-  /// Sets the PC clock to `t_s`, lets the driver see it, writes one 'P' packet (no GPS fix) and
-  /// gives the driver time to handle it at that clock reading (it stamps on arrival).
+  /// Sets the PC clock to `t_s`, writes one 'P' packet (no GPS fix) and waits until the driver
+  /// has counted it: it took the packet's arrival time (at that clock reading) before.
   void packet_at(double t_s, double gps_s) {
     set_clock(t_s);
-    ros::WallDuration(0.3).sleep();
     mic::Lemi025Packet p = make_packet(gps_s);
     p.gps_status = 'P';
-    const std::size_t before = g_inbox->field_count();
     port().write(encode(p));
-    // A published packet shows up on the topic; a dropped one cannot: wait a generous while.
-    wait_for([&] { return g_inbox->field_count() >= before + 10; }, 1.5);
-    ros::WallDuration(0.2).sleep();
+    ++packets_;
+    EXPECT_GE(g_inbox->wait_counter("link", "packets", packets_), packets_) << "packet at " << t_s << " not handled";
   }
-  /// Advances the clock in steps of 0.25 s until diagnostics newer than now have arrived.
-  void fresh_diagnostics(double from_s) {
-    const std::size_t mark = g_inbox->history_size();
-    double t = from_s;
-    wait_for(
-        [&] {
-          set_clock(t += 0.25);
-          return g_inbox->history_size() >= mark + 6;
-        },
-        10.0);
+  /// Waits for `count` readings after `before`, until the driver has read every byte, and for
+  /// diagnostics after that.
+  void settle(std::size_t before, std::size_t count) {
+    EXPECT_TRUE(wait_for([&] { return g_inbox->field_count() >= before + count; }))
+        << g_inbox->field_count() - before << " of " << count << " readings";
+    g_inbox->wait_all_read(port());
+    g_inbox->fresh();
   }
   mic::test::PtyLink& port() { return *g_port; }
   ros::Publisher clock_pub_;
+  long long packets_ = 0;  ///< packets written to the driver (its "packets" counter once handled)
 };
 
 // GPS lost: the packet stamps come from the PC clock at arrival, the arrival taken as the time of
@@ -416,8 +412,8 @@ TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
   const std::size_t before = g_inbox->field_count();
   const double gps0 = kT0 + 500.0;  // the instrument's (untrusted) clock runs on regardless
   for (int j = 0; j < 3; ++j) packet_at(kP0 + j, gps0 + j);
+  settle(before, 30);
   ASSERT_EQ(g_inbox->field_count(), before + 30);
-  fresh_diagnostics(kP0 + 2);
   const long long dropped0 = g_inbox->counter("link", kDropped);
   const long long steps0 = g_inbox->counter("link", "PC clock steps");
   EXPECT_EQ(steps0, 0) << "no step yet";
@@ -428,7 +424,6 @@ TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
   const double forward = back + 6.0 + 100.0;  // then the clock jumps 100 s ahead
   for (int j = 0; j < 2; ++j) packet_at(forward + j, gps0 + 9 + j);
 
-  const auto fields = g_inbox->fields_from(before);
   std::vector<double> expected;  // truth, UNIX s
   for (int j = 0; j < 3; ++j)
     for (int k = 0; k < 10; ++k) expected.push_back(kP0 + j - 0.9 + 0.1 * k);
@@ -436,6 +431,8 @@ TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
   for (int k = 0; k < 10; ++k) expected.push_back(back + 5 - 0.9 + 0.1 * k);
   for (int j = 0; j < 2; ++j)
     for (int k = 0; k < 10; ++k) expected.push_back(forward + j - 0.9 + 0.1 * k);
+  settle(before, expected.size());
+  const auto fields = g_inbox->fields_from(before);
   ASSERT_EQ(fields.size(), expected.size());
   for (std::size_t i = 0; i < fields.size(); ++i) {
     EXPECT_NEAR(fields[i].header.stamp.toSec(), expected[i], 1e-5) << "reading " << i;
@@ -444,7 +441,6 @@ TEST_F(DriverPcClock, PcClockStepsBackwardsAndForwards) {
       EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp) << "reading " << i << " goes backwards";
     }
   }
-  fresh_diagnostics(forward + 1);
   EXPECT_EQ(g_inbox->counter("link", kDropped), dropped0 + 45) << "readings stamped before the last published one";
   EXPECT_EQ(g_inbox->counter("link", "PC clock steps"), steps0 + 2);
   EXPECT_EQ(g_inbox->value("link", "last PC clock step (s)"), "100");

@@ -10,7 +10,9 @@
 //                                  packet after the lost second is published once the next
 //                                  packet confirms its time (the driver's 1-packet delay)
 //   TimeJumpBackwardsIsDropped     the clock steps back: nothing published goes backwards
-//   SerialDisconnectIsSurvived     the pty master closes, a new pty appears under the symlink
+//   SerialDisconnectIsSurvived     the pty is unplugged (link removed, pty closed), a new pty
+//                                  appears under the symlink
+//   LinkRepointedWhileOldPtyStaysOpen  the symlink names a new pty while the old stays open
 //   GpsNotActiveUsesPcTime         GPS status 'P': PC-clock stamps and a diagnostic warning;
 //                                  back to 'A': GPS stamps again
 //   BiasChangeIsReported           the bias (compensation) field changes: counted, WARN
@@ -53,10 +55,9 @@ using mic::test::wait_for;
 // ---- What the driver publishes -----------------------------------------------------------------
 
 /// Readings (FieldInbox), temperatures, and diagnostics (DriverDiagnostics).
-class Inbox : public mic::test::FieldInbox, public mic::test::DriverDiagnostics {
+class Inbox : public mic::test::DriverInbox {
  public:
-  Inbox()
-      : FieldInbox(param("driver_namespace", "/lemi")), DriverDiagnostics(param("driver_node_name", "lemi_driver")) {
+  Inbox() : DriverInbox(param("driver_namespace", "/lemi"), param("driver_node_name", "lemi_driver")) {
     ros::NodeHandle nh;
     const std::string ns = param("driver_namespace", "/lemi");
     sensor_sub_ = nh.subscribe(ns + "/temperature/sensor", 1000, &Inbox::on_sensor, this);
@@ -127,7 +128,7 @@ TEST_F(Lemi025DriverOnPty, PublishesTeslaWithGpsStamps) {
   const std::vector<double> seconds = {kT0, kT0 + 1, kT0 + 2};
   const auto fields = send(seconds, 30);
   ASSERT_EQ(fields.size(), 30u);
-  ASSERT_TRUE(wait_for([&] { return inbox().temperature_count() >= temperatures_before + 3; }, 5.0));
+  ASSERT_TRUE(wait_for([&] { return inbox().temperature_count() >= temperatures_before + 3; }));
   const double variance = std::pow(std::stod(param("noise_nT", "0.05")) * kNanotesla, 2);
   for (std::size_t p = 0; p < seconds.size(); ++p) {
     const mic::Lemi025Packet sent = make_packet(seconds[p]);
@@ -165,7 +166,7 @@ TEST_F(Lemi025DriverOnPty, PublishesTeslaWithGpsStamps) {
     EXPECT_NEAR(electronics[p].temperature, sent.electronics_temperature_C, 0.0051);
   }
   // Diagnostics: instrument state as sent.
-  EXPECT_TRUE(wait_for([&] { return inbox().value("instrument", "supply voltage (V)") == "12.3"; }, 5.0));
+  EXPECT_TRUE(wait_for([&] { return inbox().value("instrument", "supply voltage (V)") == "12.3"; }));
   EXPECT_EQ(inbox().value("instrument", "bias field X Y Z (nT)"), "21500 502.5 43000");
   EXPECT_EQ(inbox().value("instrument", "time source"), "GPS");
   EXPECT_EQ(inbox().value("instrument", "station"), "7");
@@ -192,8 +193,8 @@ TEST_F(Lemi025DriverOnPty, CorruptedPacketIsSkippedAndCounted) {
   }
   port().write(bytes);
 
-  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 30; }, 10.0));
-  ros::WallDuration(0.3).sleep();
+  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 30; }));
+  inbox().wait_all_read(port());  // anything extra would be here now
   const auto fields = inbox().fields_from(before);
   ASSERT_EQ(fields.size(), 30u) << "the damaged packet must not be published";
   for (int k = 0; k < 10; ++k) {
@@ -228,12 +229,16 @@ TEST_F(Lemi025DriverOnPty, SerialDisconnectIsSurvived) {
   const long long disconnects0 = inbox().counter("link", "disconnects");
   const long long reconnects0 = inbox().counter("link", "reconnects");
   port().close();  // unplugged
-  EXPECT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "False"; }, 10.0));
+  EXPECT_TRUE(wait_for([&] { return inbox().value("link", "connected") == "False"; }));
   diagnostic_msgs::DiagnosticStatus link;
   ASSERT_TRUE(inbox().status("link", link));
   EXPECT_EQ(link.level, diagnostic_msgs::DiagnosticStatus::ERROR) << link.message;
   EXPECT_NE(link.message.find("disconnected"), std::string::npos) << link.message;
   EXPECT_EQ(inbox().wait_counter("link", "disconnects", disconnects0 + 1), disconnects0 + 1);
+  // Visible while it lasts: why (the link is gone) and the reopen attempts, one every 0.2 s.
+  EXPECT_GE(inbox().wait_counter("link", "reopen attempts", inbox().counter("link", "reopen attempts") + 2), 2);
+  EXPECT_NE(inbox().value("link", "connection problem").find("No such file"), std::string::npos)
+      << inbox().value("link", "connection problem");
 
   ASSERT_EQ(port().open(), "");  // plugged in again: a new pty under the same symlink
   const auto fields = send({kT0 + 10, kT0 + 11, kT0 + 12}, 30);
@@ -246,29 +251,53 @@ TEST_F(Lemi025DriverOnPty, SerialDisconnectIsSurvived) {
   expect_all_stamps_increasing();
 }
 
+// The link is re-pointed at a new pty while the old one stays open and silent: socat, ser2net or
+// a simulator re-created its pty; or, the flaky failure of issue #12, the stale link of an
+// unplugged pty named a pty number the kernel had given to another test's pty, the driver opened
+// that one, and then the instrument's new pty replaced the link. The driver must follow the link
+// (it used to stay on the old pty until that one closed: 24 s without data).
+TEST_F(Lemi025DriverOnPty, LinkRepointedWhileOldPtyStaysOpen) {
+  const long long disconnects0 = inbox().counter("link", "disconnects");
+  const long long reconnects0 = inbox().counter("link", "reconnects");
+  ASSERT_EQ(port().replace(), "");
+  const auto fields = send({kT0 + 13, kT0 + 14, kT0 + 15}, 30);
+  ASSERT_EQ(fields.size(), 30u) << "no data from the pty the link names now";
+  EXPECT_EQ(fields.front().header.stamp, gps_stamp(kT0 + 13, 0));
+  EXPECT_EQ(fields.back().header.stamp, gps_stamp(kT0 + 15, 9));
+  EXPECT_EQ(inbox().wait_counter("link", "disconnects", disconnects0 + 1), disconnects0 + 1);
+  EXPECT_EQ(inbox().wait_counter("link", "reconnects", reconnects0 + 1), reconnects0 + 1);
+  EXPECT_NE(inbox().value("link", "last disconnect").find("now names another device"), std::string::npos)
+      << inbox().value("link", "last disconnect");
+  expect_all_stamps_increasing();
+}
+
 TEST_F(Lemi025DriverOnPty, GpsNotActiveUsesPcTime) {
   // Three packets without GPS fix, one per second like the instrument. Their GPS seconds (2024)
   // must not be used: the stamps come from the PC clock at arrival (last reading = arrival).
   const std::size_t before = inbox().field_count();
-  std::vector<double> written_s;
+  std::vector<double> written_s, received_s;  // PC clock (ROS time, s) before the write, after the readings
   for (int j = 0; j < 3; ++j) {
-    if (j > 0) ros::WallDuration(1.0).sleep();
+    if (j > 0) ros::WallDuration(1.0).sleep();  // the instrument's pace (the stimulus, not a wait)
     written_s.push_back(ros::Time::now().toSec());
     port().write(encode(make_packet(kT0 + 12 + j, 'P')));
+    ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 10 * static_cast<std::size_t>(j + 1); }));
+    received_s.push_back(ros::Time::now().toSec());
   }
-  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 30; }, 10.0));
   const auto fields = inbox().fields_from(before);
   ASSERT_EQ(fields.size(), 30u);
   for (std::size_t j = 0; j < 3; ++j) {
     const double first = fields[10 * j].header.stamp.toSec();
-    // Arrival within ~0.3 s of the write; the PC clock slews by at most 0.5 s.
-    EXPECT_NEAR(first + 0.9, written_s[j], 0.8) << "packet " << j;
+    // The driver took the arrival time between the write and the readings' arrival here; its
+    // stamp (arrival - 0.9 s) is slewed from the 1 s prediction by at most 0.45 s. Bounds, not a
+    // latency: a busy machine cannot break this.
+    EXPECT_GE(first + 0.9, written_s[j] - 0.5) << "packet " << j;
+    EXPECT_LE(first + 0.9, received_s[j] + 0.5) << "packet " << j;
     EXPECT_GT(std::abs(first - (kT0 + 12 + static_cast<double>(j))), 86400.0) << "GPS time used";
     for (std::size_t k = 1; k < 10; ++k) {
       EXPECT_NEAR((fields[10 * j + k].header.stamp - fields[10 * j + k - 1].header.stamp).toSec(), 0.1, 1e-6);
     }
   }
-  EXPECT_TRUE(wait_for([&] { return inbox().value("instrument", "GPS status").rfind("P", 0) == 0; }, 5.0));
+  EXPECT_TRUE(wait_for([&] { return inbox().value("instrument", "GPS status").rfind("P", 0) == 0; }));
   diagnostic_msgs::DiagnosticStatus instrument;
   ASSERT_TRUE(inbox().status("instrument", instrument));
   EXPECT_EQ(instrument.level, diagnostic_msgs::DiagnosticStatus::WARN);
@@ -282,10 +311,9 @@ TEST_F(Lemi025DriverOnPty, GpsNotActiveUsesPcTime) {
   const auto again = send({gps, gps + 1}, 20);
   ASSERT_EQ(again.size(), 20u);
   EXPECT_EQ(again.front().header.stamp, gps_stamp(gps, 0));
-  EXPECT_TRUE(wait_for([&] { return inbox().value("instrument", "time source") == "GPS"; }, 5.0));
+  EXPECT_TRUE(wait_for([&] { return inbox().value("instrument", "time source") == "GPS"; }));
   EXPECT_TRUE(wait_for(
-      [&] { return inbox().status("instrument", instrument) && instrument.level == diagnostic_msgs::DiagnosticStatus::OK; },
-      5.0))
+      [&] { return inbox().status("instrument", instrument) && instrument.level == diagnostic_msgs::DiagnosticStatus::OK; }))
       << instrument.message;
   expect_all_stamps_increasing();
 }
@@ -301,7 +329,7 @@ TEST_F(Lemi025DriverOnPty, BiasChangeIsReported) {
   bytes.insert(bytes.end(), second.begin(), second.end());
   const std::size_t before = inbox().field_count();
   port().write(bytes);
-  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 20; }, 10.0));
+  ASSERT_TRUE(wait_for([&] { return inbox().field_count() >= before + 20; }));
   const auto fields = inbox().fields_from(before);
   // Full field continues through the re-set: bias + variation.
   EXPECT_NEAR(fields[10].magnetic_field.z, (kBias_nT(2) + 250.0 + changed.variation_nT(0, 2)) * kNanotesla,
@@ -312,8 +340,7 @@ TEST_F(Lemi025DriverOnPty, BiasChangeIsReported) {
       [&] {
         return inbox().status("instrument", instrument) && instrument.level == diagnostic_msgs::DiagnosticStatus::WARN &&
                instrument.message.find("bias field changed") != std::string::npos;
-      },
-      5.0))
+      }))
       << instrument.message;
   EXPECT_NE(inbox().value("instrument", "last bias change").find("21500 502.5 43000 -> 21500 502.5 43250"),
             std::string::npos)

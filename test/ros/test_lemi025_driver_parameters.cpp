@@ -29,6 +29,7 @@ TEST(Lemi025DriverParameters, BadParametersExitNonZero) {
       {"_rate:=-1 _source:=stream_file _file:=/dev/null", "parameter ~rate"},
       {"_reopen_interval:=0 _device:=/tmp/nowhere", "parameter ~reopen_interval"},
       {"_noise_nT:=-0.1 _device:=/tmp/nowhere", "parameter ~noise_nT"},
+      {"_wait_for_subscribers:=-1 _source:=stream_file _file:=/dev/null", "parameter ~wait_for_subscribers"},
   };
   int index = 0;
   for (const Case& c : cases) {

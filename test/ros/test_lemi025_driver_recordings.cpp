@@ -10,6 +10,8 @@
 //                                      the end of the recording)
 //   StreamFileFirstPacketGlitchDoesNotBlockData  the first packet a day ahead: dropped, the rest
 //                                      published
+// Each replay starts when this test's subscription is connected (~wait_for_subscribers 1), so no
+// reading is lost to a slow start-up and every one is checked.
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 #include "driver_process.hpp"
@@ -73,7 +75,8 @@ TEST(Lemi025DriverRecordings, CompactFlashInvalidReadingsAreNaN) {
   }
   const std::string ns = "/replay_flash";
   mic::test::FieldInbox recorder(ns);
-  DriverProcess driver(ns, {"_source:=compact_flash", "_file:=" + path, "_rate:=10.0", "_frame_id:=flash"});
+  DriverProcess driver(ns, {"_source:=compact_flash", "_file:=" + path, "_rate:=10.0", "_frame_id:=flash",
+                            "_wait_for_subscribers:=1"});
   ASSERT_TRUE(driver.started());
   // The last block's readings come last: wait for its final reading.
   const ros::Time last_stamp = gps_stamp(t0 + 29.0, 9);
@@ -81,8 +84,7 @@ TEST(Lemi025DriverRecordings, CompactFlashInvalidReadingsAreNaN) {
       [&] {
         const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp >= last_stamp;
-      },
-      20.0))
+      }))
       << recorder.field_count() << " readings";
   const auto fields = recorder.all_fields();
   std::size_t nan_readings = 0, checked = 0;
@@ -108,7 +110,7 @@ TEST(Lemi025DriverRecordings, CompactFlashInvalidReadingsAreNaN) {
     ++checked;
   }
   EXPECT_EQ(nan_readings, 2u) << "both invalid readings published, as NaN";
-  EXPECT_GE(checked, 30u);
+  EXPECT_EQ(checked, 300u) << "every reading (the replay waits for the subscriber)";
   ::unlink(path.c_str());
 }
 
@@ -127,19 +129,20 @@ TEST(Lemi025DriverRecordings, LemiBinWithoutGpsUsesRecordedPcTime) {
   mic::write_lemi_bin(path, records, "LEMI025TEST", mic::ChecksumMode::kNone);
   const std::string ns = "/replay_lemibin";
   mic::test::FieldInbox recorder(ns);
-  DriverProcess driver(ns, {"_source:=lemibin", "_file:=" + path, "_rate:=10.0"});
+  DriverProcess driver(ns, {"_source:=lemibin", "_file:=" + path, "_rate:=10.0", "_wait_for_subscribers:=1"});
   ASSERT_TRUE(driver.started());
   ASSERT_TRUE(wait_for(
       [&] {
         const auto f = recorder.all_fields();
         return !f.empty() && f.back().header.stamp.toSec() > t0 + 3600.0 + 19.0;
-      },
-      20.0))
+      }))
       << recorder.field_count() << " readings";
   const auto fields = recorder.all_fields();
   std::size_t passive_readings = 0;
   for (std::size_t i = 0; i < fields.size(); ++i) {
-    if (i > 0) EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp);
+    if (i > 0) {
+      EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp);
+    }
     const double t = fields[i].header.stamp.toSec();
     if (t < t0 + 3000.0) {  // GPS active: GPS time - 0.3 s + 0.1 k
       const double k = std::fmod(t - t0 + 0.3, 1.0) * 10.0;
@@ -166,47 +169,54 @@ void write_stream_recording(const std::string& path, const std::vector<double>& 
 }
 
 /// Waits (wall time) until the newest reading in `inbox` is stamped at or after `stamp`.
-bool wait_for_stamp(mic::test::FieldInbox& inbox, const ros::Time& stamp, double timeout_s) {
-  return wait_for(
-      [&] {
-        const auto f = inbox.all_fields();
-        return !f.empty() && f.back().header.stamp >= stamp;
-      },
-      timeout_s);
+bool wait_for_stamp(mic::test::FieldInbox& inbox, const ros::Time& stamp) {
+  return wait_for([&] {
+    const auto f = inbox.all_fields();
+    return !f.empty() && f.back().header.stamp >= stamp;
+  });
+}
+
+/// Waits until the replay node `node` ("<ns>/replay") reports the end of its recording on
+/// /diagnostics: everything it will publish has been published.
+void wait_end_of_recording(mic::test::DriverDiagnostics& diagnostics) {
+  EXPECT_TRUE(wait_for([&] { return diagnostics.value("link", "end of recording") == "True"; }))
+      << "no end of recording in the diagnostics";
 }
 
 // A raw stream recording (~source stream_file) through the driver's GPS-time screening: a packet
 // whose GPS second is a day ahead (in the slot of t0 + 2) is dropped, the seconds around it are
 // published; the last packet jumps 46 s ahead and has no later packet to confirm it: it is held,
-// then published at the end of the recording. 4 lead packets (2 s at rate 2) let the subscription
-// connect; from t0 on every reading is checked against the truth.
+// then published at the end of the recording. The replay waits for this test's subscription
+// (~wait_for_subscribers), so every reading is checked against the truth.
 TEST(Lemi025DriverRecordings, StreamFileGpsGlitchDroppedAndLastHeldPacketReleased) {
   const std::string path = temporary_path("lemi025_driver_test_glitch.stream");
   const double t0 = 1709251200.0 + 3 * 86400.0;
   write_stream_recording(path, {t0 - 4, t0 - 3, t0 - 2, t0 - 1, t0, t0 + 1, t0 + 86400.0, t0 + 3, t0 + 4, t0 + 50});
   const std::string ns = "/replay_glitch";
   mic::test::FieldInbox recorder(ns);
-  DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=glitch"});
+  mic::test::DriverDiagnostics diagnostics(ns.substr(1) + "/replay");
+  DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=glitch",
+                            "_wait_for_subscribers:=1"});
   ASSERT_TRUE(driver.started());
-  ASSERT_TRUE(wait_for_stamp(recorder, gps_stamp(t0 + 50, 9), 30.0))
+  ASSERT_TRUE(wait_for_stamp(recorder, gps_stamp(t0 + 50, 9)))
       << recorder.field_count() << " readings; the held last packet was not released at the end";
-  ros::WallDuration(0.3).sleep();
+  wait_end_of_recording(diagnostics);
   const auto fields = recorder.all_fields();
-  std::vector<sensor_msgs::MagneticField> from_t0;
+  std::vector<sensor_msgs::MagneticField> published;
   for (std::size_t i = 0; i < fields.size(); ++i) {
     if (i > 0) {
       EXPECT_GT(fields[i].header.stamp, fields[i - 1].header.stamp) << "reading " << i;
     }
     EXPECT_LT(fields[i].header.stamp, gps_stamp(t0 + 51, 0)) << "the day-ahead glitch was published";
-    if (fields[i].header.stamp >= gps_stamp(t0, 0)) from_t0.push_back(fields[i]);
+    published.push_back(fields[i]);
   }
-  const std::vector<double> truth = {t0, t0 + 1, t0 + 3, t0 + 4, t0 + 50};
-  ASSERT_EQ(from_t0.size(), 10 * truth.size());
-  for (std::size_t i = 0; i < from_t0.size(); ++i) {
+  const std::vector<double> truth = {t0 - 4, t0 - 3, t0 - 2, t0 - 1, t0, t0 + 1, t0 + 3, t0 + 4, t0 + 50};
+  ASSERT_EQ(published.size(), 10 * truth.size());
+  for (std::size_t i = 0; i < published.size(); ++i) {
     const double s = truth[i / 10];
     const int k = static_cast<int>(i % 10);
-    EXPECT_EQ(from_t0[i].header.stamp, gps_stamp(s, k)) << "reading " << i;
-    EXPECT_NEAR(from_t0[i].magnetic_field.y, (kBias_nT(1) + make_packet(s).variation_nT(k, 1)) * kNanotesla,
+    EXPECT_EQ(published[i].header.stamp, gps_stamp(s, k)) << "reading " << i;
+    EXPECT_NEAR(published[i].magnetic_field.y, (kBias_nT(1) + make_packet(s).variation_nT(k, 1)) * kNanotesla,
                 1e-4 * kNanotesla)
         << "reading " << i;
   }
@@ -216,8 +226,8 @@ TEST(Lemi025DriverRecordings, StreamFileGpsGlitchDroppedAndLastHeldPacketRelease
 // The FIRST packet of a recording carries a day-ahead GPS second (a receiver glitch at start-up):
 // it has no reference to be checked against, so it is held like any jump and dropped when the
 // packets after it run on from each other. Before, it became the reference and every later
-// packet was "backwards": nothing was published until real time caught up. From t0 + 4 on (the
-// subscription connects during the first seconds at rate 2) every reading must arrive.
+// packet was "backwards": nothing was published until real time caught up. Every reading from
+// t0 on must arrive (the replay waits for this test's subscription).
 TEST(Lemi025DriverRecordings, StreamFileFirstPacketGlitchDoesNotBlockData) {
   const std::string path = temporary_path("lemi025_driver_test_first_glitch.stream");
   const double t0 = 1709251200.0 + 5 * 86400.0;
@@ -226,20 +236,20 @@ TEST(Lemi025DriverRecordings, StreamFileFirstPacketGlitchDoesNotBlockData) {
   write_stream_recording(path, written);
   const std::string ns = "/replay_first_glitch";
   mic::test::FieldInbox recorder(ns);
-  DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=first_glitch"});
+  mic::test::DriverDiagnostics diagnostics(ns.substr(1) + "/replay");
+  DriverProcess driver(ns, {"_source:=stream_file", "_file:=" + path, "_rate:=2.0", "_frame_id:=first_glitch",
+                            "_wait_for_subscribers:=1"});
   ASSERT_TRUE(driver.started());
-  ASSERT_TRUE(wait_for_stamp(recorder, gps_stamp(t0 + 9, 9), 30.0))
+  ASSERT_TRUE(wait_for_stamp(recorder, gps_stamp(t0 + 9, 9)))
       << recorder.field_count() << " readings; the data after a glitched first packet were not published";
-  ros::WallDuration(0.3).sleep();
+  wait_end_of_recording(diagnostics);
   const auto fields = recorder.all_fields();
-  std::vector<sensor_msgs::MagneticField> from_t4;
   for (const auto& f : fields) {
     EXPECT_LT(f.header.stamp, gps_stamp(t0 + 10, 0)) << "the day-ahead first packet was published";
-    if (f.header.stamp >= gps_stamp(t0 + 4, 0)) from_t4.push_back(f);
   }
-  ASSERT_EQ(from_t4.size(), 60u);
-  for (std::size_t i = 0; i < from_t4.size(); ++i) {
-    EXPECT_EQ(from_t4[i].header.stamp, gps_stamp(t0 + 4 + static_cast<double>(i / 10), static_cast<int>(i % 10)))
+  ASSERT_EQ(fields.size(), 100u);
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    EXPECT_EQ(fields[i].header.stamp, gps_stamp(t0 + static_cast<double>(i / 10), static_cast<int>(i % 10)))
         << "reading " << i;
   }
   ::unlink(path.c_str());

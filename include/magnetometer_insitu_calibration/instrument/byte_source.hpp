@@ -29,6 +29,9 @@ class ByteSource {
   virtual bool finished() const;
   /// Human-readable origin, e.g. "serial /dev/ttyUSB0 57600 8N1", for logs and diagnostics.
   virtual std::string describe() const;
+  /// Why the source is disconnected or the last reopen() failed ("" if nothing to say), for
+  /// logs and diagnostics.
+  virtual std::string problem() const;
 };
 
 struct FileByteSourceOptions {

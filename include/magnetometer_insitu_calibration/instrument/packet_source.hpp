@@ -24,6 +24,7 @@ struct PacketSourceStats {
   Lemi025ParserStats parser;     ///< packets, checksum_errors, resyncs, bytes_skipped, time_jumps
   std::uint64_t disconnects = 0; ///< connection losses of the byte source
   std::uint64_t reconnects = 0;  ///< successful reopen()s after a loss
+  std::uint64_t reopen_attempts = 0;  ///< reopen()s tried while disconnected, successful or not
 };
 
 class PacketSource {
@@ -40,6 +41,9 @@ class PacketSource {
   virtual std::string describe() const = 0;
   /// Problems seen since the last call ("stream byte N: skipped ...", "disconnected: ...").
   virtual std::vector<std::string> take_warnings();
+  /// While disconnected: why (the device's last error, e.g. "open /dev/ttyUSB0: No such file
+  /// or directory"); "" when connected or nothing is known.
+  virtual std::string connection_problem() const;
 };
 
 struct StreamPacketSourceOptions {
@@ -49,8 +53,10 @@ struct StreamPacketSourceOptions {
 };
 
 /// Packets parsed from a ByteSource (serial port or recorded stream). While the source is
-/// disconnected, next() tries reopen() every reopen_interval_s; a partial packet buffered at
-/// the disconnection is discarded (counted as skipped).
+/// disconnected, next() tries reopen() at once and then every reopen_interval_s (a fixed
+/// interval: trying to open a device costs nothing, and the data come back at most one interval
+/// after the device does); a partial packet buffered at the disconnection is discarded (counted
+/// as skipped).
 class StreamPacketSource : public PacketSource {
  public:
   /// Throws InputError("StreamPacketSource", ...) if `source` is null.
@@ -64,6 +70,7 @@ class StreamPacketSource : public PacketSource {
   PacketSourceStats stats() const override;
   std::string describe() const override;
   std::vector<std::string> take_warnings() override;
+  std::string connection_problem() const override { return source_->ok() ? std::string() : source_->problem(); }
 
   ByteSource& byte_source() { return *source_; }
 
@@ -80,6 +87,7 @@ class StreamPacketSource : public PacketSource {
   Clock::time_point next_reopen_{};
   std::uint64_t disconnects_ = 0;
   std::uint64_t reconnects_ = 0;
+  std::uint64_t reopen_attempts_ = 0;
 };
 
 /// Packets read from a file at construction, handed out one per next() (no waiting).

@@ -6,10 +6,20 @@
 // the device reports end of file (hang-up), an error such as EIO (USB adapter unplugged, pty
 // master closed) or ENXIO/ENODEV, or when, on a timeout, the device path no longer exists.
 // reopen() then tries to open the same path again; the caller decides how often.
+//
+// The path is followed, not the device first opened: when it names ANOTHER device than the one
+// open (a symlink re-pointed: a pty re-created by socat, ser2net or lemi025_simulator, or a stale
+// link whose pty number the kernel gave to someone else's pty and that the instrument's new pty
+// replaced), read() marks the port disconnected too, so that reopen() follows the path. Checked
+// when the line is quiet (a read timeout) and at least every kIdentityCheckInterval_s while
+// bytes flow.
 #pragma once
 
 #include "magnetometer_insitu_calibration/instrument/byte_source.hpp"
 
+#include <sys/types.h>
+
+#include <chrono>
 #include <cstdint>
 #include <string>
 
@@ -38,16 +48,23 @@ class SerialPortSource : public ByteSource {
   int baud() const { return baud_; }
   /// Why the port is closed (or the last problem), "" if none.
   const std::string& last_error() const { return last_error_; }
+  std::string problem() const override { return last_error_; }
+  /// Longest time between two checks that the path still names the open device, s.
+  static constexpr double kIdentityCheckInterval_s = 1.0;
   /// Times an open port was lost.
   std::uint64_t disconnects() const { return disconnects_; }
 
  private:
   bool open_port();
   void close_port(const std::string& why);
+  /// Whether device_ still names the open device; closes the port (why) when it does not.
+  bool still_the_device();
 
   std::string device_;
   int baud_;
   int fd_ = -1;
+  dev_t opened_rdev_ = 0;   ///< device number of the open device (fstat st_rdev)
+  std::chrono::steady_clock::time_point next_identity_check_{};
   std::string last_error_;
   std::uint64_t disconnects_ = 0;
 };

@@ -59,9 +59,13 @@
 //    as "readings dropped (stamp not after the previous)": stamps never go backwards.
 //
 // Threads: a reading thread waits on the packet source and publishes; the main thread
-// (ros::spin) runs the diagnostics. Shared counters are under a mutex. The serial port is
-// reopened every ~reopen_interval s after a disconnection (USB adapter unplugged, pty closed)
-// by the core's StreamPacketSource; the device need not exist at start.
+// (ros::spin) runs the diagnostics, on a wall-clock timer (every ~diagnostic_period s of real
+// time, also while a simulated /clock is paused or stepped). Shared counters are under a mutex.
+// Reconnection: the serial port is reopened at once and then every ~reopen_interval s after a
+// disconnection (USB adapter unplugged, pty closed, or the device path now naming another
+// device: a re-created or re-pointed symlink) by the core's StreamPacketSource; the device need
+// not exist at start. While disconnected the "link" diagnostic is ERROR and says why (the
+// device's last error) and how many reopen attempts were made.
 #pragma once
 
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
@@ -104,6 +108,7 @@ struct Lemi025DriverSettings {
   double expected_packet_rate = 1.0;        ///< packets/s expected from the serial port (1 live)
   double min_supply_V = 0.0;                ///< supply voltage below which to warn, V (0 = no check)
   int publisher_queue_size = 1000;          ///< messages
+  int wait_for_subscribers = 0;             ///< a recording starts when magnetic_field has this many (0: at once)
   double diagnostic_period_s = 1.0;         ///< s between diagnostics
 
   /// Reads every private parameter; throws ParameterError naming the first impossible one.
@@ -148,6 +153,9 @@ class Lemi025Driver {
   struct State {
     PacketSourceStats stats;
     bool connected = false;
+    std::string connection_problem;           ///< why not connected (the device's last error)
+    double disconnected_since_wall_s = -1.0;  ///< wall s the link went down, -1 while connected
+    std::string last_disconnect;              ///< "<wall time> disconnected: <source> (<why>)"
     bool at_end = false;
     std::uint64_t packets_received = 0;       ///< packets handed to the driver
     std::uint64_t readings_published = 0;
@@ -184,6 +192,9 @@ class Lemi025Driver {
   void open_source();
   /// The reading thread: waits on the source, logs disconnections and reconnections, publishes.
   void run();
+  /// Recordings with ~wait_for_subscribers: blocks the reading thread until magnetic_field has
+  /// that many subscribers; false when the node stops first.
+  bool wait_for_subscribers();
   bool pace(std::uint64_t index);
   // Packet timing (lemi025_driver_timing.cpp).
   /// Every packet from the source: GPS-time screening, then publish_packet (or hold / drop).
@@ -213,7 +224,7 @@ class Lemi025Driver {
   diagnostic_updater::Updater updater_;
   double min_frequency_ = 0.0, max_frequency_ = 0.0;
   std::unique_ptr<diagnostic_updater::FrequencyStatus> frequency_;
-  ros::Timer diagnostic_timer_;
+  ros::WallTimer diagnostic_timer_;
 
   // Reading thread only.
   PcPacketClock pc_clock_;

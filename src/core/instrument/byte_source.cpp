@@ -14,6 +14,7 @@ bool ByteSource::ok() const { return true; }
 bool ByteSource::reopen() { return ok(); }
 bool ByteSource::finished() const { return false; }
 std::string ByteSource::describe() const { return "byte source"; }
+std::string ByteSource::problem() const { return ""; }
 
 FileByteSource::FileByteSource(const std::string& path, const FileByteSourceOptions& options)
     : path_(path), options_(options), in_(path, std::ios::binary) {

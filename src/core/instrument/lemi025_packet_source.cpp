@@ -13,6 +13,7 @@ PacketSource::~PacketSource() = default;
 bool PacketSource::at_end() const { return false; }
 bool PacketSource::connected() const { return true; }
 std::vector<std::string> PacketSource::take_warnings() { return {}; }
+std::string PacketSource::connection_problem() const { return ""; }
 
 // ---- StreamPacketSource ------------------------------------------------------------------------
 
@@ -58,12 +59,14 @@ std::optional<Lemi025Packet> StreamPacketSource::next(double timeout_s) {
         disconnected_ = true;
         ++disconnects_;
         parser_.flush();  // bytes on either side of a gap do not make a packet
-        warnings_.push_back("disconnected: " + source_->describe());
+        const std::string why = source_->problem();
+        warnings_.push_back("disconnected: " + source_->describe() + (why.empty() ? "" : " (" + why + ")"));
         next_reopen_ = now;
       }
       if (now >= next_reopen_) {
         next_reopen_ = now + std::chrono::duration_cast<Clock::duration>(
                                  std::chrono::duration<double>(options_.reopen_interval_s));
+        ++reopen_attempts_;
         if (source_->reopen()) {
           disconnected_ = false;
           ++reconnects_;
@@ -88,6 +91,7 @@ PacketSourceStats StreamPacketSource::stats() const {
   s.parser = parser_.stats();
   s.disconnects = disconnects_;
   s.reconnects = reconnects_;
+  s.reopen_attempts = reopen_attempts_;
   return s;
 }
 

@@ -4,6 +4,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fcntl.h>
@@ -79,6 +80,9 @@ bool SerialPortSource::open_port() {
     ::close(fd);
     return false;
   }
+  struct stat st {};
+  opened_rdev_ = ::fstat(fd, &st) == 0 ? st.st_rdev : 0;
+  next_identity_check_ = std::chrono::steady_clock::now();
   fd_ = fd;
   last_error_.clear();
   return true;
@@ -91,6 +95,26 @@ void SerialPortSource::close_port(const std::string& why) {
     ++disconnects_;
   }
   last_error_ = why;
+}
+
+bool SerialPortSource::still_the_device() {
+  next_identity_check_ = std::chrono::steady_clock::now() +
+                         std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                             std::chrono::duration<double>(kIdentityCheckInterval_s));
+  struct stat st {};
+  if (::stat(device_.c_str(), &st) != 0) {
+    // udev removes the node when a USB adapter is unplugged; a pty's link is left dangling.
+    if (errno == ENOENT || errno == ENOTDIR) {
+      close_port("device " + device_ + " is gone");
+      return false;
+    }
+    return true;  // e.g. EACCES: cannot tell, keep reading
+  }
+  if (S_ISCHR(st.st_mode) && opened_rdev_ != 0 && st.st_rdev != opened_rdev_) {
+    close_port(device_ + " now names another device (re-created or re-pointed link)");
+    return false;
+  }
+  return true;
 }
 
 bool SerialPortSource::reopen() {
@@ -116,12 +140,10 @@ std::size_t SerialPortSource::read(std::uint8_t* buffer, std::size_t capacity, d
     return 0;
   }
   if (ready == 0) {
-    // Quiet line: still there? (udev removes the node when a USB adapter is unplugged.)
-    struct stat st {};
-    if (::stat(device_.c_str(), &st) != 0 && (errno == ENOENT || errno == ENOTDIR))
-      close_port("device " + device_ + " is gone");
+    still_the_device();  // quiet line: is the path still there, and still this device?
     return 0;
   }
+  if (std::chrono::steady_clock::now() >= next_identity_check_ && !still_the_device()) return 0;
   const ssize_t n = ::read(fd_, buffer, capacity);
   if (n > 0) return static_cast<std::size_t>(n);
   if (n == 0) {

@@ -68,11 +68,11 @@ Bytes packet_bytes(int i) {
   return Bytes(a.begin(), a.end());
 }
 
-// Reads from `source` until `count` bytes arrived or 3 s passed.
+// Reads from `source` until `count` bytes arrived or 30 s passed (a hang, never a busy machine).
 Bytes read_bytes(ByteSource& source, std::size_t count) {
   Bytes got;
   std::uint8_t buffer[512];
-  const auto deadline = Clock::now() + std::chrono::seconds(3);
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
   while (got.size() < count && Clock::now() < deadline) {
     const std::size_t n = source.read(buffer, sizeof buffer, 0.2);
     got.insert(got.end(), buffer, buffer + n);
@@ -117,7 +117,7 @@ TEST(SerialPortSource, TimeoutReturnsZeroAndStaysConnected) {
   EXPECT_EQ(port.read(buffer, sizeof buffer, 0.2), 0u);
   const double waited = seconds_since(start);
   EXPECT_GE(waited, 0.15);
-  EXPECT_LT(waited, 1.5);
+  EXPECT_LT(waited, 10.0);  // returns, not blocks (the bound is for a hang, not a busy machine)
   EXPECT_TRUE(port.ok());
   EXPECT_EQ(port.read(buffer, sizeof buffer, 0.0), 0u);  // poll
   EXPECT_TRUE(port.ok());
@@ -136,7 +136,7 @@ TEST(SerialPortSource, DetectsDisconnectAndReopens) {
   first->close();  // the instrument side goes away
   std::uint8_t buffer[64];
   const auto start = Clock::now();
-  while (port.ok() && seconds_since(start) < 3.0) port.read(buffer, sizeof buffer, 0.1);
+  while (port.ok() && seconds_since(start) < 30.0) port.read(buffer, sizeof buffer, 0.1);
   EXPECT_FALSE(port.ok());
   EXPECT_EQ(port.disconnects(), 1u);
   EXPECT_FALSE(port.last_error().empty());
@@ -149,6 +149,32 @@ TEST(SerialPortSource, DetectsDisconnectAndReopens) {
   ASSERT_TRUE(port.reopen()) << port.last_error();
   EXPECT_TRUE(port.ok());
   second.write(packet_bytes(1));
+  EXPECT_EQ(read_bytes(port, 153), packet_bytes(1));
+}
+
+// The link is re-pointed to another pty while the first one stays open and silent (socat or the
+// simulator re-created the pty; or the stale link of an unplugged pty whose number the kernel
+// gave to someone else's pty, and the instrument's new pty then replaced it): the port follows
+// the path. Before, it kept reading the old device forever: the new pty's bytes never came.
+TEST(SerialPortSource, FollowsTheLinkToAnotherDevice) {
+  const std::string link = test::make_temp_dir("lemi_repoint") + "/lemi_ref";
+  Pty first;
+  point_link(link, first.slave());
+  SerialPortSource port(link, 57600);
+  ASSERT_TRUE(port.ok()) << port.last_error();
+  first.write(packet_bytes(0));
+  EXPECT_EQ(read_bytes(port, 153), packet_bytes(0));
+
+  Pty second;  // `first` stays open: a live device, no hang-up
+  point_link(link, second.slave());
+  std::uint8_t buffer[64];
+  const auto start = Clock::now();
+  while (port.ok() && seconds_since(start) < 30.0) port.read(buffer, sizeof buffer, 0.1);  // a hang fails this
+  ASSERT_FALSE(port.ok()) << "still reading the device the link named before";
+  EXPECT_NE(port.last_error().find("now names another device"), std::string::npos) << port.last_error();
+  EXPECT_EQ(port.disconnects(), 1u);
+  ASSERT_TRUE(port.reopen()) << port.last_error();
+  second.write(packet_bytes(1));  // after the reopen: raw mode is set (a ^C byte would flush a cooked tty)
   EXPECT_EQ(read_bytes(port, 153), packet_bytes(1));
 }
 
@@ -182,13 +208,13 @@ TEST(StreamPacketSource, PacketsFromPtyThroughDisconnectAndReconnect) {
   first->write(packet_bytes(0));
   const Bytes p1 = packet_bytes(1);
   first->write(Bytes(p1.begin(), p1.begin() + 70));
-  auto a = source.next(2.0);
+  auto a = source.next(30.0);
   ASSERT_TRUE(a.has_value());
   EXPECT_EQ(a->gps_time_s, kT0);
   EXPECT_EQ(a->station, 0x0D);
   EXPECT_EQ(a->dac_counts[1], 0x1311);
   first->write(Bytes(p1.begin() + 70, p1.end()));
-  auto b = source.next(2.0);
+  auto b = source.next(30.0);
   ASSERT_TRUE(b.has_value());
   EXPECT_EQ(b->gps_time_s, kT0 + 1);
   EXPECT_NEAR(b->variation_nT(3, 0), 13.0, 1e-4);  // float32 uT
@@ -206,7 +232,7 @@ TEST(StreamPacketSource, PacketsFromPtyThroughDisconnectAndReconnect) {
   std::optional<Lemi025Packet> c;
   const auto start = Clock::now();
   bool written = false;
-  while (!c && seconds_since(start) < 3.0) {
+  while (!c && seconds_since(start) < 30.0) {
     c = source.next(0.1);
     if (source.connected() && !written) {
       second.write(packet_bytes(5));
@@ -222,7 +248,7 @@ TEST(StreamPacketSource, PacketsFromPtyThroughDisconnectAndReconnect) {
   EXPECT_EQ(s.parser.time_jumps, 0u);      // a new sequence after the reconnection
   const auto warnings = source.take_warnings();
   ASSERT_GE(warnings.size(), 2u);
-  EXPECT_EQ(warnings[0], "disconnected: serial " + link + " 57600 8N1");
+  EXPECT_EQ(warnings[0].rfind("disconnected: serial " + link + " 57600 8N1 (", 0), 0u) << warnings[0];  // and why
   EXPECT_EQ(warnings[1], "reconnected: serial " + link + " 57600 8N1");
 }
 
@@ -275,7 +301,7 @@ TEST(FileByteSource, PacingFollowsTheByteRate) {
   const double took = seconds_since(start);
   EXPECT_EQ(all.size(), 306u);
   EXPECT_GE(took, 0.17);
-  EXPECT_LT(took, 1.5);
+  EXPECT_LT(took, 10.0);  // paced, not stuck (the bound is for a hang, not a busy machine)
   std::uint8_t buffer[8];
   EXPECT_EQ(source.read(buffer, sizeof buffer, 0.0), 0u);
   EXPECT_TRUE(source.finished());
@@ -310,7 +336,7 @@ TEST(StreamPacketSource, DeviceAbsentAtStartIsRetriedNotCountedAsLoss) {
   std::optional<Lemi025Packet> p;
   const auto start = Clock::now();
   bool written = false;
-  while (!p && seconds_since(start) < 3.0) {
+  while (!p && seconds_since(start) < 30.0) {
     p = source.next(0.1);
     if (source.connected() && !written) {
       pty.write(packet_bytes(3));
