@@ -6,7 +6,7 @@ PACKAGES=(
   build-essential cmake pkg-config
   ros-core-dev librosbag-dev python3-rostest python3-sensor-msgs rosbash python3-rosbag
   libdiagnostic-updater-dev python3-diagnostic-msgs ros-diagnostic-msgs
-  libnodeletlib-dev libnodeletlib-tools catkin-tools catkin-lint
+  libnodeletlib-dev libnodeletlib-tools catkin-tools catkin-lint libtf2-ros-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libeigen3-dev libfftw3-dev zlib1g-dev libyaml-cpp-dev
   python3-yaml python3-matplotlib python3-numpy

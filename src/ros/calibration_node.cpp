@@ -26,6 +26,7 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
   }
   reference_.topic = settings_.reference_topic;
+  if (settings_.publish_tf) tf_broadcaster_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   updater_.setHardwareID("reference " + nh_.resolveName(settings_.reference_topic));
   updater_.add("reference", [this](DiagnosticStatusWrapper& status) { diagnose_reference(status); });
@@ -33,6 +34,7 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     const TestInstrumentSettings& t = settings_.tests[i];
     channels_.push_back(std::make_unique<Channel>(t, settings_));
     Channel& ch = *channels_.back();
+    if (settings_.publish_tf) ch.tf_state = "on, nothing accepted yet";
     ch.test.topic = t.topic;
     ch.publisher = nh_.advertise<MagnetometerCalibration>(t.calibration_topic, 10, /*latch=*/true);
     ch.subscriber = nh_.subscribe<sensor_msgs::MagneticField>(

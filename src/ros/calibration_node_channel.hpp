@@ -83,6 +83,10 @@ struct CalibrationNode::Channel {
   std::string last_change_window;
   std::size_t changes_detected = 0;
   std::string resume_state = "not tried";
+  // TF (~publish_tf).
+  std::size_t tf_published = 0;
+  std::string tf_state = "off (~publish_tf false)";
+  double tf_angle_deg = std::numeric_limits<double>::quiet_NaN();  ///< angle of the published rotation, deg
 
   PairingCounters counters() const {
     PairingCounters total = counters_before_reset;

@@ -139,6 +139,9 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
         problems.emplace_back(DiagnosticStatus::WARN, "calibration changed: " + ch.last_change.text);
       }
     }
+    status.add("tf state", ch.tf_state);
+    status.add("tf transforms published", ch.tf_published);
+    status.add("tf rotation angle (deg)", ch.tf_angle_deg);
     status.add("calibration file error", ch.file_error);
     if (ch.last_failed) problems.emplace_back(DiagnosticStatus::ERROR, "window failed: " + ch.last_failure);
     if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);

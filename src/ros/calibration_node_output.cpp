@@ -111,6 +111,7 @@ std::string CalibrationNode::publish_calibration(Channel& ch, const Magnetometer
     }
   }
   ch.publisher.publish(m);
+  publish_rotation(ch, m);
   return file_error;
 }
 
@@ -149,6 +150,7 @@ void CalibrationNode::resume_from_file(Channel& ch) {
     ch.last_accepted_stamp = time_for_message(m.header.stamp.toSec());
     ch.resume_state = "resumed from file";
     ch.publisher.publish(m);  // latched: subscribers get the persisted calibration at once
+    publish_rotation(ch, m);  // with ~publish_tf, its rotation on /tf_static (also latched)
     ROS_INFO("%s: test '%s': resumed the accepted calibration of window %s from %s", node_name_.c_str(),
              t.name.c_str(), window.c_str(), t.calibration_file.c_str());
   } catch (const std::exception& error) {

@@ -23,7 +23,7 @@ const std::vector<std::string> kKnownParameters = {
     "gamma", "trend", "min_harmonics", "max_condition_number", "min_coherence", "silent_timeout",
     "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
     "eiv_noise_ratio", "estimate_delay", "correct_delay", "change_false_alarm_probability", "change_scale_tolerance",
-    "change_angle_tolerance"};
+    "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -220,6 +220,13 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   if (s.max_pending_windows < 1) throw ParameterError("max_pending_windows", "must be >= 1");
   s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
   require_positive("diagnostic_period", s.diagnostic_period_s, "s");
+
+  // TF: the rotation part of accepted calibrations on /tf_static (calibration_node_tf.cpp).
+  s.publish_tf = param_bool(p, "publish_tf", s.publish_tf);
+  s.tf_child_frame_suffix = param_string(p, "tf_child_frame_suffix", s.tf_child_frame_suffix);
+  if (s.tf_child_frame_suffix.find_first_of(" \t/") != std::string::npos) {
+    throw ParameterError("tf_child_frame_suffix", "'" + s.tf_child_frame_suffix + "' must not contain spaces or '/'");
+  }
 
   // The core's own checks, reported under the parameter's name.
   try {

@@ -44,7 +44,7 @@ macro(mic_add_node name)
 endmacro()
 
 mic_add_node(calibration_node src/ros/calibration_node_settings.cpp src/ros/calibration_node_windows.cpp
-  src/ros/calibration_node_output.cpp src/ros/calibration_node_diagnostics.cpp)
+  src/ros/calibration_node_output.cpp src/ros/calibration_node_diagnostics.cpp src/ros/calibration_node_tf.cpp)
 mic_add_node(correction_node)
 mic_add_node(lemi025_driver src/ros/lemi025_driver_port.cpp src/ros/lemi025_driver_timing.cpp
   src/ros/lemi025_driver_diagnostics.cpp)

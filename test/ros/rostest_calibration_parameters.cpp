@@ -48,6 +48,7 @@ TEST(Calibration, BadParameters) {
       {calibration + " __name:=bad_eiv" + ok + " _eiv:=given", "parameter ~eiv: 'given' needs the reference noise"},
       {calibration + " __name:=bad_ratio" + ok + " _eiv_noise_ratio:=-1", "parameter ~eiv_noise_ratio:"},
       {calibration + " __name:=bad_delay" + ok + " _estimate_delay:=false", "parameter ~correct_delay:"},
+      {calibration + " __name:=bad_tf_suffix" + ok + " _tf_child_frame_suffix:=a/b", "parameter ~tf_child_frame_suffix:"},
       {correction + " __name:=bad_offset _test_topic:=/t _apply_offset:=maybe", "parameter ~apply_offset:"},
       {correction + " __name:=no_test_topic", "parameter ~test_topic: is required"},
       {correction + " __name:=bad_queue _test_topic:=/t _queue_size:=0", "parameter ~queue_size:"},

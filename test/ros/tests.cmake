@@ -11,6 +11,7 @@
 #catkin_lint: ignore external_directory
 #catkin_lint: ignore external_interface_path
 find_package(rostest REQUIRED)
+find_package(tf2_msgs REQUIRED)  # rostest_calibration_tf.cpp reads /tf_static
 
 catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
 if(TARGET test_ros_layer)
@@ -23,9 +24,9 @@ endif()
 add_rostest_gtest(rostest_calibration test/ros/nominal.test test/ros/rostest_calibration_main.cpp
   test/ros/rostest_calibration_nominal.cpp test/ros/rostest_calibration_streams.cpp
   test/ros/rostest_calibration_correction.cpp test/ros/rostest_calibration_parameters.cpp
-  test/ros/rostest_calibration_lifecycle.cpp)
+  test/ros/rostest_calibration_lifecycle.cpp test/ros/rostest_calibration_tf.cpp)
 target_link_libraries(rostest_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
-target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})
+target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS} ${tf2_msgs_INCLUDE_DIRS})
 target_compile_options(rostest_calibration PRIVATE -Wall -Wextra)
 target_compile_definitions(rostest_calibration PRIVATE
   CALIBRATION_NODE_PATH="$<TARGET_FILE:calibration_node>"
@@ -35,6 +36,8 @@ add_dependencies(rostest_calibration calibration_node correction_node)
 foreach(rostest_file silent_topic time_jump decimation two_instruments correction_reload bad_parameters)
   add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 endforeach()
+# ~publish_tf: the rotation part of n on /tf_static (and nothing from a node without it).
+add_rostest(test/ros/calibration_tf.test DEPENDENCIES rostest_calibration calibration_node)
 # Calibration change WARN after a step of the scale ratio; resume from the file after a restart.
 add_rostest(test/ros/test_calibration_change.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 add_rostest(test/ros/test_calibration_resume.test DEPENDENCIES rostest_calibration calibration_node correction_node)

@@ -22,12 +22,16 @@
 // Callbacks never wait for the estimator: windows are queued (at most ~max_pending_windows,
 // the oldest is dropped and counted when the worker falls behind).
 //
+// TF (~publish_tf, off by default): the rotation part of every accepted n, as a static transform
+// reference frame_id -> test frame_id on /tf_static (calibration_node_tf.cpp, docs/frames.md).
+//
 // Time: windows, pairing, jumps use the message stamps (header.stamp); silence is measured in
 // ROS time (wall clock, or /clock with /use_sim_time) between arrivals.
 //
 // Sources: calibration_node.cpp (subscriptions, pairing, decimation), calibration_node_windows.cpp
 // (window queue, worker, estimate, change check), calibration_node_output.cpp (message, YAML
-// file, resume), calibration_node_diagnostics.cpp, calibration_node_settings.cpp (parameters).
+// file, resume), calibration_node_tf.cpp, calibration_node_diagnostics.cpp,
+// calibration_node_settings.cpp (parameters).
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
@@ -42,6 +46,7 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 
 #include <condition_variable>
 #include <cstddef>
@@ -81,6 +86,8 @@ struct CalibrationNodeSettings {
   int queue_size = 10000;               ///< subscriber queue length, messages
   int max_pending_windows = 8;          ///< windows waiting for the worker
   double diagnostic_period_s = 1.0;     ///< ROS time between diagnostics, s
+  bool publish_tf = false;              ///< rotation part of accepted n on /tf_static (reference -> test frame)
+  std::string tf_child_frame_suffix;    ///< appended to the test frame_id for the transform's child frame
 
   /// True when the inputs are low-passed and decimated to decimation.output_period_s.
   bool decimating() const { return input_period_s < 0.99 * decimation.output_period_s; }
@@ -127,6 +134,8 @@ class CalibrationNode {
   /// error ("" when written or not accepted).
   std::string publish_calibration(Channel& channel, const MagnetometerCalibration& message);
   void resume_from_file(Channel& channel);
+  // TF (calibration_node_tf.cpp): the rotation part of an accepted n on /tf_static.
+  void publish_rotation(Channel& channel, const MagnetometerCalibration& message);
   // Diagnostics (calibration_node_diagnostics.cpp).
   void diagnose_reference(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnose_channel(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -139,6 +148,9 @@ class CalibrationNode {
   std::vector<std::unique_ptr<Channel>> channels_;
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostic_timer_;
+  /// Made only with ~publish_tf (it advertises /tf_static); used by the constructor (resume),
+  /// then by the worker thread only.
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_broadcaster_;
   double started_s_ = 0.0;  ///< ROS time of the first non-zero clock, s
 
   std::mutex queue_mutex_;
