@@ -5,7 +5,7 @@
 #    master) and the --bag input of calibrate_records;
 #  - programs records_to_bag, export_corrected, benchmark_bag_read;
 #  - calibrate_records (built by CMakeLists.txt from src/cli) gets the bag input.
-add_library(${PROJECT_NAME}_archive src/tools/archive_records.cpp)
+add_library(${PROJECT_NAME}_archive src/tools/archive_records.cpp src/tools/archive_join.cpp)
 target_include_directories(${PROJECT_NAME}_archive PUBLIC include src/tools)
 target_link_libraries(${PROJECT_NAME}_archive PUBLIC ${PROJECT_NAME}_core)
 target_compile_options(${PROJECT_NAME}_archive PRIVATE -Wall -Wextra)
