@@ -74,7 +74,8 @@ class CdfFile {
 
   /// Global attributes: every entry, in entry-number order.
   const std::map<std::string, std::vector<CdfAttributeEntry>>& global_attributes() const { return global_; }
-  /// A global attribute's text entries joined by '\n' (numbers printed with %.17g); "" if absent.
+  /// A global attribute's entries joined by '\n' (numbers: the shortest %.15g..%.17g that reads
+  /// back exactly, several in one entry separated by spaces); "" if absent.
   std::string global_text(const std::string& attribute) const;
 
   const std::vector<CdfVariable>& variables() const { return variables_; }

@@ -5,6 +5,7 @@
 #include "cdf_bytes.hpp"
 
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <set>
@@ -56,9 +57,13 @@ class ListGuard {
   std::set<std::uint64_t> seen_;
 };
 
+/// The shortest of %.15g, %.16g, %.17g that reads back as v.
 std::string number_text(double v) {
   char b[40];
-  std::snprintf(b, sizeof b, "%.17g", v);
+  for (int digits = 15; digits <= 17; ++digits) {
+    std::snprintf(b, sizeof b, "%.*g", digits, v);
+    if (std::strtod(b, nullptr) == v) break;
+  }
   return b;
 }
 

@@ -65,7 +65,7 @@ std::vector<double> unix_times(const CdfFile& file, const CdfVariable& v) {
   return out;
 }
 
-/// A numeric variable's values, one per record, FILLVAL and out-of-range values as NaN.
+/// A numeric variable's values, one per record; FILLVAL, out-of-range and infinite values as NaN.
 std::vector<double> field_values(const CdfFile& file, const CdfVariable& v) {
   if (v.values_per_record != 1 || v.num_elems != 1) {
     throw InputError(file.name(), "CDF variable " + v.name + ": not one value per record");
@@ -80,7 +80,7 @@ std::vector<double> field_values(const CdfFile& file, const CdfVariable& v) {
   number("VALIDMIN", low);
   number("VALIDMAX", high);
   for (double& x : values) {
-    if (x == fill || x < low || x > high) x = kNaN;
+    if (!std::isfinite(x) || x == fill || x < low || x > high) x = kNaN;
   }
   return values;
 }
