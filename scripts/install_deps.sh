@@ -13,6 +13,7 @@ PACKAGES=(
   nlohmann-json3-dev libcli11-dev
   socat gzip
   clang libclang-rt-14-dev
+  libjcdf-java default-jre-headless
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

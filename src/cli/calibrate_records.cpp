@@ -1,5 +1,6 @@
 // calibrate_records: in-situ calibration of a test magnetometer record against a reference
-// record (IAGA-2002, CSV, plain or gzip). Prints the table; --json writes the full report.
+// record (IAGA-2002, CSV, plain or gzip; LEMI binary; MagPy CDF, ImagCDF; one or several files per
+// instrument). Prints the table; --json writes the full report.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
@@ -37,14 +38,16 @@ void parse_band(const std::string& text, mic::EstimatorSettings& s) {
 
 int main(int argc, char** argv) {
   CLI::App app{"In-situ calibration of a test magnetometer against a co-located reference (FD-WLSE, Eq. 2)."};
-  std::string reference_path, test_path, json_path, band = "0.0002:0.01";
+  std::vector<std::string> reference_paths, test_paths;  // several files per instrument: joined in time order
+  std::string json_path, band = "0.0002:0.01";
   mic::CalibrationSettings settings;
   bool no_trend = false, no_despike = false;
-  auto* reference_option = app.add_option("--reference", reference_path,
+  auto* reference_option = app.add_option("--reference", reference_paths,
                                           "reference record (IAGA-2002 or CSV, .gz allowed; LemiBin, LEMI compact "
-                                          "flash, LEMI-025 byte stream)")
+                                          "flash, LEMI-025 byte stream; MagPy CDF, ImagCDF); several files (daily "
+                                          "files) are joined in time order")
                                ->required();
-  auto* test_option = app.add_option("--test", test_path, "test record (same formats)")->required();
+  auto* test_option = app.add_option("--test", test_paths, "test record (same formats, one or several files)")->required();
   mic::BagInputOptions bag(app, reference_option, test_option);  // or both records from one bag
   app.add_option("--band", band, "estimation band LOW:HIGH, Hz")->capture_default_str();
   app.add_option("--gamma", settings.estimator.gamma, "weight exponent: lambda_j^gamma")->capture_default_str();
@@ -92,9 +95,9 @@ int main(int argc, char** argv) {
       throw mic::InputError("--eiv", "'given' needs the reference noise spectrum, which the CLI does not take; use none or ratio");
     }
     settings.validate();
-    const auto [reference, test] = bag.records(reference_path, test_path);
+    const auto [reference, test] = bag.records(reference_paths, test_paths);
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
-    const mic::ReportInputs inputs = bag.inputs(reference_path, test_path);
+    const mic::ReportInputs inputs = bag.inputs(reference_paths, test_paths);
     std::cout << mic::format_calibration_table(result, inputs);
     if (!json_path.empty()) {
       std::ofstream out(json_path);

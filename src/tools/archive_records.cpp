@@ -384,6 +384,17 @@ ArchiveRecord read_archive_record(const std::string& path, const ArchiveReadOpti
   }
   ArchiveRecord out;
   out.format = format;
+  if (format == RecordFormat::kCdf) {  // temperatures: MagPy t1 (sensor), t2 (electronics); ImagCDF Temperature1, 2
+    out.record = read_record(path);
+    const std::vector<AuxiliaryChannel>& aux = out.record.auxiliary;
+    if (!aux.empty()) {
+      out.temperatures.time_s = out.record.time_s;
+      out.temperatures.sensor_C = aux[0].values;
+      out.temperatures.electronics_C =
+          aux.size() > 1 ? aux[1].values : std::vector<double>(aux[0].values.size(), std::numeric_limits<double>::quiet_NaN());
+    }
+    return out;
+  }
   out.record = read_record(path, options.lemi, &out.problems);
   for (const std::string& w : out.problems) out.skipped += w.find("erased blocks skipped") == std::string::npos;
   out.temperatures = temperatures_of(lemi_packets(path, format, options.lemi), options.lemi);

@@ -64,6 +64,15 @@ struct ArchiveRecord {
 /// Throws InputError for a file that cannot be read at all (missing, no header, no good record).
 ArchiveRecord read_archive_record(const std::string& path, const ArchiveReadOptions& options = {});
 
+/// Several files of one instrument (daily files) as one record: parts in time order, the records
+/// joined by join_records (record_join.hpp: samples overlapping an earlier file dropped, one
+/// message per part in `problems`), temperatures joined the same way, problems and skipped
+/// counts added up. One part is returned as it is. (archive_join.cpp)
+ArchiveRecord join_archive_records(std::vector<ArchiveRecord> parts);
+
+/// read_archive_record for each path, then join_archive_records. (archive_join.cpp)
+ArchiveRecord read_archive_records(const std::vector<std::string>& paths, const ArchiveReadOptions& options = {});
+
 /// Test readings corrected into the reference frame: rows r = t n^-1 (T = R n, rows are samples),
 /// NaN rows stay NaN. Times, source, station and header are kept; components are `components`.
 /// Offsets are not touched: a test baseline b (T = R n + b) appears as b n^-1 in the result.

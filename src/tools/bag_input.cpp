@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
+#include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 
 #include <iostream>
@@ -39,6 +40,34 @@ std::pair<VectorRecord, VectorRecord> BagInputOptions::records(const std::string
   std::vector<VectorRecord> records = read_bag_records(bag_, {reference_topic_, test_topic_}, &warnings);
   for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
   return {std::move(records[0]), std::move(records[1])};
+}
+
+std::pair<VectorRecord, VectorRecord> BagInputOptions::records(const std::vector<std::string>& reference_paths,
+                                                               const std::vector<std::string>& test_paths) const {
+  if (!bag_.empty() || (reference_paths.size() <= 1 && test_paths.size() <= 1)) {
+    return records(reference_paths.empty() ? std::string() : reference_paths.front(),
+                   test_paths.empty() ? std::string() : test_paths.front());
+  }
+  if (reference_paths.empty() || test_paths.empty()) {
+    throw InputError(reference_paths.empty() ? "--reference" : "--test", "is required");
+  }
+  std::vector<std::string> warnings;
+  std::pair<VectorRecord, VectorRecord> out{read_records(reference_paths, &warnings), read_records(test_paths, &warnings)};
+  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  return out;
+}
+
+namespace {
+std::string joined(const std::vector<std::string>& paths) {
+  std::string out;
+  for (const std::string& p : paths) out += (out.empty() ? "" : " + ") + p;
+  return out;
+}
+}  // namespace
+
+ReportInputs BagInputOptions::inputs(const std::vector<std::string>& reference_paths,
+                                     const std::vector<std::string>& test_paths) const {
+  return inputs(joined(reference_paths), joined(test_paths));
 }
 
 ReportInputs BagInputOptions::inputs(const std::string& reference_path, const std::string& test_path) const {

@@ -9,6 +9,7 @@
 
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace magnetometer_insitu_calibration {
 
@@ -23,9 +24,14 @@ class BagInputOptions {
   /// (LEMI records skipped, bag messages reordered) go to stderr. Throws InputError("--reference", ...) when neither
   /// the files nor the bag are given.
   std::pair<VectorRecord, VectorRecord> records(const std::string& reference_path, const std::string& test_path) const;
+  /// The same with several files per instrument (daily files), each side joined in time order
+  /// by read_records (record_join.hpp); overlaps between files are reported on stderr.
+  std::pair<VectorRecord, VectorRecord> records(const std::vector<std::string>& reference_paths,
+                                                const std::vector<std::string>& test_paths) const;
 
-  /// Names of the inputs for the report: the files, or "<bag>:<topic>".
+  /// Names of the inputs for the report: the files (several joined by " + "), or "<bag>:<topic>".
   ReportInputs inputs(const std::string& reference_path, const std::string& test_path) const;
+  ReportInputs inputs(const std::vector<std::string>& reference_paths, const std::vector<std::string>& test_paths) const;
 
   bool from_bag() const { return !bag_.empty(); }
 

@@ -1,6 +1,8 @@
 // export_corrected: the test record corrected into the reference frame with an in-situ
 // calibration, written as IAGA-2002 (70-column records, the 12 mandatory header records,
-// comments stating the calibration applied: matrix, window, source).
+// comments stating the calibration applied: matrix, window, source), or as ImagCDF 1.2 when the
+// output name ends in .cdf (the same statements in the global attribute Comments; temperature
+// channels of a CDF input as Temperature<n>).
 //
 //   export_corrected --test TEST --calibration report.json [--window "whole record"] --output out.sec
 //   export_corrected --bag pair.bag --test-topic /test/magnetic_field --calibration fge.yaml --output out.sec
@@ -14,6 +16,7 @@
 #include "archive_records.hpp"
 
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
@@ -115,12 +118,14 @@ std::array<std::string, 3> split_components(const std::string& text) {
 
 int main(int argc, char** argv) {
   CLI::App app{"Test magnetometer record corrected into the reference frame (r = t n^-1), written as IAGA-2002."};
-  std::string test_path, bag_path, test_topic, calibration_path, which, output, components;
+  std::vector<std::string> test_paths;  // several files (daily files): joined in time order
+  std::string bag_path, test_topic, calibration_path, which, output, components;
   mic::Iaga2002WriteOptions iaga;
   double max_condition = 100.0;
   bool allow_flagged = false;
-  auto* test = app.add_option("--test", test_path,
-                              "test record: IAGA-2002, CSV (.gz allowed), LemiBin, LEMI compact flash, LEMI-025 stream");
+  auto* test = app.add_option("--test", test_paths,
+                              "test record: IAGA-2002, CSV (.gz allowed), LemiBin, LEMI compact flash, LEMI-025 stream, "
+                              "MagPy CDF, ImagCDF; several files are joined in time order");
   auto* bag = app.add_option("--bag", bag_path, "rosbag holding the test record as sensor_msgs/MagneticField");
   auto* topic = app.add_option("--test-topic", test_topic, "test topic in --bag");
   bag->excludes(test)->needs(topic);
@@ -130,7 +135,8 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--window", which,
                  "window of the JSON report: 1-based index or label (default: 'whole record', else the last ok window)");
-  app.add_option("-o,--output", output, "IAGA-2002 file to write (.gz: compressed)")->required();
+  app.add_option("-o,--output", output, "IAGA-2002 file to write (.gz: compressed), or ImagCDF 1.2 if it ends in .cdf")
+      ->required();
   app.add_option("--components", components, "names of the corrected components, e.g. H,E,Z (default: the test's)");
   app.add_option("--iaga-code", iaga.iaga_code, "IAGA code (default: the test record's)");
   app.add_option("--station-name", iaga.station_name, "Station Name");
@@ -146,7 +152,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    if (test_path.empty() && bag_path.empty()) throw mic::InputError("--test", "is required (or --bag with --test-topic)");
+    if (test_paths.empty() && bag_path.empty()) throw mic::InputError("--test", "is required (or --bag with --test-topic)");
     const bool yaml = ends_with(calibration_path, ".yaml") || ends_with(calibration_path, ".yml");
     if (yaml && !which.empty()) throw mic::InputError("--window", "applies to a JSON report, not to a YAML calibration");
     const Applied applied = yaml ? from_yaml(calibration_path) : from_json(calibration_path, which);
@@ -156,12 +162,13 @@ int main(int argc, char** argv) {
     }
 
     mic::VectorRecord record;
-    std::string test_name = test_path;
+    std::string test_name;
+    for (const std::string& p : test_paths) test_name += (test_name.empty() ? "" : " + ") + p;
     if (!bag_path.empty()) {
       record = mic::read_bag_records(bag_path, {test_topic}).front();
       test_name = record.source;
     } else {
-      mic::ArchiveRecord archive = mic::read_archive_record(test_path);  // damaged records skipped, reported
+      mic::ArchiveRecord archive = mic::read_archive_records(test_paths);  // damaged records skipped, reported
       for (const std::string& problem : archive.problems) std::cerr << "export_corrected: warning: " << problem << "\n";
       record = std::move(archive.record);
     }
@@ -191,7 +198,27 @@ int main(int argc, char** argv) {
     if (const auto it = record.header.find("comments"); it != record.header.end() && !it->second.empty()) {
       iaga.comments.push_back("Comments of the test record:\n" + it->second);
     }
-    mic::write_iaga2002(output, corrected, iaga);
+    if (ends_with(output, ".cdf")) {
+      mic::ImagCdfWriteOptions cdf;
+      cdf.iaga_code = iaga.iaga_code;
+      cdf.observatory_name = iaga.station_name;
+      cdf.institution = iaga.source_of_data;
+      cdf.vector_sens_orient = iaga.sensor_orientation;
+      cdf.comments = iaga.comments;
+      const std::pair<const std::string*, double*> numbers[] = {
+          {&iaga.geodetic_latitude, &cdf.latitude}, {&iaga.geodetic_longitude, &cdf.longitude}, {&iaga.elevation, &cdf.elevation}};
+      for (const auto& [text, value] : numbers) {
+        if (text->empty()) continue;
+        try {
+          *value = std::stod(*text);
+        } catch (const std::exception&) {
+          throw mic::InputError("--latitude/--longitude/--elevation", "not a number: '" + *text + "'");
+        }
+      }
+      mic::write_imagcdf(output, corrected, cdf);
+    } else {
+      mic::write_iaga2002(output, corrected, iaga);
+    }
     std::cout << "wrote " << output << ": " << corrected.size() << " samples of " << test_name
               << " corrected with window " << applied.window << "\n";
   } catch (const mic::InputError& e) {

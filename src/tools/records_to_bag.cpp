@@ -1,5 +1,6 @@
 // records_to_bag: a reference and a test record (IAGA-2002, CSV, LemiBin, LEMI-025 compact
-// flash, raw LEMI-025 byte stream; format recognised from the content) into one rosbag of
+// flash, raw LEMI-025 byte stream, MagPy CDF, ImagCDF; format recognised from the content; several
+// files per instrument joined in time order) into one rosbag of
 // sensor_msgs/MagneticField (tesla, stamps from the records, frame ids from the options) and,
 // for the LEMI formats, sensor_msgs/Temperature. No ROS master needed.
 //
@@ -174,17 +175,19 @@ mic::ArchiveRecord read_one(const std::string& role, const std::string& path, co
 
 int main(int argc, char** argv) {
   CLI::App app{"Reference and test magnetometer records -> one rosbag of sensor_msgs/MagneticField (tesla)."};
-  std::string reference_path, test_path, output;
+  std::vector<std::string> reference_paths, test_paths;  // several files per instrument: joined in time order
+  std::string output;
   std::string reference_topic = "/reference/magnetic_field", test_topic = "/test/magnetic_field";
   std::string reference_frame = "reference", test_frame = "test", compression = "none", checksum = "none";
   bool no_temperatures = false, variation = false, quiet = false;
   double time_shift_s = mic::kLemi025TimeShift_s;
   std::size_t max_problems = 20;
   double progress_delay_s = 1.0;
-  app.add_option("--reference", reference_path,
-                 "reference record: IAGA-2002, CSV (.gz allowed), LemiBin, LEMI compact flash, LEMI-025 byte stream")
+  app.add_option("--reference", reference_paths,
+                 "reference record: IAGA-2002, CSV (.gz allowed), LemiBin, LEMI compact flash, LEMI-025 byte stream, "
+                 "MagPy CDF, ImagCDF; several files (daily files) are joined in time order")
       ->required();
-  app.add_option("--test", test_path, "test record, same formats")->required();
+  app.add_option("--test", test_paths, "test record, same formats, one or several files")->required();
   app.add_option("-o,--output", output, "bag to write (replaced if it exists)")->required();
   app.add_option("--reference-topic", reference_topic, "sensor_msgs/MagneticField topic of the reference")
       ->capture_default_str();
@@ -218,8 +221,22 @@ int main(int argc, char** argv) {
     }
 
     Progress progress(!quiet, progress_delay_s);
-    const mic::ArchiveRecord reference = read_one("reference", reference_path, options, progress, max_problems);
-    const mic::ArchiveRecord test = read_one("test", test_path, options, progress, max_problems);
+    auto read_all = [&](const std::string& role, const std::vector<std::string>& paths) {
+      std::vector<mic::ArchiveRecord> parts;
+      for (const std::string& path : paths) parts.push_back(read_one(role, path, options, progress, max_problems));
+      if (parts.size() == 1) return std::move(parts.front());
+      std::size_t printed = 0;  // the parts' own problems, printed by read_one; then the joining's
+      for (const mic::ArchiveRecord& part : parts) printed += part.problems.size();
+      mic::ArchiveRecord joined = mic::join_archive_records(std::move(parts));
+      for (std::size_t i = printed; i < joined.problems.size(); ++i) {
+        std::cerr << "records_to_bag: " << joined.problems[i] << "\n";
+      }
+      std::cout << role << ": " << paths.size() << " files joined: " << joined.record.size() << " samples, "
+                << time_range(joined.record) << "\n";
+      return joined;
+    };
+    const mic::ArchiveRecord reference = read_all("reference", reference_paths);
+    const mic::ArchiveRecord test = read_all("test", test_paths);
 
     std::vector<mic::BagFieldStream> fields = {{reference_topic, reference_frame, &reference.record},
                                                {test_topic, test_frame, &test.record}};

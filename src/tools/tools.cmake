@@ -11,7 +11,7 @@
 # (external_interface_path): other packages get the core through catkin_package().
 #catkin_lint: ignore external_directory
 #catkin_lint: ignore external_interface_path
-add_library(${PROJECT_NAME}_archive src/tools/archive_records.cpp)
+add_library(${PROJECT_NAME}_archive src/tools/archive_records.cpp src/tools/archive_join.cpp)
 target_include_directories(${PROJECT_NAME}_archive PUBLIC include src/tools)
 target_link_libraries(${PROJECT_NAME}_archive PUBLIC ${PROJECT_NAME}_core)
 target_compile_options(${PROJECT_NAME}_archive PRIVATE -Wall -Wextra)

@@ -15,12 +15,16 @@ enum class RecordFormat {
   kLemiBin,           ///< LemiBin (lemi_archive.hpp)
   kLemiCompactFlash,  ///< LEMI-025 compact-flash card image
   kLemi025Stream,     ///< raw capture of the LEMI-025 serial byte stream
+  kCdf,               ///< NASA CDF: MagPy CDF or ImagCDF (cdf_records.hpp)
 };
 
-/// "IAGA-2002", "CSV", "LemiBin", "LEMI compact flash", "LEMI-025 byte stream".
+/// "IAGA-2002", "CSV", "LemiBin", "LEMI compact flash", "LEMI-025 byte stream", "CDF".
 const char* record_format_name(RecordFormat format);
 
-/// Binary LEMI files first, from the first 64 KiB of raw bytes (a gzip file is text):
+/// CDF first, from its magic number: 0xCDF30001 (CDF 3.x) or 0xCDF26002 (CDF 2.6/2.7) in bytes 0-3,
+/// whatever follows (0x0000FFFF, or 0xCCCC0001 for a compressed file); also 0x0000FFFF twice (CDF
+/// before 2.6, which read_record then refuses by name).
+/// Binary LEMI files next, from the first 64 KiB of raw bytes (a gzip file is text):
 ///  - "LemiBin" at byte 0, or two valid LEMI-025 packets 169 bytes apart: LemiBin;
 ///  - two valid packets 153 bytes apart: raw byte stream;
 ///  - a valid compact-flash caption (tag + BCD time) at the start of the first 512-byte block
@@ -33,7 +37,8 @@ const char* record_format_name(RecordFormat format);
 RecordFormat detect_record_format(const std::string& path);
 
 /// detect_record_format, then read_iaga2002, read_csv_record, read_lemi_bin,
-/// read_lemi_compact_flash or read_lemi025_stream (LEMI: default LemiReadOptions, full field).
+/// read_lemi_compact_flash, read_lemi025_stream (LEMI: default LemiReadOptions, full field) or
+/// read_cdf_record.
 VectorRecord read_record(const std::string& path);
 
 /// The same with LEMI read options; the LEMI readers' warnings (damaged records skipped, each

@@ -1,6 +1,7 @@
 // Format detection and dispatch; see record_file.hpp.
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 
+#include "magnetometer_insitu_calibration/formats/cdf_records.hpp"
 #include "magnetometer_insitu_calibration/formats/csv_record.hpp"
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
@@ -21,14 +22,24 @@ std::string upper(std::string text) {
   return text;
 }
 
-// LEMI binary formats from the first bytes of the file; nullopt for text (or unreadable).
-std::optional<RecordFormat> detect_lemi_format(const std::string& path) {
+// CDF and the LEMI binary formats from the first bytes of the file; nullopt for text (or unreadable).
+std::optional<RecordFormat> detect_binary_format(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return std::nullopt;  // TextLineReader reports it
   std::vector<std::uint8_t> bytes(1 << 16);
   in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
   bytes.resize(static_cast<std::size_t>(in.gcount()));
   const std::size_t size = bytes.size();
+  if (size >= 8) {
+    auto word = [&](std::size_t p) {
+      return (std::uint32_t{bytes[p]} << 24) | (std::uint32_t{bytes[p + 1]} << 16) | (std::uint32_t{bytes[p + 2]} << 8) |
+             bytes[p + 3];
+    };
+    const std::uint32_t first = word(0), second = word(4);
+    if (first == 0xCDF30001u || first == 0xCDF26002u || (first == 0x0000FFFFu && second == 0x0000FFFFu)) {
+      return RecordFormat::kCdf;
+    }
+  }
   if (size >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b) return std::nullopt;  // gzip: text
   if (size >= 7 && std::equal(bytes.begin(), bytes.begin() + 7, "LemiBin")) return RecordFormat::kLemiBin;
   auto packet_at = [&](std::size_t p) {
@@ -71,12 +82,14 @@ const char* record_format_name(RecordFormat format) {
       return "LEMI compact flash";
     case RecordFormat::kLemi025Stream:
       return "LEMI-025 byte stream";
+    case RecordFormat::kCdf:
+      return "CDF";
   }
   return "unknown";
 }
 
 RecordFormat detect_record_format(const std::string& path) {
-  if (const std::optional<RecordFormat> lemi = detect_lemi_format(path)) return *lemi;
+  if (const std::optional<RecordFormat> binary = detect_binary_format(path)) return *binary;
   TextLineReader reader(path);
   std::string line;
   while (reader.next(line)) {
@@ -105,6 +118,8 @@ VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_op
       return read_lemi_compact_flash(path, lemi_options, warnings);
     case RecordFormat::kLemi025Stream:
       return read_lemi025_stream(path, lemi_options, warnings);
+    case RecordFormat::kCdf:
+      return read_cdf_record(path);
   }
   return read_csv_record(path);
 }
