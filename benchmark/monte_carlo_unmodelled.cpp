@@ -7,6 +7,7 @@
 //   monte_carlo_unmodelled disturbed [seeds=50] [days=5] [first_seed=1000]
 //   monte_carlo_unmodelled quiet     [seeds=100] [days=2] [first_seed=1000]
 //   monte_carlo_unmodelled wic       [data_dir=data]   four 6-hour quarters + the whole day
+//                                    (MC_WIC_NOISE_PT: reference noise figure for the default)
 //
 // Printed per estimator: median and 95th percentile over the seeds of the largest |scale-ratio
 // error| of the three axes (%) and of the largest |non-orthogonality error| (deg), and the
@@ -197,11 +198,17 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
 int run_wic(const std::string& dir) {
   const mic::VectorRecord reference = mic::read_record(dir + "/wic20250514_lemi036.sec.gz");
   const mic::VectorRecord test = mic::read_record(dir + "/wic20250514_fge.sec.gz");
-  std::printf("| estimator | sqrt(chi2/dof) of the quarters: scale H, E, Z; non-orth HE, HZ, EZ | whole day scale H, E, Z (95 %%) | method |\n|---|---|---|---|\n");
-  for (int m = 0; m < 2; ++m) {
+  std::printf("| estimator | sqrt(chi2/dof) of the quarters: scale H, E, Z; non-orth HE, HZ, EZ | whole day scale H, E, Z (95 %%) | EIV |\n|---|---|---|---|\n");
+  for (int m = 0; m < 3; ++m) {
     mic::CalibrationSettings settings;
+    if (m == 2) {  // the default before issue 13
+      settings.estimator.robust.eiv = mic::EivCorrection::kNoiseRatio;
+      settings.estimator.robust.eiv_noise_ratio = 1.0;
+    }
     settings.windows.intervals = 4;
     if (m == 1) settings.estimator.method = mic::EstimatorMethod::kPlain;
+    // MC_WIC_NOISE_PT: the reference's noise figure (pT/sqrt(Hz) at 1 Hz) for the default.
+    settings.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(knob("MC_WIC_NOISE_PT", 0.0) / 1000.0);
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
     double chi[6];
     for (int p = 0; p < 6; ++p) {
@@ -222,9 +229,9 @@ int run_wic(const std::string& dir) {
     const auto& day = result.windows.back().estimate;
     const auto& q = day.parameters;
     std::printf("| %s | %.2f, %.2f, %.2f; %.2f, %.2f, %.2f | %.5f+-%.5f, %.5f+-%.5f, %.5f+-%.5f | %s |\n",
-                m == 0 ? "default" : "plain Eq. 2", chi[0], chi[1], chi[2], chi[3], chi[4], chi[5], q.scale_ratio(0),
+                m == 0 ? "default" : (m == 1 ? "plain Eq. 2" : "robust, EIV ratio 1 (old default)"), chi[0], chi[1], chi[2], chi[3], chi[4], chi[5], q.scale_ratio(0),
                 q.scale_ratio_ci95(0), q.scale_ratio(1), q.scale_ratio_ci95(1), q.scale_ratio(2), q.scale_ratio_ci95(2),
-                day.method.c_str());
+                day.eiv.c_str());
   }
   return 0;
 }

@@ -98,6 +98,7 @@ struct CalibrationNode::Channel {
   double last_duration_s = 0.0;
   double last_delay_s = std::numeric_limits<double>::quiet_NaN(), last_delay_ci95_s = last_delay_s;
   std::string last_method, last_band, last_offset;
+  std::string last_eiv;  ///< noise model of the last window's errors-in-variables step
   // Change check: the accepted calibration the sliding windows are compared with (the first
   // window accepted since start, or the calibration file loaded at start).
   std::unique_ptr<WindowEstimate> baseline;
@@ -437,6 +438,7 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
     ch.last_offset = offset.str();
   }
   ch.last_method = m.method;
+  ch.last_eiv = e.eiv;
   ch.last_delay_s = m.delay_s;
   ch.last_delay_ci95_s = m.delay_ci95_s;
   ++ch.estimated;
@@ -554,6 +556,7 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("last accepted stamp", ch.last_accepted_stamp);
     status.add("calibration files written", ch.files_written);
     status.add("method", ch.last_method.empty() ? estimator_method_name(settings_.estimator.method) : ch.last_method);
+    status.add("EIV (last window)", ch.last_eiv.empty() ? std::string("no window yet") : ch.last_eiv);
     status.add("last band used (Hz)", ch.last_band);
     status.add("last delay (s)", ch.last_delay_s);
     status.add("last delay ci95 (s)", ch.last_delay_ci95_s);
