@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -71,12 +72,20 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--min-coherence", settings.estimator.min_coherence, "quality rule")->capture_default_str();
   app.add_option("--max-condition", settings.estimator.max_condition_number, "quality rule")->capture_default_str();
-  std::string method = "robust", eiv = "ratio";
-  app.add_option("--eiv", eiv,
-                 "robust: errors-in-variables correction none | ratio (reference/test noise PSD ratio known)")
+  std::string method = "robust", eiv = "given";
+  double reference_noise_pT = 0.0;
+  auto* eiv_option = app.add_option(
+      "--eiv", eiv,
+      "robust: errors-in-variables correction: given (the reference's identified noise, "
+      "--reference-noise-pT; none when not given), none, or ratio (a share of the residual, --eiv-ratio)")
       ->capture_default_str();
-  app.add_option("--eiv-ratio", settings.estimator.robust.eiv_noise_ratio,
-                 "robust, --eiv ratio: reference noise PSD / test noise PSD (1 for two instruments of one class)")
+  auto* ratio_option = app.add_option("--eiv-ratio", settings.estimator.robust.eiv_noise_ratio,
+                                      "robust, --eiv ratio (implied when given alone): reference noise PSD / test "
+                                      "noise PSD")
+                           ->capture_default_str();
+  app.add_option("--reference-noise-pT", reference_noise_pT,
+                 "robust, --eiv given: the reference's noise figure, pT/sqrt(Hz) at 1 Hz (maker's data "
+                 "sheet; taken as 1/f noise below 1 Hz); 0: not identified, no correction")
       ->capture_default_str();
   app.add_flag("--response-model", settings.response_model,
                "fit a delay + 1-pole low-pass per component to the relative response; estimate n through it");
@@ -90,10 +99,16 @@ int main(int argc, char** argv) {
     settings.estimator.trend = !no_trend;
     settings.preprocess.despike = !no_despike;
     settings.estimator.method = mic::parse_estimator_method(method, "--method");
+    // --eiv-ratio alone keeps meaning what it meant: the ratio mode, asked for explicitly.
+    if (ratio_option->count() > 0 && eiv_option->count() == 0) eiv = "ratio";
     settings.estimator.robust.eiv = mic::parse_eiv_correction(eiv, "--eiv");
-    if (settings.estimator.robust.eiv == mic::EivCorrection::kGiven) {
-      throw mic::InputError("--eiv", "'given' needs the reference noise spectrum, which the CLI does not take; use none or ratio");
+    if (!(reference_noise_pT >= 0.0) || !std::isfinite(reference_noise_pT)) {
+      throw mic::InputError("--reference-noise-pT", "must be a noise figure >= 0 pT/sqrt(Hz)");
     }
+    if (reference_noise_pT > 0.0 && settings.estimator.robust.eiv != mic::EivCorrection::kGiven) {
+      throw mic::InputError("--reference-noise-pT", "is used by --eiv given only (got --eiv " + eiv + ")");
+    }
+    settings.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(reference_noise_pT / 1000.0);
     settings.validate();
     const auto [reference, test] = bag.records(reference_paths, test_paths);
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);

@@ -5,6 +5,8 @@
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
+#include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <CLI/CLI.hpp>
@@ -80,6 +82,15 @@ std::string option_for_field(const std::string& field) {
       {"variation_rms_nT", "--variation-rms-nT"},
       {"spectral_index", "--spectral-index"},
       {"daily_amplitude_nT", "--daily-nT"},
+      {"variation_z_ratio", "--z-ratio"},
+      {"vehicles_per_day", "--vehicles-per-day"},
+      {"road_distance_m", "--road-distance-m"},
+      {"parking_probability", "--parking-probability"},
+      {"test_corner_hz", "--test-corner-hz"},
+      {"test_delay_s", "--test-delay-s"},
+      {"tilt_walk_nT_per_sqrt_day", "--pier-tilt-walk-nT"},
+      {"heater_nT", "--heater-nT"},
+      {"heater_period_s", "--heater-period-s"},
   };
   const auto it = options.find(field);
   return it == options.end() ? field : it->second;
@@ -123,6 +134,30 @@ int main(int argc, char** argv) {
   app.add_option("--variation-rms-nT", s.variation_rms_nT, "rms of x,y power-law variations, nT")->capture_default_str();
   app.add_option("--spectral-index", s.spectral_index, "variations' PSD ~ f^-index")->capture_default_str();
   app.add_option("--daily-nT", daily, "24 h harmonic amplitude x,y,z, nT (default 20,10,10)");
+  app.add_option("--z-ratio", s.variation_z_ratio, "rms of z variations / rms of x,y (weak Z: 0.2)")->capture_default_str();
+  // Disturbances of a disturbed station (station_disturbances.hpp), none by default.
+  mic::StationDisturbanceSettings station;
+  app.add_option("--vehicles-per-day", station.vehicles_per_day,
+                 "traffic: vehicles (magnetic dipoles) per day on a road, seen by the two sensors with "
+                 "different gains and directions")->capture_default_str();
+  app.add_option("--road-distance-m", station.road_distance_m, "traffic: road distance from the reference sensor, m")
+      ->capture_default_str();
+  app.add_option("--parking-probability", station.parking_probability, "traffic: share of vehicles that park by the road")
+      ->capture_default_str();
+  // What reaches the test instrument only and the estimators do not model (unmodelled_disturbances.hpp).
+  mic::UnmodelledDisturbanceSettings unmodelled;
+  std::string heater = "0,0,0";
+  app.add_option("--pier-tilt-walk-nT", unmodelled.tilt_walk_nT_per_sqrt_day,
+                 "random-walk tilt of the test pier: field change |B| theta after one day, nT/sqrt(day), "
+                 "1 sigma per horizontal axis (0.27: about 0.6 nT over 5 days)")->capture_default_str();
+  app.add_option("--heater-nT", heater, "heater cycling in the test sensor: field while on, test frame x,y,z, nT")
+      ->capture_default_str();
+  app.add_option("--heater-period-s", unmodelled.heater_period_s, "heater: mean on/off cycle, s (+-20 %, on 40 %)")
+      ->capture_default_str();
+  app.add_option("--test-corner-hz", unmodelled.test_corner_hz,
+                 "filter mismatch: one-pole low-pass of the test instrument, corner Hz (0: none)")->capture_default_str();
+  app.add_option("--test-delay-s", unmodelled.test_delay_s,
+                 "filter mismatch: extra delay of the test instrument after the low-pass, s")->capture_default_str();
   app.add_option("--decimals", decimals, "CSV value decimals (IAGA-2002 always has 2)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -156,8 +191,12 @@ int main(int argc, char** argv) {
     s.tilt_axis = parse_vector(tilt_axis, "--tilt-axis");
     s.spike_instrument = mic::parse_simulated_instrument(spike_instrument, "--spike-instrument");
     s.gap_instrument = mic::parse_simulated_instrument(gap_instrument, "--gap-instrument");
+    unmodelled.heater_nT = parse_vector(heater, "--heater-nT");
+    station.seed = unmodelled.seed = s.seed;
     try {
       s.validate();
+      station.validate();
+      unmodelled.validate();
     } catch (const mic::InputError& e) {
       throw mic::InputError(option_for_field(e.where()), e.problem());
     }
@@ -169,6 +208,8 @@ int main(int argc, char** argv) {
     }
 
     mic::SimulatedPair pair = mic::simulate_pair(s);
+    if (station.vehicles_per_day > 0.0) mic::add_station_disturbances(pair, station);
+    mic::add_unmodelled_disturbances(pair, unmodelled);
     pair.reference.station = "SIM";
     pair.test.station = "SIM";
     const std::filesystem::path dir(out_dir);
@@ -205,6 +246,14 @@ int main(int argc, char** argv) {
                       {"reference", reference_path},
                       {"test", test_path}};
     truth["start"] = mic::format_iso8601(s.start_time_s, 3);
+    truth["traffic"] = {{"vehicles_per_day", station.vehicles_per_day},
+                        {"road_distance_m", station.road_distance_m},
+                        {"parking_probability", station.parking_probability}};
+    truth["test_only"] = {{"pier_tilt_walk_nT_per_sqrt_day", unmodelled.tilt_walk_nT_per_sqrt_day},
+                          {"heater_nT", {unmodelled.heater_nT(0), unmodelled.heater_nT(1), unmodelled.heater_nT(2)}},
+                          {"heater_period_s", unmodelled.heater_period_s},
+                          {"test_corner_hz", unmodelled.test_corner_hz},
+                          {"test_delay_s", unmodelled.test_delay_s}};
     std::string command_line;
     for (int i = 0; i < argc; ++i) command_line += (i ? " " : "") + std::string(argv[i]);
     truth["command_line"] = command_line;

@@ -73,6 +73,7 @@ struct CalibrationNode::Channel {
   double last_duration_s = 0.0;
   double last_delay_s = std::numeric_limits<double>::quiet_NaN(), last_delay_ci95_s = last_delay_s;
   std::string last_method, last_band, last_offset;
+  std::string last_eiv;  ///< noise model of the last window's errors-in-variables step
   ResponseSummary last_response;  ///< relative response over the band used (bands == 0: none yet)
   // Change check: the accepted calibration the sliding windows are compared with (the first
   // window accepted since start, or the calibration file loaded at start).

@@ -110,6 +110,7 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("last accepted stamp", ch.last_accepted_stamp);
     status.add("calibration files written", ch.files_written);
     status.add("method", ch.last_method.empty() ? estimator_method_name(settings_.estimator.method) : ch.last_method);
+    status.add("EIV (last window)", ch.last_eiv.empty() ? std::string("no window yet") : ch.last_eiv);
     status.add("last band used (Hz)", ch.last_band);
     status.add("last delay (s)", ch.last_delay_s);
     status.add("last delay ci95 (s)", ch.last_delay_ci95_s);

@@ -22,8 +22,8 @@ const std::vector<std::string> kKnownParameters = {
     "pairing_max_wait", "window", "step", "max_filled_fraction", "max_fill", "band_low", "band_high",
     "gamma", "trend", "min_harmonics", "max_condition_number", "min_coherence", "silent_timeout",
     "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
-    "eiv_noise_ratio", "estimate_delay", "correct_delay", "change_false_alarm_probability", "change_scale_tolerance",
-    "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix"};
+    "eiv_noise_ratio", "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
+    "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -178,13 +178,15 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   // The offline CLI's estimator (robust_estimator.hpp): method and the options that matter live.
   try {
     s.estimator.method = parse_estimator_method(param_string(p, "method", "robust"), "method");
-    s.estimator.robust.eiv = parse_eiv_correction(param_string(p, "eiv", "ratio"), "eiv");
+    s.estimator.robust.eiv = parse_eiv_correction(param_string(p, "eiv", "given"), "eiv");
   } catch (const InputError& e) {
     throw ParameterError(e.where(), e.problem());
   }
-  if (s.estimator.robust.eiv == EivCorrection::kGiven) {
-    throw ParameterError("eiv", "'given' needs the reference noise spectrum, which the node does not take: use none or ratio");
-  }
+  // ~reference_noise_pT: the reference's noise figure, pT/sqrt(Hz) at 1 Hz (1/f below); 0 (the
+  // default): not identified, no errors-in-variables correction (eiv given).
+  const double reference_noise_pT = param_double(p, "reference_noise_pT", 0.0);
+  require_non_negative("reference_noise_pT", reference_noise_pT, "(pT/sqrt(Hz) at 1 Hz)");
+  s.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(reference_noise_pT / 1000.0);
   s.estimator.robust.auto_band = param_bool(p, "auto_band", s.estimator.robust.auto_band);
   s.estimator.robust.eiv_noise_ratio = param_double(p, "eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio);
   require_non_negative("eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio, "(PSD ratio reference / test)");

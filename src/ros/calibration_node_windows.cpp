@@ -99,6 +99,7 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
     ch.last_offset = offset.str();
   }
   ch.last_method = m.method;
+  ch.last_eiv = e.eiv;
   ch.last_response = result.response;
   ch.last_delay_s = m.delay_s;
   ch.last_delay_ci95_s = m.delay_ci95_s;

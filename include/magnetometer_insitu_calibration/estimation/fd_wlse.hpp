@@ -27,11 +27,15 @@ const char* estimator_method_name(EstimatorMethod method);  ///< "plain", "robus
 /// Parses "plain" / "robust"; throws InputError(where, ...) otherwise.
 EstimatorMethod parse_estimator_method(const std::string& text, const std::string& where = "method");
 
-/// Errors-in-variables correction of the robust estimator (errors_in_variables.hpp).
+/// Errors-in-variables correction of the robust estimator (errors_in_variables.hpp). The default
+/// uses only IDENTIFIED reference noise (the maker's figure given as reference_pink_* /
+/// reference_white_nT); with none given it applies none and says so ("noise not identified"):
+/// residual power is not instrument noise (tilt of one pier, local sources, a response
+/// mismatch), and a share of it taken as reference noise inflates n where the signal is weak.
 enum class EivCorrection : int {
   kNone = 0,        ///< none: the estimate is attenuated by the reference noise (as Eq. 2)
-  kNoiseRatio = 1,  ///< reference noise PSD = eiv_noise_ratio x test noise PSD (Deming / TLS)
-  kGiven = 2,       ///< reference noise spectrum given: reference_white_nT, reference_pink_*
+  kNoiseRatio = 1,  ///< reference noise PSD = eiv_noise_ratio x residual-derived test noise PSD (only when asked)
+  kGiven = 2,       ///< default: reference noise spectrum given (reference_white_nT, reference_pink_*); none if zero
 };
 const char* eiv_correction_name(EivCorrection mode);  ///< "none", "ratio", "given"
 EivCorrection parse_eiv_correction(const std::string& text, const std::string& where = "eiv");
@@ -59,10 +63,15 @@ struct RobustSettings {
   bool correct_delay = true;         ///< remove a significant delay by a phase shift before fitting
   double delay_max_hz = 0.1;         ///< highest frequency used for the delay, Hz
   // Errors in variables.
-  EivCorrection eiv = EivCorrection::kNoiseRatio;  ///< default: instruments of one class (ratio 1)
+  EivCorrection eiv = EivCorrection::kGiven;  ///< default: identified (given) noise only; none if not given
   double eiv_noise_ratio = 1.0;      ///< kNoiseRatio: PSD_ref / PSD_test (dimensionless, >= 0)
   Eigen::Vector3d reference_white_nT = Eigen::Vector3d::Zero();  ///< kGiven: rms per sample, nT
-  Eigen::Vector3d reference_pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();  ///< kGiven: ASD at 1 Hz
+  /// kGiven: ASD at 1 Hz of 1/f noise, nT/sqrt(Hz) (a fluxgate maker's figure "pT/sqrt(Hz) at
+  /// 1 Hz" / 1000, taken as 1/f below 1 Hz, which is what fluxgates show in the band).
+  Eigen::Vector3d reference_pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
+
+  /// True when kGiven has a non-zero reference noise: the correction has noise to use.
+  bool reference_noise_identified() const;
 
   /// Throws InputError naming the field when a value is impossible.
   void validate() const;
@@ -119,6 +128,12 @@ struct WindowEstimate {
   double delay_ci95_s = std::numeric_limits<double>::quiet_NaN();   ///< 95 % half-width, s
   double screened_fraction = 0.0;  ///< robust: share of samples masked by the residual screen
   double downweighted_fraction = 0.0;  ///< robust: share of cell weight removed by the M-step
+  /// Noise model of the errors-in-variables correction this window used, e.g. "none (noise not
+  /// identified)", "given reference noise: 1/f 10 pT/sqrt(Hz) at 1 Hz", "ratio 0.03 (share of
+  /// the residual)", "none (plain Eq. 2)".
+  std::string eiv = "none (plain Eq. 2)";
+  /// Weights of the sums: "lambda^gamma" (plain) or "lambda^gamma x Huber cell x section" (robust).
+  std::string weights = "lambda^gamma";
 
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
   Eigen::Matrix3d n_stderr() const;

@@ -37,7 +37,9 @@
 //     is repeated, so that a timing offset cannot leak into n through the imaginary part of
 //     the cross-spectra (first order when the field's components are not in phase).
 //  5. Errors in variables (errors_in_variables.hpp): N_r = sum w g E|X_noise|^2 is subtracted
-//     from A at every iteration (mode given or ratio). In ratio mode each cell's E|X_noise|^2
+//     from A at every iteration (mode given or ratio). Default: given, with the reference's
+//     identified noise (maker's figure) only; none when it is not given, and the window says
+//     so (WindowEstimate::eiv = "none (noise not identified)"). Ratio mode only when asked. In ratio mode each cell's E|X_noise|^2
 //     is share x its own residual power, capped at 9 robust sigmas^2 of its frequency bin, and
 //     the fixed point n = (A - N_r(n))^-1 C is iterated to convergence with the final weights.
 //  6. Covariance, from the final weights:

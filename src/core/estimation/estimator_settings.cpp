@@ -36,6 +36,11 @@ EivCorrection parse_eiv_correction(const std::string& text, const std::string& w
   throw InputError(where, "expected none, ratio or given, got '" + text + "'");
 }
 
+bool RobustSettings::reference_noise_identified() const {
+  return eiv == EivCorrection::kGiven &&
+         ((reference_white_nT.array() > 0.0).any() || (reference_pink_nT_per_sqrt_hz.array() > 0.0).any());
+}
+
 void RobustSettings::validate() const {
   auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
   if (!positive(screen_threshold)) throw InputError("screen_threshold", "must be a positive number of sigmas");

@@ -23,6 +23,30 @@ namespace magnetometer_insitu_calibration {
 
 using namespace detail::robust;
 
+namespace {
+
+/// What the errors-in-variables step used (WindowEstimate::eiv), `applied` from the solve.
+std::string eiv_text(const RobustSettings& rs, bool applied) {
+  std::ostringstream text;
+  switch (rs.eiv) {
+    case EivCorrection::kNone:
+      return "none (off)";
+    case EivCorrection::kGiven:
+      if (!rs.reference_noise_identified()) return "none (noise not identified)";
+      if (!applied) return "none (given noise as large as the signal: refused)";
+      text << "given reference noise: white " << rs.reference_white_nT.maxCoeff() * 1000.0 << " pT rms, 1/f "
+           << rs.reference_pink_nT_per_sqrt_hz.maxCoeff() * 1000.0 << " pT/sqrt(Hz) at 1 Hz";
+      return text.str();
+    case EivCorrection::kNoiseRatio:
+      if (!applied) return "none (ratio correction refused)";
+      text << "ratio " << rs.eiv_noise_ratio << " (share of the residual, as asked)";
+      return text.str();
+  }
+  return "unknown";
+}
+
+}  // namespace
+
 struct RobustFdEstimator::Impl {
   detail::RealDft dft;
 };
@@ -49,6 +73,8 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   FdWlseEstimator plain(settings_);
   WindowEstimate initial = plain.estimate(reference_nT, test_nT, sample_period_s);
   initial.method = "robust";
+  initial.eiv = eiv_text(rs, false);
+  initial.weights = "lambda^gamma x Huber cell x section";
   if (initial.quality == Quality::kNotFinite || initial.quality == Quality::kTooFewSamples ||
       !initial.n.allFinite()) {
     return initial;
@@ -128,6 +154,8 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
 
   WindowEstimate result = initial;  // keeps samples, period; everything else is overwritten
   result.method = "robust";
+  result.eiv = eiv_text(rs, false);
+  result.weights = "lambda^gamma x Huber cell x section";
   result.band_low_hz = band_low;
   result.band_high_hz = band_high;
   result.harmonic_first = static_cast<int>(std::max(1L, static_cast<long>(std::ceil(band_low * duration_s - 1e-9))));
@@ -191,6 +219,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     if (last.ok) static_cast<WeightedSolution&>(fit) = last;
   }
   diagnostics_.eiv_applied = fit.eiv_applied;
+  result.eiv = eiv_text(rs, fit.eiv_applied);
   diagnostics_.eiv_noise = fit.noise;
   diagnostics_.n_uncorrected = fit.n_uncorrected;
 

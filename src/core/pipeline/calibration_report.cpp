@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -96,6 +97,8 @@ json window_to_json(const CalibrationWindow& w) {
       {"delay_ci95_s", number(e.delay_ci95_s)},
       {"screened_fraction", e.screened_fraction},
       {"downweighted_fraction", e.downweighted_fraction},
+      {"eiv", e.eiv},
+      {"weights", e.weights},
       {"relative_response", response_to_json(w.relative_response)},
       {"response_model", model_to_json(w.response_model)},
   };
@@ -114,6 +117,9 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s,
         {"gamma", s.estimator.gamma},
         {"method", estimator_method_name(s.estimator.method)},
         {"auto_band", s.estimator.robust.auto_band},
+        {"eiv", eiv_correction_name(s.estimator.robust.eiv)},
+        {"eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio},
+        {"reference_noise_pT_per_sqrt_hz", 1000.0 * s.estimator.robust.reference_pink_nT_per_sqrt_hz.maxCoeff()},
         {"trend", s.estimator.trend},
         {"intervals", s.windows.intervals},
         {"window_s", s.windows.window_s},
@@ -164,7 +170,14 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
       << "pre-processing: " << r.paired << " pairs (" << r.unpaired_reference << " reference and "
       << r.unpaired_test << " test samples unpaired), spikes removed " << r.spikes_reference << " / "
       << r.spikes_test << (r.decimated ? ", Gaussian FIR decimated" : "") << ", " << r.grid_samples
-      << " samples on the grid, " << r.filled_samples << " interpolated, " << r.long_gaps << " long gaps\n\n";
+      << " samples on the grid, " << r.filled_samples << " interpolated, " << r.long_gaps << " long gaps\n";
+  // The errors-in-variables noise model of each window (usually one for all).
+  std::vector<std::string> models;
+  for (const auto& w : c.windows)
+    if (std::find(models.begin(), models.end(), w.estimate.eiv) == models.end()) models.push_back(w.estimate.eiv);
+  out << "EIV:";
+  for (std::size_t k = 0; k < models.size(); ++k) out << (k ? "; " : " ") << models[k];
+  out << "\n\n";
 
   const char* axes[3] = {"x", "y", "z"};
   const char* pairs[3] = {"xy", "xz", "yz"};

@@ -108,3 +108,34 @@ TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("step"), std::string::npos) << r.output;
 }
+
+// Issue 13: the default errors-in-variables correction uses identified noise only. Without a
+// noise figure it applies none and every report says so; --reference-noise-pT gives the
+// reference's figure; --eiv-ratio alone keeps asking for the ratio mode.
+TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
+  const std::string io = "--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --json " + dir_;
+  struct Case {
+    std::string options, json, expected;
+  };
+  const std::vector<Case> cases = {
+      {"", "/eiv_default.json", "none (noise not identified)"},
+      {"--eiv none", "/eiv_none.json", "none (off)"},
+      {"--reference-noise-pT 5", "/eiv_given.json", "given reference noise: white 0 pT rms, 1/f 5 pT/sqrt(Hz) at 1 Hz"},
+      {"--eiv-ratio 0.03", "/eiv_ratio.json", "ratio 0.03 (share of the residual, as asked)"},
+      {"--method plain", "/eiv_plain.json", "none (plain Eq. 2)"},
+  };
+  for (const Case& c : cases) {
+    const ProgramRun r = run(io + c.json + " " + c.options);
+    ASSERT_EQ(r.status, 0) << c.options << ": " << r.output;
+    EXPECT_NE(r.output.find("EIV: " + c.expected + "\n"), std::string::npos) << c.options << ": " << r.output;
+    std::ifstream in(dir_ + c.json);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_EQ(j["windows"][0]["eiv"], c.expected) << c.options;
+  }
+  const ProgramRun bad = run(io + "/x.json --eiv none --reference-noise-pT 5");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.output.find("--reference-noise-pT"), std::string::npos) << bad.output;
+  const ProgramRun negative = run(io + "/x.json --reference-noise-pT -1");
+  EXPECT_NE(negative.status, 0);
+  EXPECT_NE(negative.output.find("--reference-noise-pT"), std::string::npos) << negative.output;
+}

@@ -2,6 +2,8 @@
 // are named. Needs the executable's path from the build
 // (SIMULATE_RECORDS_BIN="$<TARGET_FILE:simulate_records>").
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
+#include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/formats/csv_record.hpp"
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "test_support.hpp"
@@ -94,11 +96,74 @@ TEST(SimulateRecordsCli, BadOptionsAreNamedAndFail) {
       {"--gaps 100 --gap-seconds 3600", "--gaps"},
       {"--nonorthogonality-deg 89,89,-89", "--nonorthogonality-deg"},
       {"--delay-s 1e9", "--delay-s"},
+      {"--test-corner-hz -1", "--test-corner-hz"},
+      {"--pier-tilt-walk-nT -0.1", "--pier-tilt-walk-nT"},
+      {"--heater-nT 0,0", "--heater-nT"},
+      {"--heater-period-s 0 --heater-nT 0,0.1,0", "--heater-period-s"},
+      {"--road-distance-m 0.1 --vehicles-per-day 10", "--road-distance-m"},
+      {"--z-ratio -1", "--z-ratio"},
   };
   for (const auto& [args, option] : cases) {
     const ProgramRun r = run_simulate_records("--out-dir " + dir + " " + args);
     EXPECT_NE(r.status, 0) << args;
     EXPECT_NE(r.output.find(option), std::string::npos) << args << " -> " << r.output;
   }
+#endif
+}
+
+// The disturbances the estimators do not model, from the command line: the records are the
+// library's simulate_pair + add_station_disturbances + add_unmodelled_disturbances with the same
+// settings, and truth.json states them.
+TEST(SimulateRecordsCli, DisturbedStationOptionsMatchTheLibrary) {
+#ifndef SIMULATE_RECORDS_BIN
+  GTEST_SKIP() << "SIMULATE_RECORDS_BIN not defined by the build";
+#else
+  const std::string dir = mic::test::make_temp_dir("simulate_records_disturbed");
+  const ProgramRun r = run_simulate_records(
+      "--out-dir " + dir + " --format csv --days 0.2 --seed 4 --decimals 6 --z-ratio 0.2 "
+      "--vehicles-per-day 200 --road-distance-m 30 --parking-probability 0.1 --pier-tilt-walk-nT 0.3 "
+      "--heater-nT 0,0.05,-0.02 --heater-period-s 1200 --test-corner-hz 0.2 --test-delay-s 0.5 --gaps 1 "
+      "--spikes-per-day 20");
+  ASSERT_EQ(r.status, 0) << r.output;
+  mic::SimulationSettings s;
+  s.duration_s = 0.2 * 86400.0;
+  s.seed = 4;
+  s.variation_z_ratio = 0.2;
+  s.gap_count = 1;
+  s.spikes_per_day = 20;
+  mic::SimulatedPair expected = mic::simulate_pair(s);
+  const mic::VectorRecord clean_test = expected.test;
+  mic::StationDisturbanceSettings d;
+  d.seed = 4;
+  d.vehicles_per_day = 200;
+  d.road_distance_m = 30;
+  d.parking_probability = 0.1;
+  mic::add_station_disturbances(expected, d);
+  mic::UnmodelledDisturbanceSettings u;
+  u.seed = 4;
+  u.tilt_walk_nT_per_sqrt_day = 0.3;
+  u.heater_nT = Eigen::Vector3d(0.0, 0.05, -0.02);
+  u.heater_period_s = 1200;
+  u.test_corner_hz = 0.2;
+  u.test_delay_s = 0.5;
+  mic::add_unmodelled_disturbances(expected, u);
+  const mic::VectorRecord test = mic::read_csv_record(dir + "/test.csv");
+  ASSERT_EQ(test.size(), expected.test.size());
+  double largest_change = 0.0;
+  for (Eigen::Index i = 0; i < test.values_nT.rows(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const double a = test.values_nT(i, c), b = expected.test.values_nT(i, c);
+      ASSERT_EQ(std::isnan(a), std::isnan(b)) << "row " << i;
+      if (std::isnan(a)) continue;
+      ASSERT_NEAR(a, b, 6e-7) << "row " << i;
+      largest_change = std::max(largest_change, std::abs(a - clean_test.values_nT(i, c)));
+    }
+  }
+  EXPECT_GT(largest_change, 0.05);  // the options did something
+  std::ifstream in(dir + "/truth.json");
+  const nlohmann::json truth = nlohmann::json::parse(in);
+  EXPECT_EQ(truth["test_only"]["test_corner_hz"].get<double>(), 0.2);
+  EXPECT_EQ(truth["test_only"]["pier_tilt_walk_nT_per_sqrt_day"].get<double>(), 0.3);
+  EXPECT_EQ(truth["traffic"]["vehicles_per_day"].get<double>(), 200.0);
 #endif
 }

@@ -1,0 +1,179 @@
+// Known-truth tests of the test-only disturbances (unmodelled_disturbances.hpp): the expected
+// values come from the physics of each model (filter response, random-walk variance, thermostat
+// cycle), not from the code.
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
+#include "simulator_test_helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <vector>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+using mic::test::quiet_settings;
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// Amplitude and phase (rad) of the harmonic k of x (N samples), from a direct DFT sum.
+std::complex<double> harmonic(const Eigen::VectorXd& x, int k) {
+  std::complex<double> sum = 0.0;
+  const double n = static_cast<double>(x.size());
+  for (Eigen::Index i = 0; i < x.size(); ++i) sum += x(i) * std::polar(1.0, -2.0 * kPi * k * static_cast<double>(i) / n);
+  return 2.0 * sum / n;
+}
+
+}  // namespace
+
+TEST(TestResponse, OnePoleLowPassAndDelayOfASinusoid) {
+  // 4096 samples at 1 s; a sinusoid of 40 whole cycles (f = 40/4096 Hz) in each component.
+  const int n = 4096, cycles = 40;
+  const double dt = 1.0, f = cycles / (n * dt), corner = 0.02, delay = 3.0;
+  mic::Readings x(n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) x(i, c) = (c + 1.0) * std::cos(2.0 * kPi * f * i * dt + c);
+  const mic::Readings before = x;
+  mic::apply_test_response(x, dt, corner, delay);
+  // H(f) = e^{-2 pi i f delay} / (1 + i f / corner).
+  const std::complex<double> h = std::polar(1.0, -2.0 * kPi * f * delay) / std::complex<double>(1.0, f / corner);
+  for (int c = 0; c < 3; ++c) {
+    const std::complex<double> in = harmonic(before.col(c), cycles), out = harmonic(x.col(c), cycles);
+    // Not 1e-12: the line through the end samples (removed before the transform) carries a
+    // tiny share of the sinusoid, which goes through the group delay instead of H(f).
+    EXPECT_NEAR(std::abs(out / in), std::abs(h), 2e-3) << c;
+    EXPECT_NEAR(std::arg(out / in), std::arg(h), 2e-3) << c;
+  }
+}
+
+TEST(TestResponse, RampIsDelayedByTheGroupDelayAndNaNRunsStay) {
+  const int n = 2000;
+  const double dt = 1.0, corner = 0.05, delay = 2.0, slope = 0.01;  // nT/s
+  mic::Readings x(n, 3);
+  for (int i = 0; i < n; ++i) x.row(i).setConstant(100.0 + slope * i * dt);
+  x.block(500, 1, 30, 1).setConstant(std::nan(""));
+  mic::apply_test_response(x, dt, corner, delay);
+  // A ramp through H: the ramp delayed by delay + 1 / (2 pi corner) (low-frequency group delay).
+  const double shift = delay + 1.0 / (2.0 * kPi * corner);
+  for (int i : {100, 1000, 1900}) EXPECT_NEAR(x(i, 0), 100.0 + slope * (i * dt - shift), 1e-9) << i;
+  for (int i = 500; i < 530; ++i) EXPECT_TRUE(std::isnan(x(i, 1))) << i;
+  EXPECT_TRUE(std::isfinite(x(499, 1)) && std::isfinite(x(530, 1)));
+}
+
+TEST(UnmodelledDisturbances, ReferenceUntouchedAndNothingAddedWhenOff) {
+  mic::SimulationSettings s = quiet_settings();
+  s.duration_s = 20000.0;
+  const mic::SimulatedPair clean = mic::simulate_pair(s);
+  mic::SimulatedPair pair = clean;
+  mic::add_unmodelled_disturbances(pair, mic::UnmodelledDisturbanceSettings{});
+  EXPECT_EQ((pair.test.values_nT - clean.test.values_nT).cwiseAbs().maxCoeff(), 0.0);
+  mic::UnmodelledDisturbanceSettings u;
+  u.tilt_walk_nT_per_sqrt_day = 1.0;
+  u.heater_nT = Eigen::Vector3d(0.1, 0.0, -0.1);
+  u.test_corner_hz = 0.1;
+  u.test_delay_s = 0.5;
+  mic::add_unmodelled_disturbances(pair, u);
+  EXPECT_EQ((pair.reference.values_nT - clean.reference.values_nT).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT((pair.test.values_nT - clean.test.values_nT).cwiseAbs().maxCoeff(), 0.01);
+}
+
+TEST(UnmodelledDisturbances, TiltWalkVarianceGrowsAsSetAndActsThroughTheField) {
+  // Variance of each tilt angle after t days: (walk / |B|)^2 t, B the constant main field.
+  const double walk = 0.5, days = 0.25;
+  mic::SimulationSettings s = quiet_settings();
+  s.duration_s = days * 86400.0;
+  s.variation_rms_nT = 0.0;
+  s.daily_amplitude_nT.setZero();
+  const mic::SimulatedPair clean = mic::simulate_pair(s);
+  const double b = s.main_field_nT.norm();
+  double sum2 = 0.0;
+  const int seeds = 200;
+  for (int k = 0; k < seeds; ++k) {
+    mic::SimulatedPair pair = clean;
+    mic::UnmodelledDisturbanceSettings u;
+    u.seed = 100 + static_cast<std::uint64_t>(k);
+    u.tilt_walk_nT_per_sqrt_day = walk;
+    const mic::UnmodelledDisturbanceReport r = mic::add_unmodelled_disturbances(pair, u);
+    sum2 += r.tilt_end_rad.squaredNorm();
+    if (k == 0) {
+      // Last sample: B [theta]x n_true with theta = (theta_x, theta_y, 0).
+      const Eigen::Vector2d t = r.tilt_end_rad;
+      Eigen::Matrix3d cross;
+      cross << 0, 0, t(1), 0, 0, -t(0), -t(1), t(0), 0;
+      const Eigen::RowVector3d expected = s.main_field_nT.transpose() * cross * clean.n_true;
+      const Eigen::Index last = static_cast<Eigen::Index>(pair.test.size()) - 1;
+      EXPECT_LT((pair.test.values_nT.row(last) - clean.test.values_nT.row(last) - expected).norm(), 1e-6);
+    }
+  }
+  const double expected_var = (walk / b) * (walk / b) * days;
+  // 400 squared Gaussians: relative standard error of the mean sqrt(2 / 400) = 7 %.
+  EXPECT_NEAR(sum2 / (2.0 * seeds) / expected_var, 1.0, 0.25);
+}
+
+TEST(UnmodelledDisturbances, HeaterCyclesWithSetPeriodDutyAndLevel) {
+  mic::SimulationSettings s = quiet_settings();
+  s.duration_s = 86400.0;
+  mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::UnmodelledDisturbanceSettings u;
+  u.heater_nT = Eigen::Vector3d(0.0, 0.05, 0.0);
+  u.heater_period_s = 1800.0;
+  u.heater_duty = 0.4;
+  u.heater_time_constant_s = 30.0;
+  const mic::UnmodelledDisturbanceReport r = mic::add_unmodelled_disturbances(pair, u);
+  // 48 cycles of 1800 +- 20 % s in a day (plus the one cut at the start).
+  EXPECT_NEAR(static_cast<double>(r.heater_cycles), 49.0, 6.0);
+  const Eigen::VectorXd y = r.heater_added_nT.col(1);
+  EXPECT_LE(y.maxCoeff(), 0.05 + 1e-12);
+  EXPECT_GT(y.maxCoeff(), 0.0499);  // on for ~720 s >> 30 s
+  EXPECT_GE(y.minCoeff(), 0.0);
+  EXPECT_LT(y.minCoeff(), 1e-4);
+  EXPECT_NEAR(y.mean() / 0.05, 0.4, 0.03);  // duty
+  EXPECT_EQ(r.heater_added_nT.col(0).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(UnmodelledDisturbances, SpikesOfTheTestStayUnfiltered) {
+  mic::SimulationSettings s = quiet_settings();
+  s.duration_s = 20000.0;
+  s.spikes_per_day = 100.0;
+  s.spike_instrument = mic::SimulatedInstrument::kTest;
+  mic::SimulatedPair pair = mic::simulate_pair(s);
+  const mic::Readings before = pair.test.values_nT;
+  mic::UnmodelledDisturbanceSettings u;
+  u.test_corner_hz = 0.05;
+  mic::add_unmodelled_disturbances(pair, u);
+  ASSERT_FALSE(pair.spikes.empty());
+  for (const mic::SimulatedSpike& spike : pair.spikes) {
+    const Eigen::Index i = static_cast<Eigen::Index>(spike.index);
+    // The field (~0.01 nT/s at most here) moves little through the filter; the spike is whole.
+    EXPECT_NEAR(pair.test.values_nT(i, spike.component), before(i, spike.component), 1.0) << spike.index;
+    if (i + 1 < static_cast<Eigen::Index>(pair.test.size()))
+      EXPECT_NEAR(pair.test.values_nT(i + 1, spike.component), before(i + 1, spike.component), 1.0);
+  }
+}
+
+TEST(UnmodelledDisturbances, RejectsImpossibleSettingsNamingTheField) {
+  auto where = [](const mic::UnmodelledDisturbanceSettings& u) {
+    try {
+      u.validate();
+    } catch (const mic::InputError& e) {
+      return e.where();
+    }
+    return std::string("none");
+  };
+  mic::UnmodelledDisturbanceSettings u;
+  EXPECT_EQ(where(u), "none");
+  u.test_corner_hz = -1.0;
+  EXPECT_EQ(where(u), "test_corner_hz");
+  u = {};
+  u.tilt_walk_nT_per_sqrt_day = NAN;
+  EXPECT_EQ(where(u), "tilt_walk_nT_per_sqrt_day");
+  u = {};
+  u.heater_duty = 1.0;
+  EXPECT_EQ(where(u), "heater_duty");
+  u = {};
+  u.heater_period_s = 0.0;
+  EXPECT_EQ(where(u), "heater_period_s");
+}
