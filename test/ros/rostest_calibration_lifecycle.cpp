@@ -3,15 +3,21 @@
 //                                                                 WARN after the step, never before
 //   Calibration.ResumeAfterRestart  test_calibration_resume.test  calibration_node started, stopped
 //                                                                 and restarted by the test: the
-//                                                                 persisted calibration at once
+//                                                                 persisted calibration at once,
+//                                                                 and (~publish_tf) its rotation
+//                                                                 on /tf_static
 #include "calibration_harness.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
-#include <cmath>
+#include <tf2_msgs/TFMessage.h>
+
+#include <Eigen/Geometry>
+
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 
 using namespace calibration_rostest;
@@ -138,15 +144,23 @@ TEST(Calibration, ResumeAfterRestart) {
   // pairs until windows are accepted and written, stops it (SIGINT), and starts it again with the
   // same parameters and no data: the restarted node publishes the persisted calibration (latched)
   // at once, equal to the file and to the last one the first instance published, and reports it
-  // loaded from file.
+  // loaded from file. With ~publish_tf, the restarted node also puts the persisted rotation on
+  // /tf_static at once (calibration_tf.test checks the rotation itself against a known one).
   const std::string file = param("calibration_file");
   ASSERT_FALSE(file.empty());
   std::remove(file.c_str());
   const std::vector<std::string> arguments = {
       "__name:=resume_calibration_node", "_reference_topic:=" + param("reference_topic"), "_test_topic:=" + param("test_topic"),
       "_calibration_topic:=" + param("calibration_topic"), "_calibration_file:=" + file, "_test_name:=resume",
-      "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5"};
+      "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5", "_publish_tf:=true"};
   Harness h(simulation(3700.0, 31));
+  std::vector<tf2_msgs::TFMessage> tf_messages;  // under h.mutex()
+  ros::NodeHandle nh;
+  const ros::Subscriber tf_sub = nh.subscribe<tf2_msgs::TFMessage>(
+      "/tf_static", 100, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(h.mutex());
+        tf_messages.push_back(*m);
+      });
   Child first{spawn(CALIBRATION_NODE_PATH, arguments)};
   ASSERT_GT(first.pid, 0);
   ASSERT_TRUE(h.wait_for_connections(1, 1)) << "first calibration_node did not connect";
@@ -170,16 +184,18 @@ TEST(Calibration, ResumeAfterRestart) {
   EXPECT_TRUE(mic::calibrations_equal(persisted, last_published, &difference)) << "file differs in " << difference;
 
   // Restart: no data, no clock advance until the calibration is in.
-  std::size_t before_restart = 0;
+  std::size_t before_restart = 0, tf_before_restart = 0;
   {
     std::lock_guard<std::mutex> lock(h.mutex());
     before_restart = h.calibrations().size();
+    tf_before_restart = tf_messages.size();
   }
   const ros::WallTime restarted = ros::WallTime::now();
   Child second{spawn(CALIBRATION_NODE_PATH, arguments)};
   ASSERT_GT(second.pid, 0);
   const bool resumed = h.wait([&] { return h.calibrations().size() > before_restart; }, 20.0);
   const double resume_wall_s = (ros::WallTime::now() - restarted).toSec();
+  const bool tf_resumed = h.wait([&] { return tf_messages.size() > tf_before_restart; }, 20.0);
   // Diagnostics of the restarted node (they run on /clock).
   const bool diagnosed = h.wait_ticking([&] {
     const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
@@ -201,5 +217,17 @@ TEST(Calibration, ResumeAfterRestart) {
   EXPECT_EQ(d->values.at("accepted calibration source"), "file (loaded at start)");
   EXPECT_EQ(value_of(d, "windows estimated"), 0u);
   EXPECT_TRUE(second_stopped);
+  // The persisted calibration's rotation on /tf_static from the restarted node: the rotation
+  // vector of its inverse is the file's misalignment_deg (calibration_node_tf.cpp).
+  ASSERT_TRUE(tf_resumed) << "the restarted node put nothing on /tf_static";
+  ASSERT_EQ(tf_messages.back().transforms.size(), 1u);
+  const geometry_msgs::TransformStamped& t = tf_messages.back().transforms[0];
+  EXPECT_EQ(t.header.frame_id, persisted.reference_frame_id);
+  EXPECT_EQ(t.child_frame_id, persisted.test_frame_id);
+  EXPECT_EQ(t.header.stamp, persisted.header.stamp);
+  const Eigen::Quaterniond q(t.transform.rotation.w, t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z);
+  const Eigen::AngleAxisd inverse(q.toRotationMatrix().transpose());
+  const Eigen::Vector3d v = inverse.axis() * inverse.angle() * 180.0 / M_PI;
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(v(k), persisted.misalignment_deg[k], 1e-6) << "component " << k;
   std::remove(file.c_str());
 }
