@@ -3,11 +3,14 @@
 # the suite does not flake (issue #12). It does NOT build: build first (bash scripts/run_tests.sh
 # once, or scripts/build.sh all tests); it stops if build/ has no tests.
 #
-#   bash scripts/stress_tests.sh N [--hog K] [--logs DIR] [-- CTEST_ARGS...]
+#   bash scripts/stress_tests.sh N [--hog K] [--ptys] [--logs DIR] [-- CTEST_ARGS...]
 #
 #   N            number of runs of `ctest --test-dir build -j2 --output-on-failure`
 #   --hog K      beside K busy-loop processes (each keeps one core busy), started before the
 #                first run and stopped at the end (by their process ids)
+#   --ptys       beside a process that opens a pseudo-terminal every 0.1 s and keeps each 20 s
+#                (another program's ptys take freed pty numbers: what made the driver rostests
+#                fail in issue #12 when one test's stale link named the other test's pty)
 #   --logs DIR   where each run's output goes (run_<i>.log); default a new mktemp -d folder
 #   -- ARGS      more ctest arguments, e.g. -- -R 'lemi025_driver|faults_driver' for a subset
 #
@@ -19,16 +22,18 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
-usage() { sed -n '2,20p' "$0" >&2; exit 2; }
+usage() { sed -n '2,21p' "$0" >&2; exit 2; }
 [[ $# -ge 1 && "$1" =~ ^[0-9]+$ && "$1" -ge 1 ]] || usage
 runs=$1
 shift
 hogs=0
+ptys=0
 logs=""
 extra=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --hog) [[ $# -ge 2 && "$2" =~ ^[0-9]+$ ]] || usage; hogs=$2; shift 2 ;;
+    --ptys) ptys=1; shift ;;
     --logs) [[ $# -ge 2 ]] || usage; logs=$2; shift 2 ;;
     --) shift; extra=("$@"); break ;;
     *) usage ;;
@@ -59,10 +64,21 @@ for ((h = 0; h < hogs; ++h)); do
   bash -c 'while :; do :; done' &
   hog_pids+=($!)
 done
+if [[ $ptys -eq 1 ]]; then
+  /usr/bin/python3 -c '
+import os, time
+held = []
+while True:
+    held.append((time.time(),) + os.openpty())
+    while time.time() - held[0][0] > 20.0:
+        _, m, s = held.pop(0); os.close(m); os.close(s)
+    time.sleep(0.1)' &
+  hog_pids+=($!)
+fi
 
 declare -A failed_runs=()
 any_failed=0
-echo "stress_tests.sh: $runs run(s) of ctest -j2 ${extra[*]:-} beside $hogs busy loop(s); logs in $logs"
+echo "stress_tests.sh: $runs run(s) of ctest -j2 ${extra[*]:-} beside $hogs busy loop(s)$( ((ptys)) && echo " and a pty churn"); logs in $logs"
 for ((i = 1; i <= runs; ++i)); do
   log="$logs/run_$i.log"
   # A fresh ROS_HOME per run: logs and pty links of one run never meet the next's.

@@ -105,8 +105,17 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
     if (ros::WallTime::now() > deadline) break;
     ros::WallDuration(0.05).sleep();
   }
-  ros::WallDuration(0.5).sleep();  // a few corrected samples more
-  ros::spinOnce();
+  // The replay also drives correction_node: its first corrected sample, within the same deadline
+  // (a condition, not a 0.5 s sleep: correction_node may lag on a busy machine).
+  for (;;) {
+    ros::spinOnce();
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (corrected > 0) break;
+    }
+    if (ros::WallTime::now() > deadline) break;
+    ros::WallDuration(0.05).sleep();
+  }
 
   std::lock_guard<std::mutex> lock(mutex);
   for (const auto& [start_ms, w] : expected) {

@@ -62,7 +62,8 @@ target_compile_options(test_nodelet_device_error PRIVATE -Wall -Wextra)
 add_dependencies(test_nodelet_device_error ${PROJECT_NAME}_nodelets)
 add_rostest(test/ros/test_simulated_network.test DEPENDENCIES test_lemi025_driver)
 # Fault injection (test/ros/test_faults_*.test): the driver's serial line.
-add_rostest_gtest(test_faults_driver test/ros/test_faults_driver.test test/ros/test_faults_driver.cpp test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
+add_rostest_gtest(test_faults_driver test/ros/test_faults_driver.test test/ros/test_faults_driver.cpp
+  test/ros/test_faults_driver_pc_clock.cpp test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
 target_link_libraries(test_faults_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_compile_options(test_faults_driver PRIVATE -Wall -Wextra)
 add_dependencies(test_faults_driver lemi025_driver)
