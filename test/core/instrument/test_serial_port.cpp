@@ -133,7 +133,10 @@ TEST(SerialPortSource, DetectsDisconnectAndReopens) {
   first->write(packet_bytes(0));
   EXPECT_EQ(read_bytes(port, 153), packet_bytes(0));
 
-  first->close();  // the instrument side goes away
+  // The instrument side goes away, its link first (as udev and socat do): a link left pointing at
+  // a freed pty number can name another process's new pty on a busy machine.
+  ::unlink(link.c_str());
+  first->close();
   std::uint8_t buffer[64];
   const auto start = Clock::now();
   while (port.ok() && seconds_since(start) < 30.0) port.read(buffer, sizeof buffer, 0.1);
@@ -142,7 +145,7 @@ TEST(SerialPortSource, DetectsDisconnectAndReopens) {
   EXPECT_FALSE(port.last_error().empty());
   EXPECT_EQ(port.read(buffer, sizeof buffer, 0.1), 0u);
   first.reset();
-  EXPECT_FALSE(port.reopen());  // the link points to a pty that no longer exists
+  EXPECT_FALSE(port.reopen());  // no link: nothing to open
 
   Pty second;
   point_link(link, second.slave());
@@ -221,7 +224,8 @@ TEST(StreamPacketSource, PacketsFromPtyThroughDisconnectAndReconnect) {
   const Bytes p2 = packet_bytes(2);
   first->write(Bytes(p2.begin(), p2.begin() + 80));
   EXPECT_FALSE(source.next(0.3).has_value());  // waits for the rest
-  first.reset();                               // disconnect
+  ::unlink(link.c_str());  // disconnect, the link first (a stale link could name another pty)
+  first.reset();
   EXPECT_FALSE(source.next(0.3).has_value());
   EXPECT_FALSE(source.connected());
   EXPECT_FALSE(source.at_end());
