@@ -6,7 +6,9 @@
 #include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
 #include "magnetometer_insitu_calibration/formats/cdf_writer.hpp"
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 

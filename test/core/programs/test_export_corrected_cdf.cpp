@@ -3,6 +3,7 @@
 // by the package's own reader to 1 pT; temperatures of a MagPy CDF input carried over.
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 
 #include "test_support.hpp"
@@ -15,6 +16,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
@@ -97,6 +99,23 @@ TEST(ExportCorrectedCdf, ImagCdfReadByJcdfHasTheValuesOfTheIagaExport) {
   }
   EXPECT_NE(back.header.at("Comments").find("n row 1:"), std::string::npos);  // the calibration applied
   EXPECT_EQ(back.header.at("FormatVersion"), "1.2");
+
+  // The day as two ImagCDF files (overlapping by an hour), given in reverse order: the same export.
+  const mic::VectorRecord day = mic::read_record(fge);
+  for (const auto& [name, first, last] : {std::tuple<const char*, long, long>{"/fge_a.cdf", 0, 46800}, {"/fge_b.cdf", 43200, 86400}}) {
+    mic::VectorRecord part = day;
+    part.time_s.assign(day.time_s.begin() + first, day.time_s.begin() + last);
+    part.values_nT = day.values_nT.middleRows(first, last - first);
+    mic::write_imagcdf(dir + name, part);
+  }
+  r = run_program(EXPORT_CORRECTED_BIN, "--test " + dir + "/fge_b.cdf " + dir + "/fge_a.cdf --calibration " + dir +
+                                            "/day.json -o " + dir + "/split.cdf");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("3600 samples from 2025-05-14T12:00:00.000Z to 2025-05-14T12:59:59.000Z overlap"), std::string::npos)
+      << r.output;
+  const mic::VectorRecord split = mic::read_record(dir + "/split.cdf");
+  EXPECT_EQ(split.time_s, back.time_s);
+  EXPECT_TRUE(split.values_nT == back.values_nT);
 }
 
 TEST(ExportCorrectedCdf, TemperaturesOfAMagPyInputBecomeTemperatureVariables) {
