@@ -160,3 +160,27 @@ TEST(CdfWriter, MagPyLayoutWithFileAndVariableCompressionReadsBack) {
   ASSERT_EQ(back.auxiliary.size(), 2u);
   EXPECT_EQ(back.auxiliary[1].values, lemi.auxiliary[1].values);
 }
+
+TEST(CdfWriter, ImagCdfWithAnAngleElementIsRefusedByName) {
+  // HDZ: D is in degrees of arc, not a field component the calibration can use.
+  mic::CdfWriteContent content;
+  content.global = {{"ElementsRecorded", {mic::CdfWriteEntry::of_text("HDZF")}}};
+  for (const char* e : {"H", "D", "Z", "F"}) {
+    mic::CdfWriteVariable v;
+    v.name = std::string("GeomagneticField") + e;
+    v.values = {1, 2};
+    v.attributes = {{"DEPEND_0", mic::CdfWriteEntry::of_text("GeomagneticVectorTimes")}};
+    content.variables.push_back(v);
+  }
+  mic::CdfWriteVariable times;
+  times.name = "GeomagneticVectorTimes";
+  times.data_type = mic::kCdfTimeTt2000;
+  times.times = {mic::unix_to_tt2000(1747180800.0), mic::unix_to_tt2000(1747180801.0)};
+  content.variables.push_back(times);
+  try {
+    mic::cdf_to_vector_record(mic::CdfFile::parse(mic::encode_cdf(content), "hdz.cdf"));
+    FAIL() << "an HDZ file was read";
+  } catch (const mic::InputError& e) {
+    EXPECT_TRUE(contains(e.what(), "hdz.cdf: ImagCDF: element D of ElementsRecorded 'HDZF' is an angle")) << e.what();
+  }
+}
