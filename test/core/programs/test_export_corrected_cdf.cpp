@@ -2,6 +2,8 @@
 // (its CdfList tool), with the values of the IAGA-2002 export of the same record, and read back
 // by the package's own reader to 1 pT; temperatures of a MagPy CDF input carried over.
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
@@ -137,5 +139,39 @@ TEST(ExportCorrectedCdf, TemperaturesOfAMagPyInputBecomeTemperatureVariables) {
       EXPECT_EQ(std::stod(values[i]), original.auxiliary[static_cast<std::size_t>(k)].values[i]) << name << " " << i;
     }
     EXPECT_EQ(listed.at(name + "Times").size(), original.size());
+  }
+}
+
+// The package's CDF 2.7 encoding (4-byte offsets, 64-character names, big endian, GZIP file and
+// variables, CDF_EPOCH), which the reader's CDF 2 path is tested on, checked by the independent
+// reader: jcdf lists the same values and times.
+TEST(ExportCorrectedCdf, Cdf27FileOfTheWriterIsReadByJcdf) {
+  const std::string dir = mic::test::make_temp_dir("cdf27_jcdf");
+  const mic::VectorRecord lemi = mic::read_record(mic::test::test_data("cdf/LEMI036_1_0002_0002_2025-05-14.cdf"));
+  const std::size_t n = 600;
+  mic::CdfWriteContent content;
+  content.version = 2;
+  content.big_endian = true;
+  content.gzip_file = content.gzip_variables = true;
+  content.global = {{"DataFormat", {mic::CdfWriteEntry::of_text("MagPyCDF1.0")}}};
+  mic::CdfWriteVariable epoch;
+  epoch.name = "time";
+  epoch.data_type = mic::kCdfEpoch;
+  mic::CdfWriteVariable x;
+  x.name = "x";
+  for (std::size_t i = 0; i < n; ++i) {
+    epoch.values.push_back((lemi.time_s[i] + mic::kCdfEpochUnixOffset_s) * 1000.0);
+    x.values.push_back(lemi.values_nT(static_cast<Eigen::Index>(i), 0));
+  }
+  content.variables = {epoch, x};
+  mic::write_cdf(dir + "/v27.cdf", content);
+  const auto listed = jcdf_list(dir + "/v27.cdf", dir);
+  ASSERT_EQ(listed.count("x"), 1u);
+  ASSERT_EQ(listed.at("x").size(), n);
+  ASSERT_EQ(listed.at("time").size(), n);
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(std::stod(listed.at("x")[i]), x.values[i]) << i;
+    // jcdf prints CDF_EPOCH as "2025-05-14T00:00:00.000"
+    ASSERT_EQ(listed.at("time")[i], mic::format_iso8601(lemi.time_s[i], 3).substr(0, 23)) << i;
   }
 }
