@@ -1,7 +1,7 @@
 // Writes the seed corpus of the fuzz targets, fuzz/corpus/<target>/, from real samples: the head
 // of the WIC IAGA-2002 file shipped in data/ (header and first seconds of LEMI-036 data), CSV
 // lines made from the same data, small CDF files (ImagCDF and MagPy CDF layouts, both encodings,
-// GZIP per variable and per file) made from the first seconds of the WIC LEMI-036 MagPy CDF in
+// GZIP per variable and per file, CDF 3.9 and 2.7) made from the first seconds of the WIC LEMI-036 MagPy CDF in
 // test/data/cdf and the first 16 KiB of that file (compressed and inflated), LEMI-025 packets, LemiBin files and compact-flash blocks made
 // with the library's own encoders from those readings, and a calibration YAML written by
 // calibration_to_yaml. The outputs are small and committed; re-run after a format change:
@@ -403,6 +403,14 @@ int main(int argc, char** argv) {
       magpy.big_endian = true;
       write("cdf", "magpy_big_plain.cdf", encode_cdf(magpy));
       write("record_file", "magpy.cdf", magpy_bytes);
+      // CDF 2.7 (4-byte offsets, 64-character names) with CDF_EPOCH times, compressed and plain.
+      magpy.version = 2;
+      magpy.variables[0].data_type = kCdfEpoch;
+      for (double t : r.time_s) magpy.variables[0].values.push_back((t + kCdfEpochUnixOffset_s) * 1000.0);
+      write("cdf", "magpy_cdf27_big_plain.cdf", encode_cdf(magpy));
+      magpy.gzip_file = magpy.gzip_variables = true;
+      magpy.big_endian = false;
+      write("cdf", "magpy_cdf27_gzip.cdf", encode_cdf(magpy));
       // The real file cut at 16 KiB, compressed and inflated (its CCR: gzip stream at byte 40).
       const Bytes whole = read_bytes(real);
       write("cdf", "wic_lemi_cut.cdf", Bytes(whole.begin(), whole.begin() + 16384));
