@@ -1,10 +1,16 @@
 // Writes the seed corpus of the fuzz targets, fuzz/corpus/<target>/, from real samples: the head
 // of the WIC IAGA-2002 file shipped in data/ (header and first seconds of LEMI-036 data), CSV
-// lines made from the same data, LEMI-025 packets, LemiBin files and compact-flash blocks made
+// lines made from the same data, small CDF files (ImagCDF and MagPy CDF layouts, both encodings,
+// GZIP per variable and per file, CDF 3.9 and 2.7) made from the first seconds of the WIC LEMI-036 MagPy CDF in
+// test/data/cdf and the first 16 KiB of that file (compressed and inflated), LEMI-025 packets, LemiBin files and compact-flash blocks made
 // with the library's own encoders from those readings, and a calibration YAML written by
 // calibration_to_yaml. The outputs are small and committed; re-run after a format change:
 //   build_fuzz/make_seeds <package root> <package root>/fuzz/corpus
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_records.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_writer.hpp"
+#include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
@@ -15,6 +21,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -342,6 +349,84 @@ int main(int argc, char** argv) {
       write("record_file", "stream.bin", stream);
       write("record_file", "flash.bin", block_bytes(wic_block(w, 0)));
       write("record_file", "iaga.sec.gz", gzip(iaga));
+    }
+
+    // ---- cdf (and one for record_file) --------------------------------------------------------
+    {
+      const std::string real = root + "/test/data/cdf/LEMI036_1_0002_0002_2025-05-14.cdf";
+      VectorRecord r = read_cdf_record(real);
+      const std::size_t n = 12;  // seeds under the 16 KiB -max_len of run_fuzz_short.sh
+      r.header.clear();
+      r.time_s.resize(n);
+      r.values_nT.conservativeResize(static_cast<Eigen::Index>(n), 3);
+      r.values_nT(3, 1) = std::nan("");
+      for (AuxiliaryChannel& a : r.auxiliary) a.values.resize(n);
+      const std::string tmp = g_out + "/cdf_seed.tmp";
+      auto imagcdf = [&](bool big, bool gzip_values) {
+        ImagCdfWriteOptions o;
+        o.big_endian = big;
+        o.gzip = gzip_values;
+        o.comments = {"seed"};
+        o.publication_date_s = 1747267200.0;
+        write_imagcdf(tmp, r, o);
+        const Bytes b = read_bytes(tmp);
+        std::remove(tmp.c_str());
+        return b;
+      };
+      write("cdf", "imagcdf_little.cdf", imagcdf(false, false));
+      write("cdf", "imagcdf_big.cdf", imagcdf(true, false));
+      write("cdf", "imagcdf_gzip_variables.cdf", imagcdf(false, true));
+      CdfWriteContent magpy;
+      magpy.gzip_file = magpy.gzip_variables = true;
+      magpy.global = {{"DataFormat", {CdfWriteEntry::of_text("MagPyCDF1.2")}},
+                      {"DataComponents", {CdfWriteEntry::of_text("HEZ")}},
+                      {"ColumnContents", {CdfWriteEntry::of_text("X,Y,Z,,T_sensor,T_elec")}}};
+      CdfWriteVariable epoch;
+      epoch.name = "Epoch";
+      epoch.data_type = kCdfTimeTt2000;
+      for (double t : r.time_s) epoch.times.push_back(unix_to_tt2000(t));
+      magpy.variables.push_back(epoch);
+      for (int c = 0; c < 3; ++c) {
+        CdfWriteVariable v;
+        v.name = std::string(1, "xyz"[c]);
+        for (std::size_t i = 0; i < n; ++i) v.values.push_back(r.values_nT(static_cast<Eigen::Index>(i), c));
+        v.attributes = {{"FILLVAL", CdfWriteEntry::of_number(99999.0)}, {"DEPEND_0", CdfWriteEntry::of_text("Epoch")}};
+        magpy.variables.push_back(v);
+      }
+      CdfWriteVariable t1;
+      t1.name = "t1";
+      t1.values = r.auxiliary[0].values;
+      magpy.variables.push_back(t1);
+      const Bytes magpy_bytes = encode_cdf(magpy);
+      write("cdf", "magpy_gzip.cdf", magpy_bytes);
+      magpy.gzip_file = magpy.gzip_variables = false;
+      magpy.big_endian = true;
+      write("cdf", "magpy_big_plain.cdf", encode_cdf(magpy));
+      write("record_file", "magpy.cdf", magpy_bytes);
+      // CDF 2.7 (4-byte offsets, 64-character names) with CDF_EPOCH times, compressed and plain.
+      magpy.version = 2;
+      magpy.variables[0].data_type = kCdfEpoch;
+      for (double t : r.time_s) magpy.variables[0].values.push_back((t + kCdfEpochUnixOffset_s) * 1000.0);
+      write("cdf", "magpy_cdf27_big_plain.cdf", encode_cdf(magpy));
+      magpy.gzip_file = magpy.gzip_variables = true;
+      magpy.big_endian = false;
+      write("cdf", "magpy_cdf27_gzip.cdf", encode_cdf(magpy));
+      // The real file cut at 16 KiB, compressed and inflated (its CCR: gzip stream at byte 40).
+      const Bytes whole = read_bytes(real);
+      write("cdf", "wic_lemi_cut.cdf", Bytes(whole.begin(), whole.begin() + 16384));
+      Bytes inflated(8 + (1 << 16));
+      z_stream z{};
+      inflateInit2(&z, 15 + 16);
+      z.next_in = const_cast<Bytef*>(whole.data() + 40);
+      z.avail_in = static_cast<uInt>(whole.size() - 40);
+      z.next_out = inflated.data() + 8;
+      z.avail_out = 1 << 16;
+      inflate(&z, Z_SYNC_FLUSH);
+      inflateEnd(&z);
+      std::copy(whole.begin(), whole.begin() + 4, inflated.begin());
+      inflated[4] = inflated[5] = 0x00, inflated[6] = inflated[7] = 0xFF;
+      inflated.resize(16384);
+      write("cdf", "wic_lemi_inflated_cut.cdf", inflated);
     }
 
 #ifdef MIC_FUZZ_WITH_YAML

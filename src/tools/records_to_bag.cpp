@@ -2,7 +2,7 @@
 // flash, raw LEMI-025 byte stream, MagPy CDF, ImagCDF; format recognised from the content; several
 // files per instrument joined in time order) into one rosbag of
 // sensor_msgs/MagneticField (tesla, stamps from the records, frame ids from the options) and,
-// for the LEMI formats, sensor_msgs/Temperature. No ROS master needed.
+// for the LEMI formats and CDF temperature channels, sensor_msgs/Temperature. No ROS master needed.
 //
 //   records_to_bag --reference REF --test TEST --output pair.bag
 //                  [--reference-topic /reference/magnetic_field] [--test-topic /test/magnetic_field]
@@ -196,7 +196,8 @@ int main(int argc, char** argv) {
   app.add_option("--test-frame", test_frame, "header.frame_id of the test")->capture_default_str();
   app.add_option("--compression", compression, "bag chunk compression: none, bz2, lz4")->capture_default_str();
   app.add_flag("--no-temperatures", no_temperatures,
-               "do not write the LEMI temperatures (<topic namespace>/sensor_temperature, .../electronics_temperature)");
+               "do not write the LEMI or CDF temperatures (<topic namespace>/sensor_temperature, "
+               ".../electronics_temperature)");
   app.add_flag("--lemi-variation", variation, "LEMI formats: variation relative to the bias field, not the full field");
   app.add_option("--lemi-checksum", checksum, "LEMI packets: checksum none, sum8, xor8")->capture_default_str();
   app.add_option("--lemi-time-shift", time_shift_s, "LEMI formats: seconds added to the GPS time of the readings")

@@ -3,6 +3,7 @@
 // --bag giving the JSON of calibrate_records on the files (the real WIC pair and a simulated
 // 10 Hz LEMI pair), and export_corrected from a bag and from calibration_node's YAML file.
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
@@ -21,6 +22,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <tuple>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -360,4 +362,31 @@ TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
   }
   EXPECT_TRUE(has(out.header.at("comments"), "'fge' live window (2025-05-14T00:00:00.000Z to")) << out.header.at("comments");
   EXPECT_TRUE(has(out.header.at("comments"), "p.bag:/test/magnetic_field")) << out.header.at("comments");
+}
+
+// MagPy CDF in, several files per instrument: the LEMI-036 day as two overlapping ImagCDF files
+// (given in reverse order) makes the bag of the single MagPy CDF file, temperatures included.
+TEST(RecordsToBag, CdfDaySplitIntoTwoFilesGivesTheSingleFileBag) {
+  const std::string dir = make_temp_dir("bag_cdf");
+  const std::string lemi = mic::test::test_data("cdf/LEMI036_1_0002_0002_2025-05-14.cdf");
+  const std::string fge = mic::test::test_data("cdf/FGE_S0252_0002_0002_2025-05-14.cdf");
+  const mic::VectorRecord day = mic::read_record(lemi);
+  for (const auto& [name, first, last] : {std::tuple<const char*, long, long>{"/a.cdf", 0, 50000}, {"/b.cdf", 43200, 86400}}) {
+    mic::VectorRecord part = day;
+    part.time_s.assign(day.time_s.begin() + first, day.time_s.begin() + last);
+    part.values_nT = day.values_nT.middleRows(first, last - first);
+    for (mic::AuxiliaryChannel& a : part.auxiliary) a.values.assign(a.values.begin() + first, a.values.begin() + last);
+    mic::write_imagcdf(dir + name, part);
+  }
+  ProgramRun r = run_program(RECORDS_TO_BAG_BIN, "--quiet --reference " + dir + "/b.cdf " + dir + "/a.cdf --test " + fge +
+                                                     " -o " + dir + "/split.bag");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(has(r.output, dir + "/b.cdf: 6800 samples from 2025-05-14T12:00:00.000Z")) << r.output;
+  EXPECT_TRUE(has(r.output, "reference: 2 files joined: 86400 samples")) << r.output;
+  const auto records = mic::read_bag_records(dir + "/split.bag", {"/reference/magnetic_field", "/test/magnetic_field"});
+  expect_same_record_to_one_ulp(records[0], day);
+  expect_same_record_to_one_ulp(records[1], mic::read_record(fge));
+  const mic::BagTemperatureStream t = mic::read_bag_temperatures(dir + "/split.bag", "/reference/sensor_temperature");
+  EXPECT_EQ(t.time_s, day.time_s);
+  EXPECT_EQ(t.celsius, day.auxiliary[0].values);
 }

@@ -6,14 +6,15 @@
 //    DataCompensationX/Y/Z (the bias fields removed by the instrument) are kept in the header:
 //    the values are returned as stored, compensation not added back.
 //  - ImagCDF (INTERMAGNET): variables GeomagneticField<E> for the first three vector elements of
-//    ElementsRecorded (F, S and G are scalar elements and skipped), on their DEPEND_0 time variable
+//    ElementsRecorded (F, S and G are scalar elements and skipped; an angle, D or I or UNITS in
+//    degrees, is refused: the calibration needs field components), on their DEPEND_0 time variable
 //    (GeomagneticVectorTimes; DataTimes in ImagCDF 1.0 files without DEPEND_0); Temperature<n>
 //    on their own DEPEND_0 times, interpolated linearly to the vector times (NaN outside them and
 //    next to a missing value); station from IagaCode.
 // Times: CDF_TIME_TT2000 (leap seconds from the table of cdf_epoch.hpp), CDF_EPOCH or CDF_EPOCH16.
 // A record whose time is the fill value, or falls inside a leap second (23:59:60, which has no
 // UNIX time), is dropped; their count is in header "cdf_records_dropped". A value equal to the
-// variable's FILLVAL, or outside [VALIDMIN, VALIDMAX], is NaN.
+// variable's FILLVAL, outside [VALIDMIN, VALIDMAX] or infinite is NaN.
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"

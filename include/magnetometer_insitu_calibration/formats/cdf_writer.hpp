@@ -27,7 +27,7 @@ struct CdfWriteEntry {
 
 struct CdfWriteVariable {
   std::string name;
-  int data_type = kCdfDouble;          ///< kCdfDouble (values) or kCdfTimeTt2000 (times)
+  int data_type = kCdfDouble;          ///< kCdfDouble or kCdfEpoch (ms) in values; kCdfTimeTt2000 in times
   std::vector<double> values;
   std::vector<std::int64_t> times;     ///< TT2000 ns
   std::vector<std::pair<std::string, CdfWriteEntry>> attributes;  ///< FIELDNAM, UNITS, FILLVAL, ...
@@ -40,10 +40,12 @@ struct CdfWriteContent {
   bool big_endian = false;
   bool gzip_variables = false;  ///< each variable's values GZIP-compressed (CPR + CVVR)
   bool gzip_file = false;       ///< the whole file GZIP-compressed (CCR + CPR), as MagPy writes
+  int version = 3;              ///< 3 (CDF 3.9) or 2 (CDF 2.7: 4-byte offsets, 64-character names)
 };
 
 /// The bytes of the CDF file. Throws InputError("CDF writer", ...) for a name longer than 256
-/// characters or a variable whose data type is not CDF_DOUBLE or CDF_TIME_TT2000.
+/// characters (64 in CDF 2), a version other than 2 or 3, or a variable whose data type is not
+/// CDF_DOUBLE, CDF_EPOCH or CDF_TIME_TT2000.
 std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content);
 
 /// encode_cdf, written to `path` (replaced). Throws InputError(path, ...) when it cannot be written.

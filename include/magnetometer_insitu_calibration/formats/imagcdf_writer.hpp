@@ -15,9 +15,10 @@ namespace magnetometer_insitu_calibration {
 struct ImagCdfWriteOptions {
   std::string iaga_code;          ///< IagaCode; default record.station, upper case
   std::string observatory_name;   ///< ObservatoryName; default the IAGA code
-  double latitude = NAN;          ///< Latitude, degrees north (WGS-84); NaN: 99999 (unknown)
-  double longitude = NAN;         ///< Longitude, degrees east; NaN: 99999
-  double elevation = NAN;         ///< Elevation, m; NaN: 99999 (unknown, as the format says)
+  /// NaN: the record's header Latitude/StationLatitude (etc.) if a number, else 99999 (unknown).
+  double latitude = NAN;          ///< Latitude, degrees north (WGS-84)
+  double longitude = NAN;         ///< Longitude, degrees east
+  double elevation = NAN;         ///< Elevation, m
   std::string institution;        ///< Institution; default "unknown"
   std::string publication_level;  ///< PublicationLevel 1..4; default "2" (edited: a correction applied)
   std::string source;             ///< Source: institute (default), INTERMAGNET or WDC

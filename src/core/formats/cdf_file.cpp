@@ -4,6 +4,7 @@
 
 #include "cdf_bytes.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>

@@ -141,7 +141,13 @@ Layout imagcdf_layout(const CdfFile& file) {
   for (int i = 0; i < 3; ++i) {
     l.components[i] = vector_elements[static_cast<std::size_t>(i)];
     l.field[i] = "GeomagneticField" + l.components[i];
-    need_variable(file, l.field[i], l.name);
+    const CdfVariable& v = need_variable(file, l.field[i], l.name);
+    std::string units = text_attribute(v, "UNITS");
+    for (char& c : units) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (l.components[i] == "D" || l.components[i] == "I" || units.find("deg") != std::string::npos) {
+      throw InputError(file.name(), "ImagCDF: element " + l.components[i] + " of ElementsRecorded '" + elements +
+                                        "' is an angle, not a field component in nT (X, Y, Z, H, E, V are read)");
+    }
   }
   l.time_variable = depend_0(file, l.field[0]);
   if (l.time_variable.empty()) l.time_variable = file.find("GeomagneticVectorTimes") ? "GeomagneticVectorTimes" : "DataTimes";

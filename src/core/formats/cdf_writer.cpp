@@ -41,13 +41,17 @@ constexpr std::size_t kNameLength = 256;
 class Buffer {
  public:
   std::vector<std::uint8_t> bytes;
+  bool v3 = true;  ///< offsets and record sizes: 8 bytes (CDF 3) or 4 (CDF 2); names 256 or 64
+  std::size_t offset_size() const { return v3 ? 8 : 4; }
   std::size_t size() const { return bytes.size(); }
   void i32(std::int32_t v) { u(static_cast<std::uint32_t>(v), 4); }
-  void i64(std::int64_t v) { u(static_cast<std::uint64_t>(v), 8); }
+  /// An offset or a record size.
+  void i64(std::int64_t v) { u(static_cast<std::uint64_t>(v), static_cast<int>(offset_size())); }
   void name(const std::string& text) {
-    if (text.size() > kNameLength) throw InputError("CDF writer", "name '" + text + "' is longer than 256 characters");
+    const std::size_t length = v3 ? kNameLength : 64;
+    if (text.size() > length) throw InputError("CDF writer", "name '" + text + "' is too long for this CDF version");
     bytes.insert(bytes.end(), text.begin(), text.end());
-    bytes.insert(bytes.end(), kNameLength - text.size(), 0);
+    bytes.insert(bytes.end(), length - text.size(), 0);
   }
   /// Starts a record: size placeholder and type; returns its offset.
   std::size_t begin(std::int32_t type) {
@@ -57,8 +61,12 @@ class Buffer {
     return at;
   }
   void end(std::size_t record) { patch64(record, static_cast<std::int64_t>(size() - record)); }
+  /// Sets the offset or size written at `at`.
   void patch64(std::size_t at, std::int64_t v) {
-    for (int i = 0; i < 8; ++i) bytes[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(v) >> (56 - 8 * i));
+    const int n = static_cast<int>(offset_size());
+    for (int i = 0; i < n; ++i) {
+      bytes[at + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(v) >> (8 * (n - 1 - i)));
+    }
   }
   /// A value in the data encoding.
   void data(std::uint64_t bits, bool big_endian) {
@@ -77,7 +85,7 @@ class Buffer {
 };
 
 /// One AEDR for `entry` as entry number `number` of attribute `attribute`; returns its offset
-/// (its next-pointer at offset + 12).
+/// (its next-pointer after the record's size and type).
 std::size_t write_entry(Buffer& b, std::int32_t type, std::int32_t attribute, std::int32_t number,
                         const CdfWriteEntry& entry, bool big_endian) {
   const std::size_t at = b.begin(type);
@@ -122,13 +130,17 @@ std::size_t write_gzip_cpr(Buffer& b) {
 
 std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content) {
   const bool big = content.big_endian;
+  if (content.version != 2 && content.version != 3) throw InputError("CDF writer", "version 2 (2.7) or 3 (3.9) only");
   Buffer b;
-  b.bytes = {0xCD, 0xF3, 0x00, 0x01, 0x00, 0x00, 0xFF, 0xFF};
+  b.v3 = content.version == 3;
+  const std::size_t next_at = b.v3 ? 12 : 8;  // a record's next-pointer, after its size and type
+  b.bytes = b.v3 ? std::vector<std::uint8_t>{0xCD, 0xF3, 0x00, 0x01, 0x00, 0x00, 0xFF, 0xFF}
+                 : std::vector<std::uint8_t>{0xCD, 0xF2, 0x60, 0x02, 0x00, 0x00, 0xFF, 0xFF};
   // CDR: version 3.9.0, row major + single file, encoding NETWORK (1) or IBMPC (6).
   const std::size_t cdr = b.begin(kCdr);
   const std::size_t cdr_gdr = b.size();
   b.i64(0);
-  b.i32(3), b.i32(9), b.i32(big ? 1 : 6), b.i32(3), b.i32(0), b.i32(0), b.i32(0), b.i32(2), b.i32(-1);
+  b.i32(b.v3 ? 3 : 2), b.i32(b.v3 ? 9 : 7), b.i32(big ? 1 : 6), b.i32(3), b.i32(0), b.i32(0), b.i32(0), b.i32(-1), b.i32(-1);
   std::string copyright = "Common Data Format (CDF)\nwritten by magnetometer_insitu_calibration\n";
   copyright.resize(256, '\0');
   b.bytes.insert(b.bytes.end(), copyright.begin(), copyright.end());
@@ -146,7 +158,7 @@ std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content) {
   // Attributes: the global ones, then the variable ones in order of first use.
   std::vector<std::string> variable_attributes;
   for (const CdfWriteVariable& v : content.variables) {
-    if (v.data_type != kCdfDouble && v.data_type != kCdfTimeTt2000) {
+    if (v.data_type != kCdfDouble && v.data_type != kCdfTimeTt2000 && v.data_type != kCdfEpoch) {
       throw InputError("CDF writer", "variable " + v.name + ": data type " + std::to_string(v.data_type) + " not written");
     }
     for (const auto& [name, entry] : v.attributes) {
@@ -163,7 +175,7 @@ std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content) {
   b.i32(static_cast<std::int32_t>(content.variables.size()));
   b.i64(0);         // UIR head
   b.i32(0);         // rfuC
-  b.i32(20170101);  // leap-second table last updated
+  b.i32(b.v3 ? 20170101 : -1);  // leap-second table last updated (rfuD in CDF 2)
   b.i32(-1);        // rfuE
   b.end(gdr);
 
@@ -191,7 +203,7 @@ std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content) {
     for (std::size_t e = 0; e < entries.size(); ++e) {
       const std::size_t aedr = write_entry(b, kAgredr, number, static_cast<std::int32_t>(e), entries[e], big);
       b.patch64(link, static_cast<std::int64_t>(aedr));
-      link = aedr + 12;
+      link = aedr + next_at;
     }
     ++number;
   }
@@ -208,7 +220,7 @@ std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content) {
     for (const auto& [variable, entry] : entries) {
       const std::size_t aedr = write_entry(b, kAzedr, number, variable, *entry, big);
       b.patch64(link, static_cast<std::int64_t>(aedr));
-      link = aedr + 12;
+      link = aedr + next_at;
     }
     ++number;
   }
@@ -239,7 +251,7 @@ std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content) {
     if (records == 0) continue;
     const std::size_t vxr = b.begin(kVxr);
     b.patch64(vxr_head, static_cast<std::int64_t>(vxr));
-    b.patch64(vxr_head + 8, static_cast<std::int64_t>(vxr));
+    b.patch64(vxr_head + b.offset_size(), static_cast<std::int64_t>(vxr));
     b.i64(0);        // next VXR
     b.i32(1), b.i32(1);  // Nentries, NusedEntries
     b.i32(0), b.i32(static_cast<std::int32_t>(records) - 1);
@@ -275,7 +287,8 @@ std::vector<std::uint8_t> encode_cdf(const CdfWriteContent& content) {
   // magic numbers, then the CPR.
   const std::vector<std::uint8_t> packed = gzip(std::vector<std::uint8_t>(b.bytes.begin() + 8, b.bytes.end()));
   Buffer c;
-  c.bytes = {0xCD, 0xF3, 0x00, 0x01, 0xCC, 0xCC, 0x00, 0x01};
+  c.v3 = b.v3;
+  c.bytes = {b.bytes[0], b.bytes[1], b.bytes[2], b.bytes[3], 0xCC, 0xCC, 0x00, 0x01};
   const std::size_t ccr = c.begin(kCcr);
   const std::size_t ccr_cpr = c.size();
   c.i64(0);

@@ -6,9 +6,12 @@
 #include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
 #include "magnetometer_insitu_calibration/formats/cdf_writer.hpp"
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 
 namespace magnetometer_insitu_calibration {
 
@@ -26,7 +29,18 @@ std::string header_value(const VectorRecord& r, const std::string& option, std::
   return fallback;
 }
 
-double number_or_unknown(double v) { return std::isfinite(v) ? v : kFill; }
+/// The option if finite, else the first header value that is a number, else 99999 (unknown).
+double number_or_header(double option, const VectorRecord& r, std::initializer_list<const char*> keys) {
+  if (std::isfinite(option)) return option;
+  for (const char* key : keys) {
+    const auto it = r.header.find(key);
+    if (it == r.header.end()) continue;
+    char* end = nullptr;
+    const double v = std::strtod(it->second.c_str(), &end);
+    if (end != it->second.c_str() && *end == '\0' && std::isfinite(v)) return v;
+  }
+  return kFill;
+}
 
 CdfWriteVariable data_variable(const std::string& name, const std::string& fieldnam, const std::string& units,
                                double valid_min, double valid_max, const std::string& depend_0,
@@ -90,9 +104,9 @@ void write_imagcdf(const std::string& path, const VectorRecord& record, const Im
       {"PublicationLevel", text(header_value(record, options.publication_level, {}, "2"))},
       {"PublicationDate", {CdfWriteEntry::of_time(unix_to_tt2000(publication))}},
       {"ObservatoryName", text(header_value(record, options.observatory_name, {"ObservatoryName", "StationName"}, iaga))},
-      {"Latitude", number(number_or_unknown(options.latitude))},
-      {"Longitude", number(number_or_unknown(options.longitude))},
-      {"Elevation", number(number_or_unknown(options.elevation))},
+      {"Latitude", number(number_or_header(options.latitude, record, {"Latitude", "StationLatitude"}))},
+      {"Longitude", number(number_or_header(options.longitude, record, {"Longitude", "StationLongitude"}))},
+      {"Elevation", number(number_or_header(options.elevation, record, {"Elevation", "StationElevation"}))},
       {"Institution", text(header_value(record, options.institution, {"Institution", "StationInstitution"}, "unknown"))},
       {"VectorSensOrient", text(options.vector_sens_orient.empty() ? elements : options.vector_sens_orient)},
       {"StandardLevel", text("None")},

@@ -55,7 +55,8 @@ TEST(CdfWriter, ImagCdfReadsBackInBothEncodingsWithFillsAndTemperatures) {
     EXPECT_EQ(file.global_text("ElementsRecorded"), "HEZ");
     EXPECT_EQ(file.global_text("Comments"), "first paragraph\nsecond");
     EXPECT_EQ(file.global_text("Latitude"), "47.93");
-    EXPECT_EQ(file.global_text("Elevation"), "99999");
+    EXPECT_EQ(file.global_text("Longitude"), "15.865");  // MagPy's StationLongitude
+    EXPECT_EQ(file.global_text("Elevation"), "1089");     // MagPy's StationElevation
     ASSERT_NE(file.find("GeomagneticFieldE"), nullptr);
     EXPECT_EQ(file.find("GeomagneticFieldE")->attributes.at("DEPEND_0").text, "GeomagneticVectorTimes");
     EXPECT_EQ(file.find("GeomagneticFieldE")->attributes.at("FILLVAL").numbers, std::vector<double>{99999.0});
@@ -159,4 +160,70 @@ TEST(CdfWriter, MagPyLayoutWithFileAndVariableCompressionReadsBack) {
   expect_same_record(lemi, back);
   ASSERT_EQ(back.auxiliary.size(), 2u);
   EXPECT_EQ(back.auxiliary[1].values, lemi.auxiliary[1].values);
+}
+
+TEST(CdfWriter, ImagCdfWithAnAngleElementIsRefusedByName) {
+  // HDZ: D is in degrees of arc, not a field component the calibration can use.
+  mic::CdfWriteContent content;
+  content.global = {{"ElementsRecorded", {mic::CdfWriteEntry::of_text("HDZF")}}};
+  for (const char* e : {"H", "D", "Z", "F"}) {
+    mic::CdfWriteVariable v;
+    v.name = std::string("GeomagneticField") + e;
+    v.values = {1, 2};
+    v.attributes = {{"DEPEND_0", mic::CdfWriteEntry::of_text("GeomagneticVectorTimes")}};
+    content.variables.push_back(v);
+  }
+  mic::CdfWriteVariable times;
+  times.name = "GeomagneticVectorTimes";
+  times.data_type = mic::kCdfTimeTt2000;
+  times.times = {mic::unix_to_tt2000(1747180800.0), mic::unix_to_tt2000(1747180801.0)};
+  content.variables.push_back(times);
+  try {
+    mic::cdf_to_vector_record(mic::CdfFile::parse(mic::encode_cdf(content), "hdz.cdf"));
+    FAIL() << "an HDZ file was read";
+  } catch (const mic::InputError& e) {
+    EXPECT_TRUE(contains(e.what(), "hdz.cdf: ImagCDF: element D of ElementsRecorded 'HDZF' is an angle")) << e.what();
+  }
+}
+
+/// The MagPy layout as CDF 2.7 (4-byte offsets, 64-character names), big endian, both GZIP
+/// levels, CDF_EPOCH times (milliseconds since year 0), for the first `n` seconds of the LEMI day.
+static std::vector<std::uint8_t> magpy_cdf27(const mic::VectorRecord& lemi, std::size_t n) {
+  mic::CdfWriteContent content;
+  content.version = 2;
+  content.big_endian = true;
+  content.gzip_file = content.gzip_variables = true;
+  content.global = {{"DataFormat", {mic::CdfWriteEntry::of_text("MagPyCDF1.0")}},
+                    {"DataComponents", {mic::CdfWriteEntry::of_text("HEZ")}}};
+  mic::CdfWriteVariable epoch;
+  epoch.name = "time";
+  epoch.data_type = mic::kCdfEpoch;
+  for (std::size_t i = 0; i < n; ++i) epoch.values.push_back((lemi.time_s[i] + mic::kCdfEpochUnixOffset_s) * 1000.0);
+  content.variables.push_back(epoch);
+  for (int c = 0; c < 3; ++c) {
+    mic::CdfWriteVariable v;
+    v.name = std::string(1, "xyz"[c]);
+    for (std::size_t i = 0; i < n; ++i) v.values.push_back(lemi.values_nT(static_cast<Eigen::Index>(i), c));
+    v.attributes = {{"DEPEND_0", mic::CdfWriteEntry::of_text("time")}};
+    content.variables.push_back(v);
+  }
+  return mic::encode_cdf(content);
+}
+
+TEST(CdfWriter, Cdf27BigEndianWithEpochTimesReadsBack) {
+  const mic::VectorRecord lemi = mic::read_record(mic::test::test_data("cdf/LEMI036_1_0002_0002_2025-05-14.cdf"));
+  const std::vector<std::uint8_t> bytes = magpy_cdf27(lemi, 3600);
+  ASSERT_EQ(bytes[1], 0xF2);  // magic 0xCDF26002
+  const mic::CdfFile file = mic::CdfFile::parse(bytes, "v27.cdf");
+  EXPECT_EQ(file.version(), 2);
+  EXPECT_EQ(file.release(), 7);
+  EXPECT_FALSE(file.little_endian());
+  const mic::VectorRecord back = mic::cdf_to_vector_record(file);
+  ASSERT_EQ(back.size(), 3600u);
+  for (std::size_t i = 0; i < back.size(); ++i) {
+    ASSERT_EQ(back.time_s[i], lemi.time_s[i]);
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_EQ(back.values_nT(static_cast<Eigen::Index>(i), c), lemi.values_nT(static_cast<Eigen::Index>(i), c));
+    }
+  }
 }

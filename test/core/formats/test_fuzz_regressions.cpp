@@ -2,6 +2,7 @@
 // fuzz/README.md) through the reader of that target with the ordinary g++ build: each must give
 // a record or the reader's documented InputError, never another exception. The inputs whose
 // expected outcome is known are also checked one by one.
+#include "magnetometer_insitu_calibration/formats/cdf_records.hpp"
 #include "magnetometer_insitu_calibration/formats/csv_record.hpp"
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
@@ -43,6 +44,7 @@ const std::map<std::string, std::function<void(const fs::path&)>>& readers() {
          read_record(p.string());
        }},
       {"lemi_bin", [](const fs::path& p) { read_lemi_bin(p.string()); }},
+      {"cdf", [](const fs::path& p) { read_cdf_record(p.string()); }},
       {"lemi_compact_flash", [](const fs::path& p) { read_lemi_compact_flash(p.string()); }},
       {"lemi025_stream", [](const fs::path& p) { read_lemi025_stream(p.string()); }},
       {"lemi025_packet",

@@ -1,6 +1,8 @@
 // calibrate_records on observatory archives: straight from the WIC MagPy CDF pair (n as from the
 // IAGA-2002 conversion), and the WIC day split into several files per instrument (exactly the
 // single-file result, overlaps reported).
+#include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 
 #include "test_support.hpp"
@@ -36,6 +38,19 @@ void write_iaga_part(const std::vector<std::string>& lines, std::size_t first, s
   for (std::size_t i = header + 1 + first; i < header + 1 + last; ++i) out << lines[i] << "\r\n";
 }
 
+/// Samples [first, last) of a record.
+mic::VectorRecord slice(const mic::VectorRecord& r, std::size_t first, std::size_t last) {
+  mic::VectorRecord out = r;
+  out.time_s.assign(r.time_s.begin() + static_cast<long>(first), r.time_s.begin() + static_cast<long>(last));
+  out.values_nT = r.values_nT.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(last - first));
+  for (mic::AuxiliaryChannel& a : out.auxiliary) {
+    a.values.assign(a.values.begin() + static_cast<long>(first), a.values.begin() + static_cast<long>(last));
+  }
+  return out;
+}
+
+const std::string kLemiCdf = mic::test::test_data("cdf/LEMI036_1_0002_0002_2025-05-14.cdf");
+const std::string kFgeCdf = mic::test::test_data("cdf/FGE_S0252_0002_0002_2025-05-14.cdf");
 const std::string kLemiIaga = mic::test::package_data("wic20250514_lemi036.sec.gz");
 const std::string kFgeIaga = mic::test::package_data("wic20250514_fge.sec.gz");
 
@@ -104,4 +119,23 @@ TEST(CalibrateRecordsCdf, DaySplitIntoFilesGivesExactlyTheSingleFileResult) {
   const nlohmann::json gap_one = read_json(dir + "/gap_one.json"), gap_split = read_json(dir + "/gap_split.json");
   EXPECT_EQ(gap_one["windows"], gap_split["windows"]);
   EXPECT_EQ(gap_one["preprocessing"], gap_split["preprocessing"]);
+}
+
+TEST(CalibrateRecordsCdf, CdfDaySplitIntoTwoImagCdfFilesGivesExactlyTheSingleFileResult) {
+  const std::string dir = mic::test::make_temp_dir("split_cdf");
+  for (const auto& [name, path] : {std::pair<std::string, std::string>{"lemi", kLemiCdf}, {"fge", kFgeCdf}}) {
+    const mic::VectorRecord day = mic::read_record(path);
+    mic::write_imagcdf(dir + "/" + name + "_1.cdf", slice(day, 0, 50000));
+    mic::write_imagcdf(dir + "/" + name + "_2.cdf", slice(day, 43200, 86400));
+  }
+  ProgramRun r = run("--reference " + kLemiCdf + " --test " + kFgeCdf + " --intervals 4 --json " + dir + "/one.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run("--reference " + dir + "/lemi_2.cdf " + dir + "/lemi_1.cdf --test " + dir + "/fge_1.cdf " + dir +
+          "/fge_2.cdf --intervals 4 --json " + dir + "/split.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, dir + "/fge_2.cdf: 6800 samples from 2025-05-14T12:00:00.000Z")) << r.output;
+  const nlohmann::json one = read_json(dir + "/one.json"), split = read_json(dir + "/split.json");
+  ASSERT_EQ(one["windows"].size(), 5u);
+  EXPECT_EQ(one["windows"], split["windows"]);
+  EXPECT_EQ(one["preprocessing"], split["preprocessing"]);
 }

@@ -2,7 +2,10 @@
 // (its CdfList tool), with the values of the IAGA-2002 export of the same record, and read back
 // by the package's own reader to 1 pT; temperatures of a MagPy CDF input carried over.
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 
 #include "test_support.hpp"
@@ -15,6 +18,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
@@ -97,6 +101,23 @@ TEST(ExportCorrectedCdf, ImagCdfReadByJcdfHasTheValuesOfTheIagaExport) {
   }
   EXPECT_NE(back.header.at("Comments").find("n row 1:"), std::string::npos);  // the calibration applied
   EXPECT_EQ(back.header.at("FormatVersion"), "1.2");
+
+  // The day as two ImagCDF files (overlapping by an hour), given in reverse order: the same export.
+  const mic::VectorRecord day = mic::read_record(fge);
+  for (const auto& [name, first, last] : {std::tuple<const char*, long, long>{"/fge_a.cdf", 0, 46800}, {"/fge_b.cdf", 43200, 86400}}) {
+    mic::VectorRecord part = day;
+    part.time_s.assign(day.time_s.begin() + first, day.time_s.begin() + last);
+    part.values_nT = day.values_nT.middleRows(first, last - first);
+    mic::write_imagcdf(dir + name, part);
+  }
+  r = run_program(EXPORT_CORRECTED_BIN, "--test " + dir + "/fge_b.cdf " + dir + "/fge_a.cdf --calibration " + dir +
+                                            "/day.json -o " + dir + "/split.cdf");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("3600 samples from 2025-05-14T12:00:00.000Z to 2025-05-14T12:59:59.000Z overlap"), std::string::npos)
+      << r.output;
+  const mic::VectorRecord split = mic::read_record(dir + "/split.cdf");
+  EXPECT_EQ(split.time_s, back.time_s);
+  EXPECT_TRUE(split.values_nT == back.values_nT);
 }
 
 TEST(ExportCorrectedCdf, TemperaturesOfAMagPyInputBecomeTemperatureVariables) {
@@ -118,5 +139,39 @@ TEST(ExportCorrectedCdf, TemperaturesOfAMagPyInputBecomeTemperatureVariables) {
       EXPECT_EQ(std::stod(values[i]), original.auxiliary[static_cast<std::size_t>(k)].values[i]) << name << " " << i;
     }
     EXPECT_EQ(listed.at(name + "Times").size(), original.size());
+  }
+}
+
+// The package's CDF 2.7 encoding (4-byte offsets, 64-character names, big endian, GZIP file and
+// variables, CDF_EPOCH), which the reader's CDF 2 path is tested on, checked by the independent
+// reader: jcdf lists the same values and times.
+TEST(ExportCorrectedCdf, Cdf27FileOfTheWriterIsReadByJcdf) {
+  const std::string dir = mic::test::make_temp_dir("cdf27_jcdf");
+  const mic::VectorRecord lemi = mic::read_record(mic::test::test_data("cdf/LEMI036_1_0002_0002_2025-05-14.cdf"));
+  const std::size_t n = 600;
+  mic::CdfWriteContent content;
+  content.version = 2;
+  content.big_endian = true;
+  content.gzip_file = content.gzip_variables = true;
+  content.global = {{"DataFormat", {mic::CdfWriteEntry::of_text("MagPyCDF1.0")}}};
+  mic::CdfWriteVariable epoch;
+  epoch.name = "time";
+  epoch.data_type = mic::kCdfEpoch;
+  mic::CdfWriteVariable x;
+  x.name = "x";
+  for (std::size_t i = 0; i < n; ++i) {
+    epoch.values.push_back((lemi.time_s[i] + mic::kCdfEpochUnixOffset_s) * 1000.0);
+    x.values.push_back(lemi.values_nT(static_cast<Eigen::Index>(i), 0));
+  }
+  content.variables = {epoch, x};
+  mic::write_cdf(dir + "/v27.cdf", content);
+  const auto listed = jcdf_list(dir + "/v27.cdf", dir);
+  ASSERT_EQ(listed.count("x"), 1u);
+  ASSERT_EQ(listed.at("x").size(), n);
+  ASSERT_EQ(listed.at("time").size(), n);
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(std::stod(listed.at("x")[i]), x.values[i]) << i;
+    // jcdf prints CDF_EPOCH as "2025-05-14T00:00:00.000"
+    ASSERT_EQ(listed.at("time")[i], mic::format_iso8601(lemi.time_s[i], 3).substr(0, 23)) << i;
   }
 }
