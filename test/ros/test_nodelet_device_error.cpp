@@ -1,7 +1,8 @@
 // rostest (test/ros/test_nodelet_device_error.test): errors of lemi025_driver run as a nodelet
 // stay visible under the nodelet's own name. The .test starts a nodelet manager and sets the
 // parameters; the test loads the nodelets itself (service <manager>/load_nodelet) once it
-// listens to /rosout_agg and /diagnostics, so that nothing is published before it listens.
+// listens to /rosout and /diagnostics, so that nothing is published before it listens. (Not
+// /rosout_agg: rostest starts no rosout node, so nothing publishes it there.)
 //  * a serial port that cannot be opened: the load succeeds (the port may appear later), a WARN
 //    on /rosout names the nodelet, the device and "not open yet", and the nodelet's own
 //    diagnostics ("<nodelet>: link", not the manager's name) report ERROR "disconnected";
@@ -27,8 +28,9 @@ using magnetometer_insitu_calibration::test::wait_for;
 
 class RosoutInbox {
  public:
-  RosoutInbox() { subscriber_ = ros::NodeHandle().subscribe("/rosout_agg", 1000, &RosoutInbox::on_log, this); }
-  bool connected() const { return subscriber_.getNumPublishers() > 0; }
+  RosoutInbox() { subscriber_ = ros::NodeHandle().subscribe("/rosout", 1000, &RosoutInbox::on_log, this); }
+  /// This node's own /rosout publisher (intraprocess) and the nodelet manager's.
+  bool connected() const { return subscriber_.getNumPublishers() >= 2; }
   /// Whether a message at `level` containing every one of `texts` has arrived.
   bool has(std::uint8_t level, const std::vector<std::string>& texts) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -65,7 +67,7 @@ TEST(NodeletDeviceError, AbsentPortIsReportedUnderTheNodeletName) {
   ASSERT_FALSE(device.empty());
   RosoutInbox rosout;
   DriverDiagnostics diagnostics("device_error/lemi_absent");
-  ASSERT_TRUE(wait_for([&] { return rosout.connected(); }, 30.0)) << "no /rosout_agg publisher";
+  ASSERT_TRUE(wait_for([&] { return rosout.connected(); }, 30.0)) << "the nodelet manager does not publish /rosout to this test";
   ASSERT_TRUE(ros::service::waitForService(manager + "/load_nodelet", ros::Duration(30.0)));
 
   ASSERT_TRUE(load_driver(manager, "/device_error/lemi_absent"));
@@ -84,7 +86,7 @@ TEST(NodeletDeviceError, AbsentPortIsReportedUnderTheNodeletName) {
 TEST(NodeletDeviceError, ImpossibleParameterFailsTheLoad) {
   const std::string manager = param("manager");
   RosoutInbox rosout;
-  ASSERT_TRUE(wait_for([&] { return rosout.connected(); }, 30.0)) << "no /rosout_agg publisher";
+  ASSERT_TRUE(wait_for([&] { return rosout.connected(); }, 30.0)) << "the nodelet manager does not publish /rosout to this test";
   ASSERT_TRUE(ros::service::waitForService(manager + "/load_nodelet", ros::Duration(30.0)));
 
   EXPECT_FALSE(load_driver(manager, "/device_error/lemi_bad"));
