@@ -33,7 +33,8 @@ namespace calibration_rostest {
 inline constexpr double kTeslaPerNanotesla = 1e-9;
 
 struct DiagnosticRecord {
-  double sim_time_s = 0.0;  ///< /clock when it arrived
+  double sim_time_s = 0.0;   ///< /clock when it arrived
+  double node_time_s = 0.0;  ///< the publishing node's ros::Time when it published (header stamp)
   int level = 0;
   std::string message;
   std::map<std::string, std::string> values;
@@ -189,6 +190,23 @@ class Harness {
     return wait(done, 0.0);
   }
 
+  /// Advances /clock by `tick_s` (more than the nodes' diagnostic period), then waits (wall time,
+  /// no further ticks) until every status whose name contains one of `parts` has been published
+  /// by its node at a /clock later than the start of the ticks: the node has processed what was
+  /// sent before this call and its diagnostics carry the final counters. Replaces "tick, then
+  /// sleep a little and hope".
+  bool wait_fresh_diagnostics(const std::vector<std::string>& parts, double tick_s, double timeout_s = 60.0) {
+    const double after_s = last_clock_s_ + 0.5;
+    tick_clock(tick_s);
+    return wait([&] {
+      for (const std::string& part : parts) {
+        const DiagnosticRecord* d = latest_diagnostic(part);
+        if (d == nullptr || d->node_time_s < after_s) return false;
+      }
+      return true;
+    }, timeout_s);
+  }
+
   // Recorded data; lock mutex() while reading when the spinner runs.
   std::mutex& mutex() { return mutex_; }
   const std::vector<mic::MagnetometerCalibration>& calibrations() const { return calibrations_; }
@@ -264,6 +282,7 @@ class Harness {
     for (const auto& status : array->status) {
       DiagnosticRecord r;
       r.sim_time_s = last_clock_s_;
+      r.node_time_s = array->header.stamp.toSec();
       r.level = status.level;
       r.message = status.message;
       for (const auto& kv : status.values) r.values[kv.key] = kv.value;

@@ -46,8 +46,7 @@ TEST(Calibration, ChangeDetected) {
     return h.calibrations().size() >= expected_windows - 1 && d != nullptr &&
            value_of(d, "windows estimated") == h.calibrations().size();
   }, 60.0);
-  h.tick_clock(120.0);
-  ros::WallDuration(0.3).sleep();
+  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_chg: chg"}, 120.0)) << "no diagnostics after the last window";
   std::lock_guard<std::mutex> lock(h.mutex());
   EXPECT_TRUE(done) << "timed out waiting for the windows";
   std::printf("[ timing ] %zu pairs, %zu windows in %.2f s wall\n", samples, h.calibrations().size(),

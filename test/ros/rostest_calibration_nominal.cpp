@@ -61,8 +61,10 @@ TEST(Calibration, Nominal) {
     return true;
   }, 30.0);
   const double burst_done_s = (ros::WallTime::now() - burst_started).toSec();
-  h.tick_clock(30.0);  // a last round of diagnostics
-  ros::WallDuration(0.3).sleep();
+  // A last round of diagnostics, published after the nodes saw everything above.
+  EXPECT_TRUE(h.wait_fresh_diagnostics({"correction_sim", "correction_malformed", "correction_truncated",
+                                        "calibration_sim: sim"}, 30.0))
+      << "no diagnostics after the burst";
   std::lock_guard<std::mutex> lock(h.mutex());
   EXPECT_TRUE(paired_done) << "timed out waiting for the calibrations";
   EXPECT_TRUE(done) << "timed out waiting for the corrected burst";

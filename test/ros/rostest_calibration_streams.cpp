@@ -39,8 +39,7 @@ TEST(Calibration, SilentTopic) {
   EXPECT_TRUE(h.wait([&] {
     return !h.calibrations().empty() && h.calibrations().back().window_start.toSec() >= last_window_start;
   }, 20.0));
-  h.tick_clock(20.0);
-  ros::WallDuration(0.2).sleep();
+  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: sim"}, 20.0));
 
   std::lock_guard<std::mutex> lock(h.mutex());
   std::size_t accepted_before = 0, flagged_across = 0, accepted_after = 0;
@@ -82,8 +81,7 @@ TEST(Calibration, TimeJump) {
   EXPECT_TRUE(h.wait([&] {
     return !h.calibrations().empty() && h.calibrations().back().window_start.toSec() >= t0 + 6600.0;
   }, 20.0));
-  h.tick_clock(20.0);
-  ros::WallDuration(0.2).sleep();
+  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: reference", "calibration_sim: sim"}, 20.0));
 
   {
   std::lock_guard<std::mutex> lock(h.mutex());
@@ -161,8 +159,7 @@ TEST(Calibration, Decimation10Hz) {
   h.publish(0, n, true, true);
   const double publish_wall_s = (ros::WallTime::now() - started).toSec();
   EXPECT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 20.0));
-  h.tick_clock(20.0);
-  ros::WallDuration(0.2).sleep();
+  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: sim"}, 20.0));
   std::printf("[ timing ] published %zu pairs at 10 Hz in %.2f s wall (%.0f samples/s per stream)\n", n, publish_wall_s,
               n / publish_wall_s);
 

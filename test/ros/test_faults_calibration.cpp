@@ -118,8 +118,14 @@ TEST(CalibrationFaults, NanWindowRejectedAndDuplicatesPairedOnce) {
     std::lock_guard<std::mutex> lock(mutex);
     return calibrations.size() >= 2;
   }, 40.0)) << "calibrations published: " << calibrations.size();
-  EXPECT_TRUE(wait_for([&] { return counter("windows failed") + counter("windows estimated") >= 3; }, 60.0));
-  ros::WallDuration(0.5).sleep();
+  // Every window ended (estimated or failed) and a calibration received for each estimated one
+  // (a spurious extra message would keep this false and be caught below).
+  EXPECT_TRUE(wait_for([&] {
+    const long long estimated = counter("windows estimated");
+    if (counter("windows failed") + estimated < 3) return false;
+    std::lock_guard<std::mutex> lock(mutex);
+    return static_cast<long long>(calibrations.size()) == estimated;
+  }, 60.0)) << "windows estimated " << counter("windows estimated") << ", failed " << counter("windows failed");
   std::vector<mic::MagnetometerCalibration> got;
   {
     std::lock_guard<std::mutex> lock(mutex);
