@@ -1,5 +1,5 @@
-// Delimited-text records: one sample per line, "time,x,y,z" (time in UNIX seconds or ISO 8601
-// UTC, values in nT).
+// Delimited-text records: one sample per line, "time,x,y,z[,aux...]" (time in UNIX seconds or
+// ISO 8601 UTC, values in nT, auxiliary channels such as a temperature in deg C).
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
@@ -13,6 +13,9 @@ namespace magnetometer_insitu_calibration {
 ///   '#' lines is kept in header["comments"], joined by '\n'.
 /// - The first other line may be a header "time,x,y,z": when its first field is not a time it is
 ///   a header, and its 2nd..4th names become the component names (default "X", "Y", "Z").
+/// - Columns after the fourth (e.g. "time,X,Y,Z,temperature") need that header: each becomes an
+///   auxiliary channel of the record, named as in the header; a name containing "temperature"
+///   (any case) has unit "degC". Values: numbers, empty or "nan" for missing.
 /// - Delimiter: whichever of ',' ';' or tab occurs most in that first line (',' on a tie).
 ///   Fields are trimmed; surrounding double quotes are removed (no quoting of delimiters).
 /// - Time column: UNIX seconds (a number) or ISO 8601 UTC (see parse_iso8601); times must
@@ -24,7 +27,8 @@ namespace magnetometer_insitu_calibration {
 VectorRecord read_csv_record(const std::string& path);
 
 /// Writes "time,<c1>,<c2>,<c3>" then one line per sample, LF line ends, gzip when the path ends
-/// in ".gz"; first the lines of record.header["comments"] as "# " lines, if any.
+/// in ".gz"; first the lines of record.header["comments"] as "# " lines, if any. Auxiliary
+/// channels follow the three components as named columns (shortest exact form, "nan" missing).
 /// Time: ISO 8601 with 3, 6 or 9 decimals (the fewest that read back exactly, for every sample)
 /// when iso_time, else UNIX seconds in the shortest form that reads back exactly.
 /// Values: fixed-point with `decimals` (0..17) digits, NaN as "nan".

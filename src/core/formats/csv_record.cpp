@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <array>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -18,7 +19,14 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 constexpr double kSentinelThreshold_nT = 88888.0;  // this and above: missing (IAGA convention)
-constexpr std::size_t kColumns = 4;                // time and three components
+constexpr std::size_t kColumns = 4;                // time and three components; more: auxiliary
+
+/// Unit of an auxiliary column, from its name: temperatures are in deg C, others unknown.
+std::string auxiliary_unit(const std::string& name) {
+  std::string lower;
+  for (char c : name) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return lower.find("temperature") != std::string::npos ? "degC" : "";
+}
 
 char choose_delimiter(const std::string& line) {
   std::size_t commas = 0;
@@ -96,12 +104,13 @@ VectorRecord read_csv_record(const std::string& path) {
   TextLineReader reader(path);
   VectorRecord record;
   record.source = path;
-  std::array<std::string, kColumns> names{"time", "X", "Y", "Z"};
+  std::vector<std::string> names{"time", "X", "Y", "Z"};  // then the auxiliary columns, if a header names them
   std::string comments;
   bool have_comments = false;
   char delimiter = 0;  // chosen from the first content line
   std::vector<double> times;
   std::vector<std::array<double, 3>> rows;
+  std::vector<std::vector<double>> auxiliary;  // one per column after the fourth
   std::size_t previous_line = 0;
 
   auto column = [&](std::size_t i) {
@@ -122,22 +131,32 @@ VectorRecord read_csv_record(const std::string& path) {
     const bool first_content = delimiter == 0;
     if (first_content) delimiter = choose_delimiter(line);
     const std::vector<std::string> fields = split_fields(line, delimiter);
-    if (fields.size() != kColumns) {
-      const std::string expected = names[0] + delimiter + names[1] + delimiter + names[2] +
-                                   delimiter + names[3];
-      throw InputError(path, n,
-                       "expected " + std::to_string(kColumns) + " columns (" + expected +
-                           "), found " + std::to_string(fields.size()));
-    }
-    if (first_content && looks_like_header(fields)) {
-      for (std::size_t i = 0; i < kColumns; ++i) {
+    const bool header = first_content && fields.size() >= kColumns && looks_like_header(fields);
+    if (header) {
+      names.clear();
+      for (std::size_t i = 0; i < fields.size(); ++i) {
         if (fields[i].empty()) {
           throw InputError(path, n, "header: column " + std::to_string(i + 1) + " has no name");
         }
-        names[i] = fields[i];
+        for (std::size_t j = kColumns; j < i; ++j) {
+          if (names[j] == fields[i]) throw InputError(path, n, "header: column name '" + fields[i] + "' repeated");
+        }
+        names.push_back(fields[i]);
       }
       for (std::size_t i = 0; i < 3; ++i) record.components[i] = names[i + 1];
+      auxiliary.assign(names.size() - kColumns, {});
       continue;
+    }
+    if (fields.size() != names.size()) {
+      std::string expected = names[0];
+      for (std::size_t i = 1; i < names.size(); ++i) expected += delimiter + names[i];
+      throw InputError(path, n,
+                       "expected " + std::to_string(names.size()) + " columns (" + expected + "), found " +
+                           std::to_string(fields.size()) +
+                           (fields.size() > names.size() && names.size() == kColumns
+                                ? "; columns after the fourth (e.g. a temperature) need a header line "
+                                  "naming them, e.g. time,X,Y,Z,temperature"
+                                : ""));
     }
 
     double time_s = 0.0;
@@ -154,6 +173,14 @@ VectorRecord read_csv_record(const std::string& path) {
         if (value >= kSentinelThreshold_nT) value = std::numeric_limits<double>::quiet_NaN();
       }
       row[i - 1] = value;
+    }
+    for (std::size_t i = kColumns; i < fields.size(); ++i) {
+      const std::string& text = fields[i];
+      double value = std::numeric_limits<double>::quiet_NaN();  // empty or "nan": missing
+      if (!text.empty() && !is_nan_text(text) && (!parse_number(text, value) || std::isinf(value))) {
+        throw InputError(path, n, column(i) + ": '" + text + "' is not a number");
+      }
+      auxiliary[i - kColumns].push_back(value);
     }
     if (!times.empty() && !(time_s > times.back())) {
       throw InputError(path, n,
@@ -174,6 +201,10 @@ VectorRecord read_csv_record(const std::string& path) {
   record.values_nT.resize(static_cast<Eigen::Index>(rows.size()), 3);
   for (std::size_t r = 0; r < rows.size(); ++r) {
     for (int c = 0; c < 3; ++c) record.values_nT(static_cast<Eigen::Index>(r), c) = rows[r][c];
+  }
+  for (std::size_t i = 0; i < auxiliary.size(); ++i) {
+    const std::string& name = names[kColumns + i];
+    record.auxiliary.push_back({name, "", auxiliary_unit(name), std::move(auxiliary[i])});
   }
   return record;
 }
@@ -248,6 +279,19 @@ void write_csv_record(const std::string& path, const VectorRecord& record, bool 
     }
     text += "," + name;
   }
+  for (const AuxiliaryChannel& a : record.auxiliary) {
+    double number = 0.0;
+    if (a.name.empty() || a.name.find_first_of(",;\t\"\r\n") != std::string::npos ||
+        parse_number(trim_blanks(a.name), number) || trim_blanks(a.name) != a.name) {
+      throw InputError(path, "auxiliary channel name '" + a.name +
+                                 "' is empty, a number, or has a delimiter, quote, newline or surrounding blanks");
+    }
+    if (a.values.size() != n) {
+      throw InputError(path, "auxiliary channel " + a.name + " has " + std::to_string(a.values.size()) +
+                                 " values for " + std::to_string(n) + " samples");
+    }
+    text += "," + a.name;
+  }
   text += "\n";
 
   const int time_decimals = iso_time ? iso_decimals(record.time_s) : 0;
@@ -277,6 +321,14 @@ void write_csv_record(const std::string& path, const VectorRecord& record, bool 
                                    "missing: >= 88888)");
       }
       text.append(buffer, static_cast<std::size_t>(length));
+    }
+    for (const AuxiliaryChannel& a : record.auxiliary) {
+      const double value = a.values[r];
+      if (std::isinf(value)) {
+        throw InputError(path, "sample " + std::to_string(r) + ", " + a.name + ": value is infinite");
+      }
+      text += ',';
+      text += std::isnan(value) ? std::string("nan") : shortest_number(value);
     }
     text += '\n';
   }

@@ -273,3 +273,74 @@ TEST(RecordFile, DetectsFormatByContentAndDispatches) {
     EXPECT_TRUE(contains(error.what(), "nowhere.csv: cannot open")) << error.what();
   }
 }
+
+// Auxiliary columns (e.g. the sensor temperature beside the field, INTERMAGNET's 1-second
+// standard): named by the header, read into record.auxiliary; refused without a header.
+TEST(ReadCsvRecord, TemperatureColumnBecomesAnAuxiliaryChannel) {
+  const std::string dir = make_temp_dir("csv_aux");
+  const std::string path = dir + "/with_temperature.csv";
+  write_bytes(path, "time,X,Y,Z,Temperature_sensor,t2\n10,1,2,3,21.25,\n11,4,5,6,nan,7.5\n12,7,8,9,-3,8\n");
+  const mic::VectorRecord record = mic::read_csv_record(path);
+  ASSERT_EQ(record.size(), 3u);
+  EXPECT_EQ(record.values_nT(2, 2), 9.0);
+  ASSERT_EQ(record.auxiliary.size(), 2u);
+  EXPECT_EQ(record.auxiliary[0].name, "Temperature_sensor");
+  EXPECT_EQ(record.auxiliary[0].unit, "degC");
+  EXPECT_EQ(record.auxiliary[1].name, "t2");
+  EXPECT_EQ(record.auxiliary[1].unit, "");
+  ASSERT_EQ(record.auxiliary[0].values.size(), 3u);
+  EXPECT_EQ(record.auxiliary[0].values[0], 21.25);
+  EXPECT_TRUE(std::isnan(record.auxiliary[0].values[1]));
+  EXPECT_EQ(record.auxiliary[0].values[2], -3.0);
+  EXPECT_TRUE(std::isnan(record.auxiliary[1].values[0]));
+  EXPECT_EQ(record.auxiliary[1].values[2], 8.0);
+}
+
+TEST(ReadCsvRecord, BadAuxiliaryColumnsNameLineAndColumn) {
+  const std::string dir = make_temp_dir("csv_aux_errors");
+  std::string message = csv_error(dir, "text.csv", "time,X,Y,Z,temperature\n1,2,3,4,20.5\n2,2,3,4,warm\n");
+  EXPECT_TRUE(contains(message, "text.csv:3: column 5 (temperature): 'warm' is not a number")) << message;
+
+  message = csv_error(dir, "no_header.csv", "1,2,3,4,20.5\n");
+  EXPECT_TRUE(contains(message, "no_header.csv:1: expected 4 columns (time,X,Y,Z), found 5")) << message;
+  EXPECT_TRUE(contains(message, "need a header line naming them")) << message;
+
+  message = csv_error(dir, "missing_value_column.csv", "time,X,Y,Z,temperature\n1,2,3,4,20\n2,2,3,4\n");
+  EXPECT_TRUE(contains(message, "missing_value_column.csv:3: expected 5 columns (time,X,Y,Z,temperature), found 4"))
+      << message;
+
+  message = csv_error(dir, "repeated.csv", "time,X,Y,Z,t,t\n1,2,3,4,5,6\n");
+  EXPECT_TRUE(contains(message, "repeated.csv:1: header: column name 't' repeated")) << message;
+
+  message = csv_error(dir, "infinite.csv", "time,X,Y,Z,temperature\n1,2,3,4,inf\n");
+  EXPECT_TRUE(contains(message, "infinite.csv:2: column 5 (temperature): 'inf' is not a number")) << message;
+}
+
+TEST(WriteCsvRecord, AuxiliaryChannelsRoundTrip) {
+  const std::string dir = make_temp_dir("csv_aux_write");
+  mic::VectorRecord record = sample_record(50, kMay14, 1.0);
+  mic::AuxiliaryChannel temperature{"temperature", "", "degC", {}};
+  for (std::size_t i = 0; i < record.size(); ++i) temperature.values.push_back(18.0 + 0.0137 * i);
+  temperature.values[7] = kNaN;
+  record.auxiliary.push_back(temperature);
+  const std::string path = dir + "/aux.csv";
+  mic::write_csv_record(path, record);
+  const mic::VectorRecord back = mic::read_csv_record(path);
+  expect_same(back, record, 0.0011);
+  ASSERT_EQ(back.auxiliary.size(), 1u);
+  EXPECT_EQ(back.auxiliary[0].unit, "degC");
+  for (std::size_t i = 0; i < record.size(); ++i) {
+    if (i == 7) {
+      EXPECT_TRUE(std::isnan(back.auxiliary[0].values[i]));
+    } else {
+      EXPECT_EQ(back.auxiliary[0].values[i], temperature.values[i]) << i;  // shortest exact form
+    }
+  }
+  record.auxiliary[0].values.pop_back();
+  try {
+    mic::write_csv_record(dir + "/short_aux.csv", record);
+    ADD_FAILURE() << "a channel of the wrong length was written";
+  } catch (const mic::InputError& error) {
+    EXPECT_TRUE(contains(error.what(), "auxiliary channel temperature has 49 values for 50 samples")) << error.what();
+  }
+}
