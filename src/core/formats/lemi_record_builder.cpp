@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace magnetometer_insitu_calibration {
 
@@ -14,6 +15,11 @@ VectorRecord lemi025_packets_to_record(const std::vector<Lemi025Packet>& packets
   record.time_s.reserve(capacity);
   Readings values(static_cast<Eigen::Index>(capacity), 3);
   Eigen::Index row = 0;
+  // The packet's temperatures (one per second), repeated for each of its ten readings.
+  AuxiliaryChannel sensor{"sensor_temperature", "T_sensor (LEMI-025 packet)", "degC", {}};
+  AuxiliaryChannel electronics{"electronics_temperature", "T_electronics (LEMI-025 packet)", "degC", {}};
+  sensor.values.reserve(capacity);
+  electronics.values.reserve(capacity);
   std::size_t bias_changes = 0;
   std::size_t gps_not_active = 0;
   const double extra_shift_s = options.time_shift_s - kLemi025TimeShift_s;
@@ -32,6 +38,8 @@ VectorRecord lemi025_packets_to_record(const std::vector<Lemi025Packet>& packets
       }
       record.time_s.push_back(t);
       values.row(row++) = v.row(k);
+      sensor.values.push_back(p.sensor_temperature_C);
+      electronics.values.push_back(p.electronics_temperature_C);
     }
     if (dropped > 0 && warnings != nullptr) {
       std::ostringstream message;
@@ -42,6 +50,10 @@ VectorRecord lemi025_packets_to_record(const std::vector<Lemi025Packet>& packets
     }
   }
   record.values_nT = values.topRows(row);
+  if (!packets.empty()) {
+    record.auxiliary.push_back(std::move(sensor));
+    record.auxiliary.push_back(std::move(electronics));
+  }
   if (!packets.empty()) {
     record.header["instrument"] = lemi_model_name(packets.front().model);
     record.header["station_number"] = std::to_string(packets.front().station);

@@ -105,6 +105,16 @@ TEST(LemiBin, ReadsFullFieldAt10HzWithShift) {
   EXPECT_EQ(r.header.at("instrument"), "LEMI-025");
   EXPECT_EQ(r.header.at("station_number"), "9");
   EXPECT_EQ(r.header.at("bias_changes"), "0");
+  // The packets' temperatures (21.50 and -3.25 deg C in the bytes) beside every reading.
+  ASSERT_EQ(r.auxiliary.size(), 2u);
+  EXPECT_EQ(r.auxiliary[0].name, "sensor_temperature");
+  EXPECT_EQ(r.auxiliary[0].unit, "degC");
+  EXPECT_EQ(r.auxiliary[1].name, "electronics_temperature");
+  for (const AuxiliaryChannel& a : r.auxiliary) ASSERT_EQ(a.values.size(), r.size()) << a.name;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    EXPECT_DOUBLE_EQ(r.auxiliary[0].values[i], 21.5) << i;
+    EXPECT_DOUBLE_EQ(r.auxiliary[1].values[i], -3.25) << i;
+  }
 }
 
 TEST(LemiBin, VariationModeAndOtherShift) {

@@ -123,6 +123,15 @@ TEST(LemiCompactFlash, ReadsBlocksSkippingErasedOnes) {
   EXPECT_EQ(r.header.at("station_number"), "47");
   EXPECT_NEAR(std::stod(r.header.at("latitude_deg")), 49.799075, 1e-9);
   EXPECT_NEAR(std::stod(r.header.at("longitude_deg")), 24.00916, 1e-9);
+  // Temperatures beside the field: each second's ten readings carry its first reading's
+  // (sensor 15.00 + 0.01 j deg C for reading j of a block, electronics -2.50 deg C).
+  ASSERT_EQ(r.auxiliary.size(), 2u);
+  ASSERT_EQ(r.auxiliary[0].values.size(), r.size());
+  for (std::size_t row = 0; row < r.size(); ++row) {
+    const std::size_t j = row % 30 / 10 * 10;  // first reading of the row's second in its block
+    EXPECT_NEAR(r.auxiliary[0].values[row], 15.0 + 0.01 * static_cast<double>(j), 1e-12) << row;
+    EXPECT_DOUBLE_EQ(r.auxiliary[1].values[row], -2.5) << row;
+  }
 }
 
 TEST(LemiCompactFlash, BadBlockReportedAndMisalignmentRecovered) {
