@@ -2,6 +2,7 @@
 // values come from the physics of each model (filter response, random-walk variance, thermostat
 // cycle), not from the code.
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "simulator_test_helpers.hpp"
 
@@ -176,4 +177,115 @@ TEST(UnmodelledDisturbances, RejectsImpossibleSettingsNamingTheField) {
   u = {};
   u.heater_period_s = 0.0;
   EXPECT_EQ(where(u), "heater_period_s");
+}
+
+// ---- Hut temperature (hut_temperature.hpp) ----------------------------------------------------
+
+namespace {
+mic::SimulationSettings quiet_for(double duration_s) {
+  mic::SimulationSettings s = quiet_settings();
+  s.duration_s = duration_s;
+  return s;
+}
+}  // namespace
+
+TEST(HutTemperature, DailyCycleChangesScaleAndOffsetByTheStatedCoefficients) {
+  mic::SimulationSettings sim = quiet_for(2 * 86400.0);
+  sim.gap_count = 1;
+  sim.gap_length_s = 60.0;
+  sim.gap_instrument = mic::SimulatedInstrument::kTest;
+  mic::SimulatedPair pair = mic::simulate_pair(sim);
+  const mic::Readings before = pair.test.values_nT;
+  mic::HutTemperatureSettings hut;
+  hut.heater_amplitude_C = 0.0;
+  hut.thermometer_noise_C = 0.0;
+  hut.mean_C = 18.0;
+  hut.reference_C = 20.0;
+  const mic::HutTemperatureReport report = mic::add_hut_temperature(pair, hut);
+  ASSERT_EQ(report.temperature_C.size(), pair.test.size());
+  ASSERT_EQ(pair.test.auxiliary.size(), 1u);
+  const mic::AuxiliaryChannel& reading = pair.test.auxiliary[0];
+  EXPECT_EQ(reading.name, "sensor_temperature");
+  EXPECT_EQ(reading.unit, "degC");
+  std::size_t nan_readings = 0;
+  for (std::size_t i = 0; i < pair.test.size(); ++i) {
+    const auto row = static_cast<Eigen::Index>(i);
+    const double t = pair.test.time_s[i];
+    // 2025-05-14 starts at 00:00 UTC: the maximum at 14:00 UTC each day.
+    const double theta = 18.0 + 3.0 * std::cos(2.0 * kPi * (std::fmod(t, 86400.0) - 14.0 * 3600.0) / 86400.0);
+    ASSERT_NEAR(report.temperature_C[i], theta, 1e-9) << i;
+    const double d = theta - 20.0;
+    if (!before.row(row).allFinite()) {
+      EXPECT_TRUE(std::isnan(reading.values[i])) << "a reading without its packet at " << i;
+      ++nan_readings;
+      continue;
+    }
+    EXPECT_NEAR(reading.values[i], std::round(theta * 100.0) / 100.0, 1e-9) << i;  // 0.01 deg C steps
+    const Eigen::Vector3d scale(15e-6, -10e-6, 25e-6), offset(0.2, -0.15, 0.3);
+    for (int l = 0; l < 3; ++l) {
+      ASSERT_NEAR(pair.test.values_nT(row, l), before(row, l) * (1.0 + scale(l) * d) + offset(l) * d, 1e-8) << i << " " << l;
+    }
+  }
+  EXPECT_EQ(nan_readings, 60u);
+  // At 14:00 UTC the sensor is 1 deg C above reference: Z (43000 nT) reads 25 ppm x 43000 + 0.3 nT more.
+  const auto peak = static_cast<Eigen::Index>(14 * 3600);
+  EXPECT_NEAR(pair.test.values_nT(peak, 2) - before(peak, 2), 25e-6 * before(peak, 2) + 0.3, 1e-6);
+}
+
+TEST(HutTemperature, HeaterCyclesAreTrianglesOfTheStatedSizePeriodAndDuty) {
+  mic::SimulationSettings sim = quiet_for(86400.0);
+  mic::SimulatedPair pair = mic::simulate_pair(sim);
+  mic::HutTemperatureSettings hut;
+  hut.daily_amplitude_C = 0.0;
+  hut.heater_amplitude_C = 0.4;
+  hut.heater_period_s = 1200.0;
+  hut.heater_period_jitter = 0.25;
+  hut.heater_duty = 0.3;
+  hut.seed = 5;
+  const mic::HutTemperatureReport report = mic::add_hut_temperature(pair, hut);
+  // 86400 s / 1200 s = 72 cycles on average; lengths uniform in 900..1500 s.
+  EXPECT_GE(report.heater_cycles, 57u);
+  EXPECT_LE(report.heater_cycles, 96u);
+  double lo = 1e9, hi = -1e9;
+  std::size_t warming = 0;
+  for (std::size_t i = 0; i < report.temperature_C.size(); ++i) {
+    lo = std::min(lo, report.temperature_C[i]);
+    hi = std::max(hi, report.temperature_C[i]);
+    if (i > 0) warming += report.temperature_C[i] > report.temperature_C[i - 1];
+  }
+  EXPECT_GE(lo, 20.0 - 0.4 - 1e-12);
+  EXPECT_LE(hi, 20.0 + 0.4 + 1e-12);
+  EXPECT_LT(lo, 20.0 - 0.39);  // every cycle reaches its extremes
+  EXPECT_GT(hi, 20.0 + 0.39);
+  EXPECT_NEAR(static_cast<double>(warming) / static_cast<double>(report.temperature_C.size()), 0.3, 0.02);
+  // The thermometer adds 0.005 deg C rms and rounds to 0.01 deg C.
+  double sum2 = 0.0;
+  const auto& reading = pair.test.auxiliary.at(0).values;
+  for (std::size_t i = 0; i < reading.size(); ++i) sum2 += std::pow(reading[i] - report.temperature_C[i], 2);
+  EXPECT_NEAR(std::sqrt(sum2 / static_cast<double>(reading.size())), std::sqrt(0.005 * 0.005 + 0.01 * 0.01 / 12.0), 0.0007);
+}
+
+TEST(HutTemperature, ImpossibleSettingsNameTheField) {
+  mic::SimulatedPair pair = mic::simulate_pair(quiet_for(600.0));
+  auto field_of = [&](const mic::HutTemperatureSettings& s) -> std::string {
+    try {
+      mic::add_hut_temperature(pair, s);
+    } catch (const mic::InputError& error) {
+      return error.where();
+    }
+    return "";
+  };
+  mic::HutTemperatureSettings s;
+  s.heater_duty = 1.0;
+  EXPECT_EQ(field_of(s), "heater_duty");
+  s = {};
+  s.daily_amplitude_C = -1.0;
+  EXPECT_EQ(field_of(s), "daily_amplitude_C");
+  s = {};
+  s.scale_ppm_per_C(1) = std::nan("");
+  EXPECT_EQ(field_of(s), "scale_ppm_per_C");
+  s = {};
+  s.thermometer_resolution_C = -0.01;
+  EXPECT_EQ(field_of(s), "thermometer_resolution_C");
+  EXPECT_TRUE(pair.test.auxiliary.empty()) << "a refused setting changed the record";
 }
