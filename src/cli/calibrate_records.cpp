@@ -89,6 +89,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--response-model", settings.response_model,
                "fit a delay + 1-pole low-pass per component to the relative response; estimate n through it");
+  app.add_option("--temperature-channel", settings.preprocess.temperature_channel,
+                 "the test record's sensor temperature: auto (sensor_temperature, a T_sensor channel, "
+                 "temperature), none, or a channel name; fits nT/degC and ppm/degC terms when it varies")
+      ->capture_default_str();
+  app.add_option("--temperature-min-range", settings.temperature.min_range_C,
+                 "peak-to-peak temperature (degC) in a window below which no temperature terms are fitted")
+      ->capture_default_str();
   app.add_option("--method", method, "estimator: robust (default) or plain (Eq. 2 as printed)")->capture_default_str();
   app.add_flag("--auto-band", settings.estimator.robust.auto_band,
                "choose the band from the coherence between the instruments (reported per window)");

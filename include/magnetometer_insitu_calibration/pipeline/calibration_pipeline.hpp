@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
+#include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
@@ -33,6 +34,9 @@ struct PreprocessSettings {
   GapSettings gaps;
   double output_period_s = 1.0;        ///< estimation sample period, s
   double max_filled_fraction = 0.05;   ///< of a window's samples, [0, 1]
+  /// The test's sensor temperature (temperature_channel.hpp): "auto", "none" or a channel name.
+  /// Interpolated onto the estimation grid (NaN across gaps longer than gaps.max_fill_s).
+  std::string temperature_channel = "auto";
 
   void validate() const;
 };
@@ -58,6 +62,9 @@ struct CalibrationSettings {
   /// significant, estimate n again on the test record with that filter removed (response_model.hpp).
   bool response_model = false;
   ResponseModelSettings model;
+  /// Temperature terms when the test record has a temperature (temperature_regression.hpp); the
+  /// band, gamma and trend follow each window's estimate, min_range_C is used as given.
+  TemperatureBand temperature;
 
   void validate() const;
 };
@@ -72,6 +79,7 @@ struct PreprocessReport {
   std::size_t grid_samples = 0;       ///< samples on the regular estimation grid
   std::size_t filled_samples = 0;     ///< of those, interpolated
   std::size_t long_gaps = 0;
+  std::string temperature_channel;    ///< the test's channel used as its temperature, "" if none
 };
 
 /// The paired record on the regular estimation grid.
@@ -79,6 +87,7 @@ struct PreparedPair {
   PairedRecord paired;  ///< time_s on the grid; no NaN
   GapReport gaps;
   double sample_period_s = 1.0;
+  Eigen::VectorXd test_temperature_C;  ///< on the grid, deg C; empty without a temperature channel
 };
 
 struct CalibrationWindow {
@@ -93,6 +102,10 @@ struct CalibrationWindow {
   /// first; empty when not asked for or when no band has enough harmonics.
   std::vector<ResponseBand> relative_response;
   ResponseModel response_model;  ///< fitted when CalibrationSettings::response_model
+  /// Temperature terms (fitted only when the test has a temperature that varies in the window);
+  /// when fitted, estimate.n is at temperature.reference_C and its covariance includes the
+  /// coefficients' uncertainty.
+  TemperatureFit temperature;
 };
 
 struct PairCalibration {

@@ -2,7 +2,9 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,6 +21,7 @@ void PreprocessSettings::validate() const {
     throw InputError("max_filled_fraction", "must be in [0, 1]");
   if (!(gaps.max_fill_s >= 0.0)) throw InputError("max_fill_s", "must be >= 0 s");
   if (despike) despike_settings.validate();
+  if (temperature_channel.empty()) throw InputError("temperature_channel", "must be auto, none or a channel name");
 }
 
 void WindowLayout::validate() const {
@@ -40,6 +43,8 @@ void CalibrationSettings::validate() const {
   windows.validate();
   if (relative_response || response_model) response.validate();
   if (response_model) model.validate();
+  if (!(temperature.min_range_C >= 0.0) || !std::isfinite(temperature.min_range_C))
+    throw InputError("temperature_min_range", "must be a finite temperature range >= 0 degC");
 }
 
 double median_sample_period(const VectorRecord& record) {
@@ -112,6 +117,12 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
   rep.grid_samples = out.paired.size();
   rep.filled_samples = out.gaps.filled_samples;
   rep.long_gaps = out.gaps.long_gaps.size();
+  // 5. The test's temperature on the grid (slow: linear interpolation of the raw channel).
+  if (const AuxiliaryChannel* channel = find_temperature_channel(test, settings.temperature_channel)) {
+    out.test_temperature_C = interpolate_channel(test.time_s, channel->values, out.paired.time_s,
+                                                 std::max(settings.gaps.max_fill_s, 2.0 * rep.test_period_s));
+    rep.temperature_channel = channel->name;
+  }
   return out;
 }
 
@@ -141,6 +152,35 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
   return spans;
 }
 
+namespace {
+
+/// Fits the temperature terms with n0 = estimate.n; when fitted, removes them from `test` (in
+/// place), estimates again (n at the window's mean temperature) and adds the coefficients'
+/// uncertainty to the covariance of n.
+TemperatureFit with_temperature_terms(WindowEstimator& estimator, const Eigen::Ref<const Readings>& reference,
+                                      Readings& test, const Eigen::Ref<const Eigen::VectorXd>& temperature_C,
+                                      double sample_period_s, const CalibrationSettings& settings,
+                                      WindowEstimate& estimate) {
+  TemperatureBand band = settings.temperature;
+  band.low_hz = std::isfinite(estimate.band_low_hz) ? estimate.band_low_hz : settings.estimator.band_low_hz;
+  band.high_hz = std::isfinite(estimate.band_high_hz) ? estimate.band_high_hz : settings.estimator.band_high_hz;
+  band.gamma = settings.estimator.gamma;
+  band.trend = settings.estimator.trend;
+  if (!estimate.n.allFinite()) return {};
+  const Eigen::Matrix3d n0 = estimate.n;
+  TemperatureFit fit = fit_temperature(reference, test, temperature_C, sample_period_s, n0, band);
+  if (!fit.fitted) return fit;
+  test = remove_temperature_terms(reference, test, temperature_C, n0, fit);
+  estimate = estimator.estimate(reference, test, sample_period_s);
+  if (estimate.n.allFinite()) {
+    estimate.n_covariance += fit.coupling * fit.covariance * fit.coupling.transpose();
+    estimate.parameters = decompose(estimate.n, estimate.n_covariance);
+  }
+  return fit;
+}
+
+}  // namespace
+
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings) {
   settings.validate();
   const auto& p = prepared.paired;
@@ -157,8 +197,13 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
       w.overlaps_long_gap |= gap.first < span.first + span.count && gap.second >= span.first;
     }
     const auto reference = p.reference_nT.middleRows(span.first, span.count);
-    const auto test = p.test_nT.middleRows(span.first, span.count);
+    Readings test = p.test_nT.middleRows(span.first, span.count);
     w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
+    if (prepared.test_temperature_C.size() > 0) {
+      w.temperature = with_temperature_terms(estimator, reference, test,
+                                             prepared.test_temperature_C.segment(span.first, span.count),
+                                             prepared.sample_period_s, settings, w.estimate);
+    }
     if (settings.relative_response || settings.response_model) {
       w.relative_response = relative_response(reference, test, w.estimate.n, prepared.sample_period_s,
                                               settings.response);

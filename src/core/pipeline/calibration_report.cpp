@@ -62,6 +62,9 @@ json model_to_json(const ResponseModel& m) {
               {"fit_max_hz", number(m.fit_max_hz)}, {"chi2_per_dof", number(m.chi2_per_dof)}, {"text", m.text}};
 }
 
+json fitted_or_null(const TemperatureFit& t, double v) { return t.fitted ? number(v) : json(nullptr); }
+json fitted_or_null(const TemperatureFit& t, const Eigen::Vector3d& v) { return t.fitted ? vec3(v) : json(nullptr); }
+
 json window_to_json(const CalibrationWindow& w) {
   const WindowEstimate& e = w.estimate;
   const CalibrationParameters& p = e.parameters;
@@ -101,6 +104,16 @@ json window_to_json(const CalibrationWindow& w) {
       {"weights", e.weights},
       {"relative_response", response_to_json(w.relative_response)},
       {"response_model", model_to_json(w.response_model)},
+      // Temperature terms (temperature_regression.hpp): null when not fitted, text says why.
+      {"temperature_text", w.temperature.text},
+      {"temperature_reference_C", fitted_or_null(w.temperature, w.temperature.reference_C)},
+      {"temperature_range_C", fitted_or_null(w.temperature, w.temperature.range_C)},
+      {"temperature_apparent_nT_per_C", fitted_or_null(w.temperature, w.temperature.apparent_nT_per_C)},
+      {"temperature_apparent_ci95_nT_per_C", fitted_or_null(w.temperature, w.temperature.apparent_ci95_nT_per_C)},
+      {"temperature_offset_nT_per_C", fitted_or_null(w.temperature, w.temperature.offset_nT_per_C)},
+      {"temperature_offset_ci95_nT_per_C", fitted_or_null(w.temperature, w.temperature.offset_ci95_nT_per_C)},
+      {"temperature_scale_ppm_per_C", fitted_or_null(w.temperature, w.temperature.scale_ppm_per_C)},
+      {"temperature_scale_ci95_ppm_per_C", fitted_or_null(w.temperature, w.temperature.scale_ci95_ppm_per_C)},
   };
 }
 
@@ -128,6 +141,7 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s,
         {"output_period_s", s.preprocess.output_period_s},
         {"despike", s.preprocess.despike},
         {"max_fill_s", s.preprocess.gaps.max_fill_s},
+        {"temperature_channel", s.preprocess.temperature_channel},
         {"max_filled_fraction", s.preprocess.max_filled_fraction},
         {"min_harmonics", s.estimator.min_harmonics},
         {"max_condition_number", s.estimator.max_condition_number},
@@ -146,7 +160,8 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s,
         {"decimated", r.decimated},
         {"grid_samples", r.grid_samples},
         {"filled_samples", r.filled_samples},
-        {"long_gaps", r.long_gaps}}},
+        {"long_gaps", r.long_gaps},
+        {"temperature_channel", r.temperature_channel.empty() ? json(nullptr) : json(r.temperature_channel)}}},
       {"windows", windows},
   };
 }
@@ -263,6 +278,22 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
       std::snprintf(b, sizeof b, "%.2f", r.group_delay_s);
       return std::string(b);
     });
+    bool any_temperature = false;
+    for (const auto& w : c.windows) any_temperature |= w.temperature.fitted;
+    if (any_temperature) {  // apparent coefficient (what the record determines) and scale
+      for (int l = 0; l < 3; ++l) {
+        row(std::string("temperature ") + axes[l] + " nT/degC", [l](const CalibrationWindow& w) {
+          const TemperatureFit& t = w.temperature;
+          return t.fitted ? with_ci(t.apparent_nT_per_C(l), t.apparent_ci95_nT_per_C(l), 3) : std::string("-");
+        });
+      }
+      for (int l = 0; l < 3; ++l) {
+        row(std::string("temperature ") + axes[l] + " ppm/degC", [l](const CalibrationWindow& w) {
+          const TemperatureFit& t = w.temperature;
+          return t.fitted ? with_ci(t.scale_ppm_per_C(l), t.scale_ci95_ppm_per_C(l), 0) : std::string("-");
+        });
+      }
+    }
     row("condition number", [](const CalibrationWindow& w) {
       char b[32];
       std::snprintf(b, sizeof b, "%.1f", w.estimate.condition_number);
@@ -271,6 +302,9 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     row("quality", [](const CalibrationWindow& w) { return std::string(quality_name(w.estimate.quality)); });
     for (const auto& w : c.windows) {
       if (w.response_model.fitted || !w.response_model.text.empty()) out << w.label << ": " << w.response_model.text << "\n";
+    }
+    for (const auto& w : c.windows) {
+      if (!w.temperature.text.empty()) out << w.label << ": temperature " << w.temperature.text << "\n";
     }
     for (const auto& w : c.windows) {
       if (w.estimate.quality != Quality::kOk) out << w.label << ": " << w.estimate.quality_text << "\n";
