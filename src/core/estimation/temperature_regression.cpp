@@ -41,7 +41,7 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
   }
   TemperatureFit fit;
   if (n < 16) {
-    fit.text = "window too short for temperature terms";
+    fit.text = "temperature terms not fitted: window too short";
     return fit;
   }
   if (!temperature_C.allFinite()) {
@@ -53,6 +53,7 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
   fit.mean_field_nT = (reference_nT.colwise().mean() * n0).transpose();
   if (!(fit.range_C >= band.min_range_C)) {
     std::ostringstream text;
+    text.precision(3);
     text << "temperature range " << fit.range_C << " degC below " << band.min_range_C
          << " degC: estimated without temperature terms";
     fit.text = text.str();
@@ -65,7 +66,7 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
   const int p = band.trend ? 6 : 5;  // dR (3), tau, u, v_l
   const long harmonics = m - m0 + 1;
   if (harmonics < p + 2) {
-    fit.text = "too few harmonics in the band for temperature terms";
+    fit.text = "temperature terms not fitted: too few harmonics in the band";
     return fit;
   }
 
@@ -165,7 +166,7 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
   fit.fitted = true;
   std::ostringstream text;
   text.precision(3);
-  text << "fitted at " << std::fixed << fit.reference_C << " degC (range " << fit.range_C << " degC)";
+  text << "temperature terms fitted; n at " << std::fixed << fit.reference_C << " degC (range " << fit.range_C << " degC)";
   fit.text = text.str();
   return fit;
 }

@@ -304,7 +304,7 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
       if (w.response_model.fitted || !w.response_model.text.empty()) out << w.label << ": " << w.response_model.text << "\n";
     }
     for (const auto& w : c.windows) {
-      if (!w.temperature.text.empty()) out << w.label << ": temperature " << w.temperature.text << "\n";
+      if (!w.temperature.text.empty()) out << w.label << ": " << w.temperature.text << "\n";
     }
     for (const auto& w : c.windows) {
       if (w.estimate.quality != Quality::kOk) out << w.label << ": " << w.estimate.quality_text << "\n";
