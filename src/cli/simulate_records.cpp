@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
+#include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -82,6 +83,7 @@ std::string option_for_field(const std::string& field) {
       {"variation_rms_nT", "--variation-rms-nT"},
       {"spectral_index", "--spectral-index"},
       {"daily_amplitude_nT", "--daily-nT"},
+
       {"variation_z_ratio", "--z-ratio"},
       {"vehicles_per_day", "--vehicles-per-day"},
       {"road_distance_m", "--road-distance-m"},
@@ -158,6 +160,19 @@ int main(int argc, char** argv) {
                  "filter mismatch: one-pole low-pass of the test instrument, corner Hz (0: none)")->capture_default_str();
   app.add_option("--test-delay-s", unmodelled.test_delay_s,
                  "filter mismatch: extra delay of the test instrument after the low-pass, s")->capture_default_str();
+  // A field hut: the test sensor's temperature and its coefficients (hut_temperature.hpp).
+  mic::HutTemperatureSettings hut;
+  hut.daily_amplitude_C = hut.heater_amplitude_C = 0.0;  // no hut unless asked for
+  std::string temperature_offset = "0.2,-0.15,0.3", temperature_scale = "15,-10,25";
+  app.add_option("--hut-daily-C", hut.daily_amplitude_C, "hut: amplitude of the daily temperature cycle, degC (0: no hut)")
+      ->capture_default_str();
+  app.add_option("--hut-heater-C", hut.heater_amplitude_C, "hut: heater cycling, half peak-to-peak, degC (0: none)")
+      ->capture_default_str();
+  app.add_option("--hut-heater-period-s", hut.heater_period_s, "hut: mean heater cycle, s (+-20 %)")->capture_default_str();
+  app.add_option("--temperature-offset-nT-per-C", temperature_offset, "hut: test offset coefficients x,y,z, nT/degC")
+      ->capture_default_str();
+  app.add_option("--temperature-scale-ppm-per-C", temperature_scale, "hut: test scale coefficients x,y,z, ppm/degC")
+      ->capture_default_str();
   app.add_option("--decimals", decimals, "CSV value decimals (IAGA-2002 always has 2)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -192,13 +207,29 @@ int main(int argc, char** argv) {
     s.spike_instrument = mic::parse_simulated_instrument(spike_instrument, "--spike-instrument");
     s.gap_instrument = mic::parse_simulated_instrument(gap_instrument, "--gap-instrument");
     unmodelled.heater_nT = parse_vector(heater, "--heater-nT");
-    station.seed = unmodelled.seed = s.seed;
+    station.seed = unmodelled.seed = hut.seed = s.seed;
+    hut.offset_nT_per_C = parse_vector(temperature_offset, "--temperature-offset-nT-per-C");
+    hut.scale_ppm_per_C = parse_vector(temperature_scale, "--temperature-scale-ppm-per-C");
+    const bool with_hut = hut.daily_amplitude_C > 0.0 || hut.heater_amplitude_C > 0.0;
+    if (with_hut && format != "csv") {
+      throw mic::InputError("--format", "a hut (--hut-daily-C, --hut-heater-C) needs csv: IAGA-2002 has no temperature column");
+    }
     try {
       s.validate();
       station.validate();
       unmodelled.validate();
     } catch (const mic::InputError& e) {
       throw mic::InputError(option_for_field(e.where()), e.problem());
+    }
+    try {
+      hut.validate();
+    } catch (const mic::InputError& e) {  // the hut's fields have their own options
+      static const std::map<std::string, std::string> hut_options = {
+          {"daily_amplitude_C", "--hut-daily-C"}, {"heater_amplitude_C", "--hut-heater-C"},
+          {"heater_period_s", "--hut-heater-period-s"}, {"offset_nT_per_C", "--temperature-offset-nT-per-C"},
+          {"scale_ppm_per_C", "--temperature-scale-ppm-per-C"}};
+      const auto it = hut_options.find(e.where());
+      throw mic::InputError(it == hut_options.end() ? e.where() : it->second, e.problem());
     }
 
     std::error_code error;
@@ -210,6 +241,7 @@ int main(int argc, char** argv) {
     mic::SimulatedPair pair = mic::simulate_pair(s);
     if (station.vehicles_per_day > 0.0) mic::add_station_disturbances(pair, station);
     mic::add_unmodelled_disturbances(pair, unmodelled);
+    if (with_hut) mic::add_hut_temperature(pair, hut);  // test.csv gets a sensor_temperature column
     pair.reference.station = "SIM";
     pair.test.station = "SIM";
     const std::filesystem::path dir(out_dir);
@@ -254,6 +286,17 @@ int main(int argc, char** argv) {
                           {"heater_period_s", unmodelled.heater_period_s},
                           {"test_corner_hz", unmodelled.test_corner_hz},
                           {"test_delay_s", unmodelled.test_delay_s}};
+    if (with_hut) {
+      auto v3 = [](const Eigen::Vector3d& v) { return nlohmann::json::array({v(0), v(1), v(2)}); };
+      truth["hut"] = {{"mean_C", hut.mean_C},
+                      {"reference_C", hut.reference_C},
+                      {"daily_amplitude_C", hut.daily_amplitude_C},
+                      {"heater_amplitude_C", hut.heater_amplitude_C},
+                      {"heater_period_s", hut.heater_period_s},
+                      {"offset_nT_per_C", v3(hut.offset_nT_per_C)},
+                      {"scale_ppm_per_C", v3(hut.scale_ppm_per_C)},
+                      {"model", "T_l <- T_l (1 + 1e-6 scale_l (theta - reference_C)) + offset_l (theta - reference_C)"}};
+    }
     std::string command_line;
     for (int i = 0; i < argc; ++i) command_line += (i ? " " : "") + std::string(argv[i]);
     truth["command_line"] = command_line;
