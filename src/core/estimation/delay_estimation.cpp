@@ -33,7 +33,7 @@ DelayEstimate estimate_delay(const Eigen::Ref<const Readings>& reference_nT, con
   // operations on both sides, so the phase between them is still -2 pi f tau.
   const std::size_t length = static_cast<std::size_t>(reference_nT.rows()) - 1;
   const Readings predicted = reference_nT * n;
-  detail::RealDft dft;
+  detail::RealDft& dft = detail::thread_real_dft();
   std::vector<Eigen::VectorXcd> spectra(6);
   std::vector<double> column(length);
   for (int c = 0; c < 6; ++c) {

@@ -66,7 +66,7 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
 
   const Readings predicted = reference * n;  // R n, nT
   const auto length = static_cast<std::size_t>(reference.rows() - 1);
-  detail::RealDft dft;
+  detail::RealDft& dft = detail::thread_real_dft();
   std::array<Eigen::VectorXcd, 3> p_dft, t_dft;
   for (int k = 0; k < 3; ++k) {
     const Eigen::VectorXd p = whitened_tapered(predicted.col(k));
