@@ -2,6 +2,7 @@
 // where T - R n, high-passed by a running median, is an outlier.
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 
+#include "bracketed_median.hpp"
 #include "spectral_tools.hpp"
 
 #include <algorithm>
@@ -13,21 +14,40 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 /// Running-median baseline of x (one column), evaluated at block centres every `step` samples
-/// over `window` samples and interpolated linearly: O(N window / step).
+/// over `window` samples and interpolated linearly: O(N window / step) comparisons. Each
+/// window's median is searched first near the previous one's (BracketedMedian), with a bracket
+/// sized to hold about `target` values; the result is exactly the window's median.
 Eigen::VectorXd running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step) {
   const std::size_t n = static_cast<std::size_t>(x.size());
   Eigen::VectorXd base(x.size());
   if (n == 0) return base;
   window = std::min(window, n);
-  std::vector<double> centres, values, buffer;
+  detail::BracketedMedian selector;
+  const double target = std::max(64.0, static_cast<double>(window) / 16.0);  // values in the bracket
+  double centre = std::nan(""), half_width = 0.0;  // guess for the next window, units of x
+  std::vector<double> centres, values;
   for (std::size_t c = 0;; c += step) {
-    const std::size_t centre = std::min(c, n - 1);
-    const std::size_t first = centre >= window / 2 ? centre - window / 2 : 0;
+    const std::size_t centre_index = std::min(c, n - 1);
+    const std::size_t first = centre_index >= window / 2 ? centre_index - window / 2 : 0;
     const std::size_t last = std::min(n, first + window);
-    buffer.assign(x.data() + first, x.data() + last);
-    centres.push_back(static_cast<double>(centre));
-    values.push_back(detail::median(buffer));
-    if (centre == n - 1) break;
+    const double* data = x.data() + first;
+    const double m = std::isnan(centre) ? detail::subsampled_median(data, last - first, selector)
+                                        : selector.median(data, last - first, centre, half_width);
+    // Next guess: the median moved on by its last step, a bracket rescaled to hold about
+    // `target` values and at least twice that step wide.
+    const double moved = values.empty() ? 0.0 : m - values.back();
+    double width = selector.last_half_width();
+    if (!(width > 0.0)) {
+      const auto [lo, hi] = std::minmax_element(data, data + (last - first));
+      width = (*hi - *lo) / static_cast<double>(last - first) * target;
+    } else {
+      width *= std::clamp(target / static_cast<double>(std::max<std::size_t>(1, selector.last_inside())), 0.25, 4.0);
+    }
+    half_width = std::max(width, 2.0 * std::abs(moved));
+    centre = m + moved;
+    centres.push_back(static_cast<double>(centre_index));
+    values.push_back(m);
+    if (centre_index == n - 1) break;
   }
   std::size_t k = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -54,13 +74,14 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   const std::size_t step = std::max<std::size_t>(1, window / 10);
   const std::size_t margin = static_cast<std::size_t>(std::llround(settings.screen_margin_s / sample_period_s));
   std::vector<char> flag(length, 0);
+  detail::BracketedMedian selector;
   for (int c = 0; c < 3; ++c) {
     const Eigen::VectorXd e = residual.col(c);
     const Eigen::VectorXd hp = e - running_median_baseline(e, window, step);
     std::vector<double> abs_dev(length);
-    const double centre = detail::median(std::vector<double>(hp.data(), hp.data() + length));
+    const double centre = detail::subsampled_median(hp.data(), length, selector);
     for (std::size_t i = 0; i < length; ++i) abs_dev[i] = std::abs(hp(static_cast<Eigen::Index>(i)) - centre);
-    const double sigma = 1.4826 * detail::median(abs_dev);
+    const double sigma = 1.4826 * detail::subsampled_median(abs_dev.data(), length, selector);
     if (!(sigma > 0.0)) continue;
     for (std::size_t i = 0; i < length; ++i) flag[i] |= abs_dev[i] > settings.screen_threshold * sigma;
   }

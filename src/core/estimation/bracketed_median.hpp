@@ -1,0 +1,87 @@
+// Exact medians for the residual screen without a full selection per window: the order
+// statistics are looked for between two values a <= b that probably bracket them (the previous
+// window's median, a subsample's quantiles); one pass counts the values below a and copies those
+// in [a, b]; when the counts prove that the wanted order statistics lie in [a, b] they are
+// selected among the copied few, otherwise the bracket is widened and, at last, the whole
+// window is selected. The result is the same value detail::median returns (same order
+// statistics, same arithmetic), only found with less work. Not installed: src/core only.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+namespace magnetometer_insitu_calibration::detail {
+
+class BracketedMedian {
+ public:
+  /// Median of x[0 .. n) (n >= 1, finite values), as detail::median: the middle order statistic,
+  /// or for even n the mean of the two middle ones. `centre` and `half_width` (units of x) are
+  /// the guess; a NaN centre or a half width <= 0 goes straight to the full selection.
+  double median(const double* x, std::size_t n, double centre, double half_width) {
+    const std::size_t k_hi = n / 2, k_lo = n % 2 == 0 ? k_hi - 1 : k_hi;
+    if (std::isfinite(centre) && half_width > 0.0 && std::isfinite(half_width)) {
+      for (int attempt = 0; attempt < 3; ++attempt, half_width *= 8.0) {
+        const double a = centre - half_width, b = centre + half_width;
+        inside_.resize(n);
+        std::size_t below = 0, count = 0;
+        for (std::size_t i = 0; i < n; ++i) {  // branch-free: always write, advance when inside
+          const double v = x[i];
+          below += v < a;
+          inside_[count] = v;
+          count += (v >= a) & (v <= b);
+        }
+        if (below <= k_lo && below + count > k_hi) {
+          last_inside_ = count;
+          last_half_width_ = half_width;
+          return from_inside(count, k_hi - below, k_lo - below, n % 2 == 0);
+        }
+      }
+    }
+    last_inside_ = n;
+    last_half_width_ = std::nan("");
+    inside_.assign(x, x + n);
+    return from_inside(n, k_hi, k_lo, n % 2 == 0);
+  }
+
+  /// Values copied into the last selection (n when it fell back to the whole window).
+  std::size_t last_inside() const { return last_inside_; }
+  /// Half width of the bracket that held them (NaN when it fell back to the whole window).
+  double last_half_width() const { return last_half_width_; }
+
+ private:
+  /// Order statistics k_hi (and k_lo = k_hi - 1 for even n) of inside_[0 .. count).
+  double from_inside(std::size_t count, std::size_t k_hi, std::size_t k_lo, bool even) {
+    auto first = inside_.begin(), last = inside_.begin() + static_cast<std::ptrdiff_t>(count);
+    auto hi = first + static_cast<std::ptrdiff_t>(k_hi);
+    std::nth_element(first, hi, last);
+    double m = *hi;
+    if (even) m = 0.5 * (m + *std::max_element(first, first + static_cast<std::ptrdiff_t>(k_lo) + 1));
+    return m;
+  }
+
+  std::vector<double> inside_;
+  std::size_t last_inside_ = 0;
+  double last_half_width_ = std::nan("");
+};
+
+/// Median of x[0 .. n) (n >= 1, finite) with the bracket taken from a subsample of about 512
+/// values: its order statistics 3 standard deviations of rank either side of its middle.
+inline double subsampled_median(const double* x, std::size_t n, BracketedMedian& selector) {
+  const std::size_t stride = std::max<std::size_t>(1, n / 512);
+  std::vector<double> sample;
+  for (std::size_t i = 0; i < n; i += stride) sample.push_back(x[i]);
+  if (sample.size() < 64) return selector.median(x, n, std::nan(""), 0.0);
+  const std::size_t m = sample.size();
+  const std::size_t margin = static_cast<std::size_t>(3.0 * 0.5 * std::sqrt(static_cast<double>(m))) + 2;
+  const std::size_t lo = m / 2 > margin ? m / 2 - margin : 0, hi = std::min(m - 1, m / 2 + margin);
+  std::nth_element(sample.begin(), sample.begin() + static_cast<std::ptrdiff_t>(lo), sample.end());
+  const double a = sample[lo];
+  std::nth_element(sample.begin() + static_cast<std::ptrdiff_t>(lo), sample.begin() + static_cast<std::ptrdiff_t>(hi),
+                   sample.end());
+  const double b = sample[hi];
+  return selector.median(x, n, 0.5 * (a + b), 0.5 * (b - a));
+}
+
+}  // namespace magnetometer_insitu_calibration::detail
