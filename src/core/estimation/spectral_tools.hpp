@@ -29,9 +29,14 @@ class RealDft {
   ~RealDft() { release(); }
 
   /// Transforms x (length L) into out (L/2 + 1 bins).
-  void transform(const double* x, std::size_t length, Eigen::VectorXcd& out) {
+  void transform(const double* x, std::size_t length, Eigen::VectorXcd& out) { transform(x, length, length, out); }
+
+  /// Transforms x[0 .. count) followed by length - count zeros (count <= length) into out
+  /// (length/2 + 1 bins, harmonic j at j / (length dt)).
+  void transform(const double* x, std::size_t count, std::size_t length, Eigen::VectorXcd& out) {
     Plan& p = plan(length);
-    std::copy(x, x + length, p.in);
+    std::copy(x, x + count, p.in);
+    std::fill(p.in + count, p.in + length, 0.0);
     fftw_execute(p.plan);
     out.resize(static_cast<Eigen::Index>(length / 2 + 1));
     for (std::size_t j = 0; j < length / 2 + 1; ++j) out(static_cast<Eigen::Index>(j)) = {p.out[j][0], p.out[j][1]};
