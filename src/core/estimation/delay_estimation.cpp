@@ -18,6 +18,23 @@ void DelaySettings::validate() const {
   if (!(min_coherence > 0.0 && min_coherence < 1.0)) throw InputError("delay_min_coherence", "must be in (0, 1)");
 }
 
+namespace {
+
+/// Hann taper 0.5 - 0.5 cos(2 pi (i + 1/2) / L), i = 0 .. L - 1, kept for the last length asked
+/// on this thread (its cosines cost as much as a transform).
+const std::vector<double>& hann_taper(std::size_t length) {
+  thread_local std::vector<double> taper;
+  if (taper.size() != length) {
+    taper.resize(length);
+    for (std::size_t i = 0; i < length; ++i) {
+      taper[i] = 0.5 - 0.5 * std::cos(2.0 * M_PI * (static_cast<double>(i) + 0.5) / static_cast<double>(length));
+    }
+  }
+  return taper;
+}
+
+}  // namespace
+
 DelayEstimate estimate_delay(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
                              const Eigen::Matrix3d& n, double sample_period_s, const DelaySettings& settings) {
   settings.validate();
@@ -39,6 +56,7 @@ DelayEstimate estimate_delay(const Eigen::Ref<const Readings>& reference_nT, con
   const std::size_t padded = length + 1;
   const Readings predicted = reference_nT * n;
   detail::RealDft& dft = detail::thread_real_dft();
+  const std::vector<double>& hann = hann_taper(length);
   std::vector<Eigen::VectorXcd> spectra(6);
   std::vector<double> column(length);
   for (int c = 0; c < 6; ++c) {
@@ -48,9 +66,7 @@ DelayEstimate estimate_delay(const Eigen::Ref<const Readings>& reference_nT, con
       column[i] = c < 3 ? predicted(r + 1, k) - predicted(r, k) : test_nT(r + 1, k) - test_nT(r, k);
     }
     detail::detrend(column.data(), length);
-    for (std::size_t i = 0; i < length; ++i) {
-      column[i] *= 0.5 - 0.5 * std::cos(2.0 * M_PI * (static_cast<double>(i) + 0.5) / static_cast<double>(length));
-    }
+    for (std::size_t i = 0; i < length; ++i) column[i] *= hann[i];
     dft.transform(column.data(), length, padded, spectra[static_cast<std::size_t>(c)]);
   }
   const double duration_s = static_cast<double>(padded) * sample_period_s;  // harmonic spacing 1 / duration
