@@ -22,8 +22,8 @@ class BracketedMedian {
   double median(const double* x, std::size_t n, double centre, double half_width) {
     const std::size_t k_hi = n / 2, k_lo = n % 2 == 0 ? k_hi - 1 : k_hi;
     if (std::isfinite(centre) && half_width > 0.0 && std::isfinite(half_width)) {
-      for (int attempt = 0; attempt < 3; ++attempt, half_width *= 8.0) {
-        const double a = centre - half_width, b = centre + half_width;
+      double a = centre - half_width, b = centre + half_width;
+      for (int attempt = 0; attempt < 4; ++attempt) {
         inside_.resize(n);
         std::size_t below = 0, count = 0;
         for (std::size_t i = 0; i < n; ++i) {  // branch-free: always write, advance when inside
@@ -34,9 +34,13 @@ class BracketedMedian {
         }
         if (below <= k_lo && below + count > k_hi) {
           last_inside_ = count;
-          last_half_width_ = half_width;
+          last_half_width_ = 0.5 * (b - a);
           return from_inside(count, k_hi - below, k_lo - below, n % 2 == 0);
         }
+        // Widen on the side where the counts put the missing order statistics.
+        const double step = 4.0 * (b - a);
+        if (below > k_lo) a -= step;
+        if (below + count <= k_hi) b += step;
       }
     }
     last_inside_ = n;
