@@ -24,15 +24,19 @@ class BracketedMedian {
     if (std::isfinite(centre) && half_width > 0.0 && std::isfinite(half_width)) {
       double a = centre - half_width, b = centre + half_width;
       for (int attempt = 0; attempt < 4; ++attempt) {
-        inside_.resize(n);
-        std::size_t below = 0, count = 0;
-        for (std::size_t i = 0; i < n; ++i) {  // branch-free: always write, advance when inside
-          const double v = x[i];
-          below += v < a;
-          inside_[count] = v;
-          count += (v >= a) & (v <= b);
+        std::size_t below = 0, above = 0;  // counting first: a pass without stores
+        for (std::size_t i = 0; i < n; ++i) {
+          below += x[i] < a;
+          above += x[i] > b;
         }
+        const std::size_t count = n - below - above;
         if (below <= k_lo && below + count > k_hi) {
+          inside_.resize(count + 1);
+          std::size_t kept = 0;
+          for (std::size_t i = 0; i < n && kept < count; ++i) {  // always write, advance when inside
+            inside_[kept] = x[i];
+            kept += (x[i] >= a) & (x[i] <= b);
+          }
           last_inside_ = count;
           last_half_width_ = 0.5 * (b - a);
           return from_inside(count, k_hi - below, k_lo - below, n % 2 == 0);
