@@ -54,11 +54,13 @@ DelayEstimate estimate_delay(const Eigen::Ref<const Readings>& reference_nT, con
   // harmonics to j / (N dt).
   const std::size_t length = static_cast<std::size_t>(reference_nT.rows()) - 1;
   const std::size_t padded = length + 1;
-  const Readings predicted = reference_nT * n;
+  thread_local Readings predicted;  // R n, nT; kept per thread with the buffers below
+  thread_local std::vector<Eigen::VectorXcd> spectra(6);
+  thread_local std::vector<double> column;
+  predicted.noalias() = reference_nT * n;
   detail::RealDft& dft = detail::thread_real_dft();
   const std::vector<double>& hann = hann_taper(length);
-  std::vector<Eigen::VectorXcd> spectra(6);
-  std::vector<double> column(length);
+  column.resize(length);
   for (int c = 0; c < 6; ++c) {
     const int k = c % 3;
     for (std::size_t i = 0; i < length; ++i) {

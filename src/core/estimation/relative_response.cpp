@@ -64,13 +64,14 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
   std::vector<ResponseBand> out;
   if (reference.rows() < 16) return out;
 
-  const Readings predicted = reference * n;  // R n, nT
+  thread_local Readings predicted;  // R n, nT; kept per thread with the spectra below
+  predicted.noalias() = reference * n;
   // The N - 1 differences, transformed zero-padded to the record's length N (a fast FFT length
   // where N - 1 seldom is; the taper is ~0 at the ends): harmonic j at j / (N dt).
   const auto length = static_cast<std::size_t>(reference.rows() - 1);
   const std::size_t padded = length + 1;
   detail::RealDft& dft = detail::thread_real_dft();
-  std::array<Eigen::VectorXcd, 3> p_dft, t_dft;
+  thread_local std::array<Eigen::VectorXcd, 3> p_dft, t_dft;
   for (int k = 0; k < 3; ++k) {
     const Eigen::VectorXd p = whitened_tapered(predicted.col(k));
     const Eigen::VectorXd t = whitened_tapered(test.col(k));

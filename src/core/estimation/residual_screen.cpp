@@ -17,10 +17,10 @@ namespace {
 /// over `window` samples and interpolated linearly: O(N window / step) comparisons. Each
 /// window's median is searched first near the previous one's (BracketedMedian), with a bracket
 /// sized to hold about `target` values; the result is exactly the window's median.
-Eigen::VectorXd running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step) {
+void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step, Eigen::VectorXd& base) {
   const std::size_t n = static_cast<std::size_t>(x.size());
-  Eigen::VectorXd base(x.size());
-  if (n == 0) return base;
+  base.resize(x.size());
+  if (n == 0) return;
   window = std::min(window, n);
   detail::BracketedMedian selector;
   const double target = std::max(64.0, static_cast<double>(window) / 16.0);  // values in the bracket
@@ -59,8 +59,15 @@ Eigen::VectorXd running_median_baseline(const Eigen::VectorXd& x, std::size_t wi
     const double a = (static_cast<double>(i) - centres[k]) / (centres[k + 1] - centres[k]);
     base(static_cast<Eigen::Index>(i)) = values[k] + std::clamp(a, 0.0, 1.0) * (values[k + 1] - values[k]);
   }
-  return base;
 }
+
+/// Work arrays of one screen (N or N x 3 values), kept per thread so that a run of windows of
+/// one length allocates (and page-faults) once.
+struct ScreenScratch {
+  Readings residual;
+  Eigen::VectorXd e, base, hp;
+  std::vector<double> abs_dev;
+};
 
 }  // namespace
 
@@ -69,16 +76,23 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   const std::size_t length = static_cast<std::size_t>(reference_nT.rows());
   std::vector<char> mask(length, 0);
   if (length < 16 || !n.allFinite()) return mask;
-  const Readings residual = test_nT - reference_nT * n;
+  thread_local ScreenScratch scratch;
+  Readings& residual = scratch.residual;
+  residual.noalias() = reference_nT * n;  // R n, then T - R n in place
+  residual = test_nT - residual;
   const std::size_t window = std::max<std::size_t>(3, static_cast<std::size_t>(std::llround(settings.screen_baseline_s / sample_period_s)));
   const std::size_t step = std::max<std::size_t>(1, window / 10);
   const std::size_t margin = static_cast<std::size_t>(std::llround(settings.screen_margin_s / sample_period_s));
   std::vector<char> flag(length, 0);
   detail::BracketedMedian selector;
   for (int c = 0; c < 3; ++c) {
-    const Eigen::VectorXd e = residual.col(c);
-    const Eigen::VectorXd hp = e - running_median_baseline(e, window, step);
-    std::vector<double> abs_dev(length);
+    Eigen::VectorXd& e = scratch.e;
+    Eigen::VectorXd& hp = scratch.hp;
+    e = residual.col(c);
+    running_median_baseline(e, window, step, scratch.base);
+    hp = e - scratch.base;
+    std::vector<double>& abs_dev = scratch.abs_dev;
+    abs_dev.resize(length);
     const double centre = detail::subsampled_median(hp.data(), length, selector);
     for (std::size_t i = 0; i < length; ++i) abs_dev[i] = std::abs(hp(static_cast<Eigen::Index>(i)) - centre);
     const double sigma = 1.4826 * detail::subsampled_median(abs_dev.data(), length, selector);

@@ -54,6 +54,7 @@ struct RobustFdEstimator::Impl {
   explicit Impl(const EstimatorSettings& settings) : plain(settings) {}
   detail::RealDft dft;
   FdWlseEstimator plain;
+  Readings screened_reference, screened_test;  ///< nT, the records with the masked runs filled
 };
 
 RobustFdEstimator::RobustFdEstimator(EstimatorSettings settings) : settings_(std::move(settings)) {
@@ -86,33 +87,40 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   }
   // The screened records depend only on the mask, and the mask only on n0: an estimate whose
   // records or n0 are those of an earlier one is that one, and is not computed again.
-  Readings reference = reference_nT, test = test_nT;
+  // Nothing masked: the input records themselves are used, not a copy.
+  Readings& screened_reference = impl_->screened_reference;
+  Readings& screened_test = impl_->screened_test;
+  bool masked = false;  // true: the records are screened_reference, screened_test
+  const auto use_mask = [&](const std::vector<char>& m) {
+    masked = std::find(m.begin(), m.end(), 1) != m.end();
+    if (!masked) return;
+    screened_reference = reference_nT;
+    screened_test = test_nT;
+    detail::fill_masked(screened_reference, screened_test, m);
+  };
   diagnostics_.screened.assign(length, 0);
-  std::optional<WindowEstimate> screened_fit = initial;  // Eq. 2 on `reference`, `test` as they are
+  std::optional<WindowEstimate> screened_fit = initial;  // Eq. 2 on the records as they are
   if (rs.screen) {
-    const auto none = [](const std::vector<char>& m) { return std::find(m.begin(), m.end(), 1) == m.end(); };
     std::vector<char> mask = screen_residual(reference_nT, test_nT, initial.n, sample_period_s, rs);
-    if (!none(mask)) {
-      detail::fill_masked(reference, test, mask);
-      screened_fit = plain.estimate(reference, test, sample_period_s);
-    }
+    use_mask(mask);
+    if (masked) screened_fit = plain.estimate(screened_reference, screened_test, sample_period_s);
     const Eigen::Matrix3d n0 = screened_fit->n.allFinite() ? screened_fit->n : initial.n;
     if (n0 != initial.n) {  // second pass: n0 re-estimated on the cleaned records
       std::vector<char> second = screen_residual(reference_nT, test_nT, n0, sample_period_s, rs);
       if (second != mask) {
-        reference = reference_nT;
-        test = test_nT;
-        detail::fill_masked(reference, test, second);
-        if (none(second)) {
-          screened_fit = initial;
-        } else {
+        use_mask(second);
+        if (masked) {
           screened_fit.reset();
+        } else {
+          screened_fit = initial;
         }
         mask = std::move(second);
       }
     }
     diagnostics_.screened = std::move(mask);
   }
+  const Eigen::Ref<const Readings> reference = masked ? Eigen::Ref<const Readings>(screened_reference) : reference_nT;
+  const Eigen::Ref<const Readings> test = masked ? Eigen::Ref<const Readings>(screened_test) : test_nT;
   const std::size_t screened = static_cast<std::size_t>(
       std::count(diagnostics_.screened.begin(), diagnostics_.screened.end(), 1));
 
