@@ -10,7 +10,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <utility>
 #include <vector>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace magnetometer_insitu_calibration::detail {
 
@@ -24,19 +29,10 @@ class BracketedMedian {
     if (std::isfinite(centre) && half_width > 0.0 && std::isfinite(half_width)) {
       double a = centre - half_width, b = centre + half_width;
       for (int attempt = 0; attempt < 4; ++attempt) {
-        std::size_t below = 0, above = 0;  // counting first: a pass without stores
-        for (std::size_t i = 0; i < n; ++i) {
-          below += x[i] < a;
-          above += x[i] > b;
-        }
+        const auto [below, above] = count_outside(x, n, a, b);  // counting first: no stores
         const std::size_t count = n - below - above;
         if (below <= k_lo && below + count > k_hi) {
-          inside_.resize(count + 1);
-          std::size_t kept = 0;
-          for (std::size_t i = 0; i < n && kept < count; ++i) {  // always write, advance when inside
-            inside_[kept] = x[i];
-            kept += (x[i] >= a) & (x[i] <= b);
-          }
+          copy_inside(x, n, a, b, count);
           last_inside_ = count;
           last_half_width_ = 0.5 * (b - a);
           return from_inside(count, k_hi - below, k_lo - below, n % 2 == 0);
@@ -51,6 +47,41 @@ class BracketedMedian {
     last_half_width_ = std::nan("");
     inside_.assign(x, x + n);
     return from_inside(n, k_hi, k_lo, n % 2 == 0);
+  }
+
+  /// Values of x[0 .. n) below a and above b (two per SSE2 instruction where there is SSE2).
+  static std::pair<std::size_t, std::size_t> count_outside(const double* x, std::size_t n, double a, double b) {
+    std::size_t below = 0, above = 0, i = 0;
+#if defined(__SSE2__)
+    const __m128d va = _mm_set1_pd(a), vb = _mm_set1_pd(b);
+    __m128i vbelow = _mm_setzero_si128(), vabove = _mm_setzero_si128();
+    for (; i + 2 <= n; i += 2) {  // a true compare is all ones, -1 as an integer
+      const __m128d v = _mm_loadu_pd(x + i);
+      vbelow = _mm_sub_epi64(vbelow, _mm_castpd_si128(_mm_cmplt_pd(v, va)));
+      vabove = _mm_sub_epi64(vabove, _mm_castpd_si128(_mm_cmpgt_pd(v, vb)));
+    }
+    alignas(16) std::int64_t lanes[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(lanes), vbelow);
+    _mm_store_si128(reinterpret_cast<__m128i*>(lanes + 2), vabove);
+    below = static_cast<std::size_t>(lanes[0] + lanes[1]);
+    above = static_cast<std::size_t>(lanes[2] + lanes[3]);
+#endif
+    for (; i < n; ++i) {
+      below += x[i] < a;
+      above += x[i] > b;
+    }
+    return {below, above};
+  }
+
+  /// Copies the `count` values of x[0 .. n) in [a, b] to inside_, in order.
+  void copy_inside(const double* x, std::size_t n, double a, double b, std::size_t count) {
+    inside_.resize(count + 2);
+    double* out = inside_.data();
+    std::size_t kept = 0, i = 0;
+    for (; i < n && kept < count; ++i) {  // always write, advance when inside
+      out[kept] = x[i];
+      kept += (x[i] >= a) & (x[i] <= b);
+    }
   }
 
   /// Values copied into the last selection (n when it fell back to the whole window).
