@@ -105,10 +105,10 @@ class BracketedMedian {
   double last_half_width_ = std::nan("");
 };
 
-/// Median of x[0 .. n) (n >= 1, finite) with the bracket taken from a subsample of about 512
+/// Median of x[0 .. n) (n >= 1, finite) with the bracket taken from a subsample of about 4096
 /// values: its order statistics 3 standard deviations of rank either side of its middle.
 inline double subsampled_median(const double* x, std::size_t n, BracketedMedian& selector) {
-  const std::size_t stride = std::max<std::size_t>(1, n / 512);
+  const std::size_t stride = std::max<std::size_t>(1, n / 4096);
   std::vector<double> sample;
   for (std::size_t i = 0; i < n; i += stride) sample.push_back(x[i]);
   if (sample.size() < 64) return selector.median(x, n, std::nan(""), 0.0);
