@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
@@ -15,36 +16,44 @@ namespace {
 
 /// Running-median baseline of x (one column), evaluated at block centres every `step` samples
 /// over `window` samples and interpolated linearly: O(N window / step) comparisons. Each
-/// window's median is searched first near the previous one's (BracketedMedian), with a bracket
-/// sized to hold about `target` values; the result is exactly the window's median.
+/// window's median is searched (BracketedMedian) where the previous one's rank in the new
+/// window puts it, in a bracket sized to hold a few dozen values; the result is exactly the
+/// window's median.
 void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step, Eigen::VectorXd& base) {
   const std::size_t n = static_cast<std::size_t>(x.size());
   base.resize(x.size());
   if (n == 0) return;
   window = std::min(window, n);
   detail::BracketedMedian selector;
-  const double target = std::max(64.0, static_cast<double>(window) / 16.0);  // values in the bracket
-  double centre = std::nan(""), half_width = 0.0;  // guess for the next window, units of x
+  const double target = std::max(32.0, static_cast<double>(window) / 64.0);  // values in the bracket
+  double density = 0.0;  // values of the last window per unit of x near its median
   std::vector<double> centres, values;
   for (std::size_t c = 0;; c += step) {
     const std::size_t centre_index = std::min(c, n - 1);
     const std::size_t first = centre_index >= window / 2 ? centre_index - window / 2 : 0;
     const std::size_t last = std::min(n, first + window);
+    const std::size_t count = last - first;
     const double* data = x.data() + first;
-    const double m = std::isnan(centre) ? detail::subsampled_median(data, last - first, selector)
-                                        : selector.median(data, last - first, centre, half_width);
-    // Next guess: the median moved on by its last step, a bracket rescaled to hold about
-    // `target` values and at least twice that step wide.
-    const double moved = values.empty() ? 0.0 : m - values.back();
-    double width = selector.last_half_width();
-    if (!(width > 0.0)) {
-      const auto [lo, hi] = std::minmax_element(data, data + (last - first));
-      width = (*hi - *lo) / static_cast<double>(last - first) * target;
+    double m;
+    if (values.empty() || !(density > 0.0)) {
+      m = detail::subsampled_median(data, count, selector);
     } else {
-      width *= std::clamp(target / static_cast<double>(std::max<std::size_t>(1, selector.last_inside())), 0.25, 4.0);
+      // The last median's exact rank r in this window says how far the new median is in rank,
+      // (k - r) values (k: the middle rank), about (k - r) / density in x: the bracket is
+      // centred there and holds about `target` values more than that distance needs.
+      const double previous = values.back();
+      const double r = static_cast<double>(
+          detail::BracketedMedian::count_outside(data, count, previous, std::numeric_limits<double>::infinity()).first);
+      const double shift = (0.5 * static_cast<double>(count - 1) - r) / density;
+      m = selector.median(data, count, previous + shift, 0.5 * target / density + 0.25 * std::abs(shift));
     }
-    half_width = std::max(width, 2.0 * std::abs(moved));
-    centre = m + moved;
+    const double width = selector.last_half_width();
+    if (width > 0.0 && selector.last_inside() > 1) {
+      density = static_cast<double>(selector.last_inside()) / (2.0 * width);
+    } else {
+      const auto [lo, hi] = std::minmax_element(data, data + count);
+      density = *hi > *lo ? static_cast<double>(count) / (*hi - *lo) : 0.0;
+    }
     centres.push_back(static_cast<double>(centre_index));
     values.push_back(m);
     if (centre_index == n - 1) break;
