@@ -78,6 +78,18 @@ class BracketedMedian {
     inside_.resize(count + 2);
     double* out = inside_.data();
     std::size_t kept = 0, i = 0;
+#if defined(__SSE2__)
+    const __m128d va = _mm_set1_pd(a), vb = _mm_set1_pd(b);
+    for (; i + 2 <= n && kept + 2 <= count; i += 2) {  // most pairs hold no value inside: skipped
+      const __m128d v = _mm_loadu_pd(x + i);
+      const int in = _mm_movemask_pd(_mm_and_pd(_mm_cmpge_pd(v, va), _mm_cmple_pd(v, vb)));
+      if (in == 0) continue;
+      out[kept] = x[i];
+      kept += static_cast<std::size_t>(in & 1);
+      out[kept] = x[i + 1];
+      kept += static_cast<std::size_t>(in >> 1);
+    }
+#endif
     for (; i < n && kept < count; ++i) {  // always write, advance when inside
       out[kept] = x[i];
       kept += (x[i] >= a) & (x[i] <= b);
