@@ -1,14 +1,31 @@
-// Benchmark (a program, not a test): the full FD-WLSE estimate (load, FFT of 7 columns, band
-// sums, covariance, decomposition) against the FFTW transforms alone (load + the same batched
-// plan) on the same simulated 1 Hz data, 2 and 10 days; and the default robust estimator. docs/performance.md quotes its output:
+// Benchmark (a program, not a test): on the same simulated 1 Hz data, 2 and 10 days,
+//  - transforms_only: the FFTW transforms of the plain estimate's 7 columns (load + the batched plan),
+//    the floor the other figures are divided by;
+//  - full_estimate: the plain FD-WLSE estimate (Eq. 2, covariance, decomposition);
+//  - robust_estimate: the default window estimate (WindowEstimator(EstimatorSettings{}): screen,
+//    sections, IRLS, delay, EIV, sandwich and jackknife intervals, trend);
+//  - window_outputs: the default estimate plus the relative response, what calibrate_prepared
+//    computes for each window with the default CalibrationSettings;
+//  - robust_disturbed: the default estimate on the same records with traffic, spikes and a step
+//    added (the disturbances of monte_carlo_disturbed): the screen masks about 11 % of the
+//    samples, so its second pass and the Eq. 2 estimates on the screened records are paid.
+// After the run it prints each one's CPU time divided by transforms_only's of the same length
+// (means over the repetitions when there are several). docs/performance.md quotes its output:
 //   build/devel/lib/magnetometer_insitu_calibration/bench_estimator --benchmark_repetitions=5
+//     --benchmark_report_aggregates_only=true
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
 #include <map>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -26,6 +43,22 @@ const mic::SimulatedPair& data_for_days(int days) {
   return it->second;
 }
 
+const mic::SimulatedPair& disturbed_data_for_days(int days) {
+  static std::map<int, mic::SimulatedPair> cache;
+  auto it = cache.find(days);
+  if (it == cache.end()) {
+    mic::SimulatedPair pair = data_for_days(days);
+    mic::StationDisturbanceSettings d;  // as monte_carlo_disturbed's defaults
+    d.vehicles_per_day = 150;
+    d.parking_probability = 0.03;
+    d.small_spikes_per_day = 100;
+    d.steps = 1;
+    mic::add_station_disturbances(pair, d);
+    it = cache.emplace(days, std::move(pair)).first;
+  }
+  return it->second;
+}
+
 void full_estimate(benchmark::State& state) {
   const auto& pair = data_for_days(static_cast<int>(state.range(0)));
   mic::FdWlseEstimator estimator;
@@ -36,7 +69,7 @@ void full_estimate(benchmark::State& state) {
   state.counters["samples"] = static_cast<double>(pair.reference.size());
 }
 
-/// The default (robust) estimator of the offline pipeline on the same data, for scale.
+/// The default (robust) estimator of the offline pipeline on the same data.
 void robust_estimate(benchmark::State& state) {
   const auto& pair = data_for_days(static_cast<int>(state.range(0)));
   mic::WindowEstimator estimator(mic::EstimatorSettings{});
@@ -45,6 +78,33 @@ void robust_estimate(benchmark::State& state) {
     benchmark::DoNotOptimize(e.n(0, 0));
   }
   state.counters["samples"] = static_cast<double>(pair.reference.size());
+}
+
+/// The default estimate and the relative response: every output a pipeline window has by default.
+void window_outputs(benchmark::State& state) {
+  const auto& pair = data_for_days(static_cast<int>(state.range(0)));
+  mic::WindowEstimator estimator(mic::EstimatorSettings{});
+  const mic::RelativeResponseSettings response;
+  for (auto _ : state) {
+    const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT, pair.test.values_nT, 1.0);
+    const auto bands = mic::relative_response(pair.reference.values_nT, pair.test.values_nT, e.n, 1.0, response);
+    benchmark::DoNotOptimize(e.n(0, 0));
+    benchmark::DoNotOptimize(bands.data());
+  }
+  state.counters["samples"] = static_cast<double>(pair.reference.size());
+}
+
+void robust_disturbed(benchmark::State& state) {
+  const auto& pair = disturbed_data_for_days(static_cast<int>(state.range(0)));
+  mic::WindowEstimator estimator(mic::EstimatorSettings{});
+  double screened = 0.0;
+  for (auto _ : state) {
+    const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT, pair.test.values_nT, 1.0);
+    screened = e.screened_fraction;
+    benchmark::DoNotOptimize(e.n(0, 0));
+  }
+  state.counters["samples"] = static_cast<double>(pair.reference.size());
+  state.counters["screened"] = screened;
 }
 
 void transforms_only(benchmark::State& state) {
@@ -56,9 +116,61 @@ void transforms_only(benchmark::State& state) {
   state.counters["samples"] = static_cast<double>(pair.reference.size());
 }
 
+/// The console output, and each benchmark's CPU time (ms) kept for the ratios: the "mean"
+/// aggregate when there are repetitions, otherwise the mean of the runs.
+class RatioReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& run : runs) {
+      if (run.error_occurred) continue;
+      const std::string key = run.run_name.function_name + "/" + run.run_name.args;
+      const double ms = run.GetAdjustedCPUTime();  // in the benchmark's unit: ms here
+      if (run.run_type == Run::RT_Aggregate) {
+        if (run.aggregate_name == "mean") means_[key] = ms;
+      } else {
+        auto& [sum, count] = runs_[key];
+        sum += ms;
+        ++count;
+      }
+    }
+  }
+
+  double cpu_ms(const std::string& key) const {
+    if (auto it = means_.find(key); it != means_.end()) return it->second;
+    if (auto it = runs_.find(key); it != runs_.end()) return it->second.first / it->second.second;
+    return -1.0;
+  }
+
+ private:
+  std::map<std::string, double> means_;
+  std::map<std::string, std::pair<double, int>> runs_;
+};
+
 }  // namespace
 
 BENCHMARK(full_estimate)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond);
 BENCHMARK(robust_estimate)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond);
+BENCHMARK(window_outputs)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond);
+BENCHMARK(robust_disturbed)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond);
 BENCHMARK(transforms_only)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond);
-BENCHMARK_MAIN();
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  RatioReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  benchmark::Shutdown();
+  std::printf("\nCPU time / transforms_only (FFTW transforms of the 7 columns, same length):\n");
+  for (const char* days : {"2", "10"}) {
+    const double floor_ms = reporter.cpu_ms(std::string("transforms_only/") + days);
+    if (!(floor_ms > 0.0)) continue;
+    std::printf("  %2s days: transforms %.2f ms", days, floor_ms);
+    for (const char* name : {"full_estimate", "robust_estimate", "window_outputs", "robust_disturbed"}) {
+      const double ms = reporter.cpu_ms(std::string(name) + "/" + days);
+      if (ms > 0.0) std::printf("; %s %.4g ms = %.2fx", name, ms, ms / floor_ms);
+    }
+    std::printf("\n");
+  }
+  return 0;
+}

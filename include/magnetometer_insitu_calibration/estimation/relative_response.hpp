@@ -45,7 +45,8 @@ struct ResponseBand {
 /// reference and test: N x 3, nT, regular sample period period_s, no NaN; n: T = R n. Both
 /// records are first-differenced (a filter applied alike to both leaves H unchanged and whitens
 /// the steep geomagnetic spectrum, so that low-frequency power does not leak into higher bands)
-/// and tapered by a 10 % split-cosine bell. Returns the bands, lowest first; empty when no band
+/// and tapered by a 10 % split-cosine bell; the N - 1 differences are transformed with one zero
+/// appended (N: a fast FFT length where N - 1 seldom is). Returns the bands, lowest first; empty when no band
 /// has min_harmonics harmonics.
 std::vector<ResponseBand> relative_response(const Readings& reference, const Readings& test,
                                             const Eigen::Matrix3d& n, double period_s,

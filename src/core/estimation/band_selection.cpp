@@ -35,7 +35,7 @@ BandSelection select_band(const Eigen::Ref<const Readings>& reference_nT, const 
   // Whole-window DFT of the six columns, detrended and Hann-tapered alike: the taper keeps the
   // strong low-frequency power of the field from leaking into the weak top of the band, where
   // the coherence would otherwise look better than it is.
-  detail::RealDft dft;
+  detail::RealDft& dft = detail::thread_real_dft();
   std::vector<Eigen::VectorXcd> spectra(6);
   std::vector<double> column(length);
   for (int c = 0; c < 6; ++c) {

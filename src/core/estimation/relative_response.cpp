@@ -64,17 +64,21 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
   std::vector<ResponseBand> out;
   if (reference.rows() < 16) return out;
 
-  const Readings predicted = reference * n;  // R n, nT
+  thread_local Readings predicted;  // R n, nT; kept per thread with the spectra below
+  predicted.noalias() = reference * n;
+  // The N - 1 differences, transformed zero-padded to the record's length N (a fast FFT length
+  // where N - 1 seldom is; the taper is ~0 at the ends): harmonic j at j / (N dt).
   const auto length = static_cast<std::size_t>(reference.rows() - 1);
-  detail::RealDft dft;
-  std::array<Eigen::VectorXcd, 3> p_dft, t_dft;
+  const std::size_t padded = length + 1;
+  detail::RealDft& dft = detail::thread_real_dft();
+  thread_local std::array<Eigen::VectorXcd, 3> p_dft, t_dft;
   for (int k = 0; k < 3; ++k) {
     const Eigen::VectorXd p = whitened_tapered(predicted.col(k));
     const Eigen::VectorXd t = whitened_tapered(test.col(k));
-    dft.transform(p.data(), length, p_dft[k]);
-    dft.transform(t.data(), length, t_dft[k]);
+    dft.transform(p.data(), length, padded, p_dft[k]);
+    dft.transform(t.data(), length, padded, t_dft[k]);
   }
-  const double df = 1.0 / (static_cast<double>(length) * period_s);  // harmonic spacing, Hz
+  const double df = 1.0 / (static_cast<double>(padded) * period_s);  // harmonic spacing, Hz
   const double top = std::min(settings.high_hz, 0.9 * 0.5 / period_s);
   const double step = 1.0 / settings.bands_per_decade;
   for (double lg = std::log10(settings.low_hz); lg < std::log10(top) - 1e-12; lg += step) {

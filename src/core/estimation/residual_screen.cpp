@@ -2,10 +2,12 @@
 // where T - R n, high-passed by a running median, is an outlier.
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 
+#include "bracketed_median.hpp"
 #include "spectral_tools.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
@@ -13,21 +15,48 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 /// Running-median baseline of x (one column), evaluated at block centres every `step` samples
-/// over `window` samples and interpolated linearly: O(N window / step).
-Eigen::VectorXd running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step) {
+/// over `window` samples and interpolated linearly: O(N window / step) comparisons. Each
+/// window's median is searched (BracketedMedian) where the previous one's rank in the new
+/// window puts it, in a bracket sized to hold a few dozen values; the result is exactly the
+/// window's median.
+void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step, Eigen::VectorXd& base) {
   const std::size_t n = static_cast<std::size_t>(x.size());
-  Eigen::VectorXd base(x.size());
-  if (n == 0) return base;
+  base.resize(x.size());
+  if (n == 0) return;
   window = std::min(window, n);
-  std::vector<double> centres, values, buffer;
+  detail::BracketedMedian selector;
+  const double target = std::max(32.0, static_cast<double>(window) / 64.0);  // values in the bracket
+  double density = 0.0;  // values of the last window per unit of x near its median
+  std::vector<double> centres, values;
   for (std::size_t c = 0;; c += step) {
-    const std::size_t centre = std::min(c, n - 1);
-    const std::size_t first = centre >= window / 2 ? centre - window / 2 : 0;
+    const std::size_t centre_index = std::min(c, n - 1);
+    const std::size_t first = centre_index >= window / 2 ? centre_index - window / 2 : 0;
     const std::size_t last = std::min(n, first + window);
-    buffer.assign(x.data() + first, x.data() + last);
-    centres.push_back(static_cast<double>(centre));
-    values.push_back(detail::median(buffer));
-    if (centre == n - 1) break;
+    const std::size_t count = last - first;
+    const double* data = x.data() + first;
+    double m;
+    if (values.empty() || !(density > 0.0)) {
+      m = detail::subsampled_median(data, count, selector);
+    } else {
+      // The last median's exact rank r in this window says how far the new median is in rank,
+      // (k - r) values (k: the middle rank), about (k - r) / density in x: the bracket is
+      // centred there and holds about `target` values more than that distance needs.
+      const double previous = values.back();
+      const double r = static_cast<double>(
+          detail::BracketedMedian::count_outside(data, count, previous, std::numeric_limits<double>::infinity()).first);
+      const double shift = (0.5 * static_cast<double>(count - 1) - r) / density;
+      m = selector.median(data, count, previous + shift, 0.5 * target / density + 0.25 * std::abs(shift));
+    }
+    const double width = selector.last_half_width();
+    if (width > 0.0 && selector.last_inside() > 1) {
+      density = static_cast<double>(selector.last_inside()) / (2.0 * width);
+    } else {
+      const auto [lo, hi] = std::minmax_element(data, data + count);
+      density = *hi > *lo ? static_cast<double>(count) / (*hi - *lo) : 0.0;
+    }
+    centres.push_back(static_cast<double>(centre_index));
+    values.push_back(m);
+    if (centre_index == n - 1) break;
   }
   std::size_t k = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -39,8 +68,15 @@ Eigen::VectorXd running_median_baseline(const Eigen::VectorXd& x, std::size_t wi
     const double a = (static_cast<double>(i) - centres[k]) / (centres[k + 1] - centres[k]);
     base(static_cast<Eigen::Index>(i)) = values[k] + std::clamp(a, 0.0, 1.0) * (values[k + 1] - values[k]);
   }
-  return base;
 }
+
+/// Work arrays of one screen (N or N x 3 values), kept per thread so that a run of windows of
+/// one length allocates (and page-faults) once.
+struct ScreenScratch {
+  Readings residual;
+  Eigen::VectorXd e, base, hp;
+  std::vector<double> abs_dev;
+};
 
 }  // namespace
 
@@ -49,18 +85,26 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   const std::size_t length = static_cast<std::size_t>(reference_nT.rows());
   std::vector<char> mask(length, 0);
   if (length < 16 || !n.allFinite()) return mask;
-  const Readings residual = test_nT - reference_nT * n;
+  thread_local ScreenScratch scratch;
+  Readings& residual = scratch.residual;
+  residual.noalias() = reference_nT * n;  // R n, then T - R n in place
+  residual = test_nT - residual;
   const std::size_t window = std::max<std::size_t>(3, static_cast<std::size_t>(std::llround(settings.screen_baseline_s / sample_period_s)));
   const std::size_t step = std::max<std::size_t>(1, window / 10);
   const std::size_t margin = static_cast<std::size_t>(std::llround(settings.screen_margin_s / sample_period_s));
   std::vector<char> flag(length, 0);
+  detail::BracketedMedian selector;
   for (int c = 0; c < 3; ++c) {
-    const Eigen::VectorXd e = residual.col(c);
-    const Eigen::VectorXd hp = e - running_median_baseline(e, window, step);
-    std::vector<double> abs_dev(length);
-    const double centre = detail::median(std::vector<double>(hp.data(), hp.data() + length));
+    Eigen::VectorXd& e = scratch.e;
+    Eigen::VectorXd& hp = scratch.hp;
+    e = residual.col(c);
+    running_median_baseline(e, window, step, scratch.base);
+    hp = e - scratch.base;
+    std::vector<double>& abs_dev = scratch.abs_dev;
+    abs_dev.resize(length);
+    const double centre = detail::subsampled_median(hp.data(), length, selector);
     for (std::size_t i = 0; i < length; ++i) abs_dev[i] = std::abs(hp(static_cast<Eigen::Index>(i)) - centre);
-    const double sigma = 1.4826 * detail::median(abs_dev);
+    const double sigma = 1.4826 * detail::subsampled_median(abs_dev.data(), length, selector);
     if (!(sigma > 0.0)) continue;
     for (std::size_t i = 0; i < length; ++i) flag[i] |= abs_dev[i] > settings.screen_threshold * sigma;
   }

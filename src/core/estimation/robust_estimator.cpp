@@ -17,6 +17,7 @@
 #include <complex>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 namespace magnetometer_insitu_calibration {
@@ -47,13 +48,18 @@ std::string eiv_text(const RobustSettings& rs, bool applied) {
 
 }  // namespace
 
+/// What is kept between windows: the section transforms' plans and the plain estimator (its
+/// FFTW plan and buffers for the window length).
 struct RobustFdEstimator::Impl {
+  explicit Impl(const EstimatorSettings& settings) : plain(settings) {}
   detail::RealDft dft;
+  FdWlseEstimator plain;
+  Readings screened_reference, screened_test;  ///< nT, the records with the masked runs filled
 };
 
-RobustFdEstimator::RobustFdEstimator(EstimatorSettings settings)
-    : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
+RobustFdEstimator::RobustFdEstimator(EstimatorSettings settings) : settings_(std::move(settings)) {
   settings_.validate();
+  impl_ = std::make_unique<Impl>(settings_);
 }
 
 RobustFdEstimator::~RobustFdEstimator() = default;
@@ -70,7 +76,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   const double duration_s = static_cast<double>(length) * sample_period_s;
 
   // Step 1: n0 from Eq. 2 and the residual screen (two passes).
-  FdWlseEstimator plain(settings_);
+  FdWlseEstimator& plain = impl_->plain;
   WindowEstimate initial = plain.estimate(reference_nT, test_nT, sample_period_s);
   initial.method = "robust";
   initial.eiv = eiv_text(rs, false);
@@ -79,22 +85,42 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
       !initial.n.allFinite()) {
     return initial;
   }
-  Readings reference = reference_nT, test = test_nT;
+  // The screened records depend only on the mask, and the mask only on n0: an estimate whose
+  // records or n0 are those of an earlier one is that one, and is not computed again.
+  // Nothing masked: the input records themselves are used, not a copy.
+  Readings& screened_reference = impl_->screened_reference;
+  Readings& screened_test = impl_->screened_test;
+  bool masked = false;  // true: the records are screened_reference, screened_test
+  const auto use_mask = [&](const std::vector<char>& m) {
+    masked = std::find(m.begin(), m.end(), 1) != m.end();
+    if (!masked) return;
+    screened_reference = reference_nT;
+    screened_test = test_nT;
+    detail::fill_masked(screened_reference, screened_test, m);
+  };
   diagnostics_.screened.assign(length, 0);
+  std::optional<WindowEstimate> screened_fit = initial;  // Eq. 2 on the records as they are
   if (rs.screen) {
-    Eigen::Matrix3d n0 = initial.n;
-    for (int pass = 0; pass < 2; ++pass) {
-      std::vector<char> mask = screen_residual(reference_nT, test_nT, n0, sample_period_s, rs);
-      reference = reference_nT;
-      test = test_nT;
-      detail::fill_masked(reference, test, mask);
-      diagnostics_.screened = std::move(mask);
-      if (pass == 0) {
-        const WindowEstimate again = plain.estimate(reference, test, sample_period_s);
-        if (again.n.allFinite()) n0 = again.n;
+    std::vector<char> mask = screen_residual(reference_nT, test_nT, initial.n, sample_period_s, rs);
+    use_mask(mask);
+    if (masked) screened_fit = plain.estimate(screened_reference, screened_test, sample_period_s);
+    const Eigen::Matrix3d n0 = screened_fit->n.allFinite() ? screened_fit->n : initial.n;
+    if (n0 != initial.n) {  // second pass: n0 re-estimated on the cleaned records
+      std::vector<char> second = screen_residual(reference_nT, test_nT, n0, sample_period_s, rs);
+      if (second != mask) {
+        use_mask(second);
+        if (masked) {
+          screened_fit.reset();
+        } else {
+          screened_fit = initial;
+        }
+        mask = std::move(second);
       }
     }
+    diagnostics_.screened = std::move(mask);
   }
+  const Eigen::Ref<const Readings> reference = masked ? Eigen::Ref<const Readings>(screened_reference) : reference_nT;
+  const Eigen::Ref<const Readings> test = masked ? Eigen::Ref<const Readings>(screened_test) : test_nT;
   const std::size_t screened = static_cast<std::size_t>(
       std::count(diagnostics_.screened.begin(), diagnostics_.screened.end(), 1));
 
@@ -292,7 +318,8 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   // sandwich standard error. The sections are detrended one by one, so the robust fit itself
   // has no single trend; the screened records no longer hold the transients that would bias it.
   {
-    const WindowEstimate trend_fit = plain.estimate(reference, test, sample_period_s);
+    if (!screened_fit) screened_fit = plain.estimate(reference, test, sample_period_s);
+    const WindowEstimate& trend_fit = *screened_fit;
     result.trend_nT_per_day = trend_fit.trend_nT_per_day;
     result.trend_stderr_nT_per_day = trend_fit.trend_stderr_nT_per_day;
   }

@@ -14,6 +14,7 @@
 #include <complex>
 #include <cstddef>
 #include <map>
+#include <mutex>
 #include <vector>
 
 namespace magnetometer_insitu_calibration::detail {
@@ -25,19 +26,17 @@ class RealDft {
   RealDft() = default;
   RealDft(const RealDft&) = delete;
   RealDft& operator=(const RealDft&) = delete;
-  ~RealDft() {
-    std::lock_guard<std::mutex> lock(fftw_planner_lock());
-    for (auto& [length, plan] : plans_) {
-      fftw_destroy_plan(plan.plan);
-      fftw_free(plan.in);
-      fftw_free(plan.out);
-    }
-  }
+  ~RealDft() { release(); }
 
   /// Transforms x (length L) into out (L/2 + 1 bins).
-  void transform(const double* x, std::size_t length, Eigen::VectorXcd& out) {
+  void transform(const double* x, std::size_t length, Eigen::VectorXcd& out) { transform(x, length, length, out); }
+
+  /// Transforms x[0 .. count) followed by length - count zeros (count <= length) into out
+  /// (length/2 + 1 bins, harmonic j at j / (length dt)).
+  void transform(const double* x, std::size_t count, std::size_t length, Eigen::VectorXcd& out) {
     Plan& p = plan(length);
-    std::copy(x, x + length, p.in);
+    std::copy(x, x + count, p.in);
+    std::fill(p.in + count, p.in + length, 0.0);
     fftw_execute(p.plan);
     out.resize(static_cast<Eigen::Index>(length / 2 + 1));
     for (std::size_t j = 0; j < length / 2 + 1; ++j) out(static_cast<Eigen::Index>(j)) = {p.out[j][0], p.out[j][1]};
@@ -52,6 +51,7 @@ class RealDft {
   Plan& plan(std::size_t length) {
     auto it = plans_.find(length);
     if (it != plans_.end()) return it->second;
+    if (plans_.size() >= kMaxPlans) release();  // lengths change: keep memory O(N)
     Plan p;
     p.in = fftw_alloc_real(length);
     p.out = fftw_alloc_complex(length / 2 + 1);
@@ -63,8 +63,26 @@ class RealDft {
     if (p.plan == nullptr) throw std::runtime_error("FFTW could not plan a transform");
     return plans_.emplace(length, p).first->second;
   }
+  void release() {
+    std::lock_guard<std::mutex> lock(fftw_planner_lock());
+    for (auto& [length, plan] : plans_) {
+      fftw_destroy_plan(plan.plan);
+      fftw_free(plan.in);
+      fftw_free(plan.out);
+    }
+    plans_.clear();
+  }
+  static constexpr std::size_t kMaxPlans = 8;  ///< lengths kept (a window uses 1-4)
   std::map<std::size_t, Plan> plans_;
 };
+
+/// This thread's RealDft, for the free functions (band selection, delay, relative response) that
+/// transform whole windows: planning and allocating a 1-day transform costs about as much as
+/// executing it, so the plans are kept between calls (at most RealDft::kMaxPlans lengths).
+inline RealDft& thread_real_dft() {
+  thread_local RealDft dft;
+  return dft;
+}
 
 /// Removes the least-squares line a + b t from x in place. A linear operator applied alike to
 /// every column of R and T keeps T = R n + d exactly (it only changes d), so detrending both
