@@ -19,7 +19,7 @@
 // MC_METHODS (default "default,plain") lists the estimators, each on the same records: default
 // (the package's defaults), plain (Eq. 2), ratio1 (robust, EIV ratio 1: the default before
 // issue 13), none (robust, no EIV correction), given (robust, EIV with the simulated reference
-// noise given as the maker's figure).
+// noise given as the maker's figure), model (the default pipeline with --response-model).
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
@@ -127,7 +127,8 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     std::string list = text != nullptr ? text : "default,plain", item;
     for (std::size_t at = 0; at <= list.size(); ++at) {
       if (at == list.size() || list[at] == ',') {
-        if (item != "default" && item != "plain" && item != "ratio1" && item != "none" && item != "given")
+        if (item != "default" && item != "plain" && item != "ratio1" && item != "none" && item != "given" &&
+            item != "model")
           throw std::runtime_error("MC_METHODS: unknown estimator '" + item + "'");
         names.push_back(item);
         item.clear();
@@ -171,8 +172,14 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
         es.robust.reference_pink_nT_per_sqrt_hz.setConstant(s.reference_pink_nT_per_sqrt_hz);
       }
       mic::WindowEstimator estimator(es);
-      const mic::WindowEstimate e =
-          estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
+      mic::WindowEstimate e;
+      if (name == "model") {  // the default pipeline with the response model (--response-model)
+        mic::CalibrationSettings cs = base;
+        cs.response_model = true;
+        e = mic::calibrate_prepared(prepared, cs).back().estimate;
+      } else {
+        e = estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
+      }
       int cov[6];
       tally[static_cast<std::size_t>(m)].add(e, pair.n_true, cov);
       const mic::CalibrationParameters t = mic::decompose(pair.n_true);
