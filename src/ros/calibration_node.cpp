@@ -42,10 +42,18 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
         boost::function<void(const sensor_msgs::MagneticField::ConstPtr&)>(
             [this, i](const sensor_msgs::MagneticField::ConstPtr& m) { on_test(i, m); }),
         ros::VoidConstPtr(), hints);
+    if (!t.temperature_topic.empty()) {
+      ch.temperature_subscriber = nh_.subscribe<sensor_msgs::Temperature>(
+          t.temperature_topic, static_cast<std::uint32_t>(settings_.queue_size),
+          boost::function<void(const sensor_msgs::Temperature::ConstPtr&)>(
+              [this, i](const sensor_msgs::Temperature::ConstPtr& m) { on_temperature(i, m); }),
+          ros::VoidConstPtr(), hints);
+    }
     resume_from_file(ch);
     updater_.add(t.name, [this, i](DiagnosticStatusWrapper& status) { diagnose_channel(i, status); });
-    ROS_INFO("%s: test '%s' on %s -> %s, file %s", node_name_.c_str(), t.name.c_str(), nh_.resolveName(t.topic).c_str(),
-             nh_.resolveName(t.calibration_topic).c_str(), t.calibration_file.c_str());
+    ROS_INFO("%s: test '%s' on %s -> %s, file %s, temperature %s", node_name_.c_str(), t.name.c_str(),
+             nh_.resolveName(t.topic).c_str(), nh_.resolveName(t.calibration_topic).c_str(), t.calibration_file.c_str(),
+             t.temperature_topic.empty() ? "none" : nh_.resolveName(t.temperature_topic).c_str());
   }
   reference_subscriber_ = nh_.subscribe(settings_.reference_topic, static_cast<std::uint32_t>(settings_.queue_size),
                                         &CalibrationNode::on_reference, this, hints);
@@ -101,6 +109,14 @@ void CalibrationNode::on_test(std::size_t index, const sensor_msgs::MagneticFiel
   drain_pairs(index);
 }
 
+void CalibrationNode::on_temperature(std::size_t index, const sensor_msgs::Temperature::ConstPtr& message) {
+  Channel& ch = *channels_[index];
+  ++ch.temperature_messages;
+  ch.temperature_last_C = message->temperature;  // deg C (NaN: the sensor had none)
+  ch.temperature_last_stamp_s = message->header.stamp.toSec();
+  ch.temperature.push(ch.temperature_last_stamp_s, message->temperature);
+}
+
 void CalibrationNode::reset_pipeline(Channel& ch) {
   add_counters(ch.counters_before_reset, ch.pairer.counters());
   ch.pairer.reset();
@@ -109,6 +125,7 @@ void CalibrationNode::reset_pipeline(Channel& ch) {
     ch.test_decimator->reset();
   }
   ch.windows.reset();
+  ch.temperature.reset();
   ch.any_pair = false;
   ++ch.pipeline_resets;
   ROS_WARN("%s: test '%s': stamps went backwards, pairing and window restarted", node_name_.c_str(),
@@ -119,7 +136,16 @@ void CalibrationNode::drain_pairs(std::size_t index) {
   Channel& ch = *channels_[index];
   for (const PairedSample& pair : ch.pairer.take_pairs()) {
     auto feed = [&](double t, const Eigen::Vector3d& r, const Eigen::Vector3d& s) {
-      for (WindowData& w : ch.windows.push(t, r, s)) enqueue(index, std::move(w));
+      const double margin = settings_.gap_rule.temperature_max_gap_s;
+      bool completed = false;
+      for (WindowData& w : ch.windows.push(t, r, s)) {
+        if (!ch.settings.temperature_topic.empty()) {
+          w.temperature = ch.temperature.copy(w.start_s - w.period_s - margin, w.end_s() + w.period_s + margin);
+        }
+        enqueue(index, std::move(w));
+        completed = true;
+      }
+      if (completed) ch.temperature.drop_before(ch.windows.next_start_s() - ch.windows.period_s() - margin);
     };
     if (!ch.reference_decimator) {
       feed(pair.time_s, pair.reference_nT, pair.test_nT);

@@ -39,7 +39,8 @@ struct CalibrationNode::Channel {
   Channel(const TestInstrumentSettings& s, const CalibrationNodeSettings& node)
       : settings(s),
         pairer(node.pairing_tolerance_s, node.pairing_max_wait_s),
-        windows(node.window_s, node.step_s, node.estimation_period_s()) {
+        windows(node.window_s, node.step_s, node.estimation_period_s()),
+        temperature(node.window_s + 2.0 * node.gap_rule.temperature_max_gap_s) {
     if (node.decimating()) {
       reference_decimator = std::make_unique<StreamingDecimator>(node.input_period_s, node.decimation);
       test_decimator = std::make_unique<StreamingDecimator>(node.input_period_s, node.decimation);
@@ -55,6 +56,12 @@ struct CalibrationNode::Channel {
   PairingCounters counters_before_reset;
   std::unique_ptr<StreamingDecimator> reference_decimator, test_decimator;
   SlidingWindowBuffer windows;
+  // Thermometer (settings.temperature_topic): callback thread only.
+  ros::Subscriber temperature_subscriber;
+  TemperatureBuffer temperature;
+  std::size_t temperature_messages = 0;
+  double temperature_last_C = std::numeric_limits<double>::quiet_NaN();
+  double temperature_last_stamp_s = std::numeric_limits<double>::quiet_NaN();
   bool any_pair = false;
   double last_pair_s = 0.0;
   std::size_t pipeline_resets = 0, decimator_restarts = 0;
@@ -75,6 +82,9 @@ struct CalibrationNode::Channel {
   std::string last_method, last_band, last_offset;
   std::string last_eiv;  ///< noise model of the last window's errors-in-variables step
   ResponseSummary last_response;  ///< relative response over the band used (bands == 0: none yet)
+  std::string last_temperature;   ///< temperature terms of the last window: fitted or why not
+  std::string last_temperature_apparent;  ///< a (nT/degC) with 95 % half-widths, "" when not fitted
+  std::size_t temperature_fitted_windows = 0;
   // Change check: the accepted calibration the sliding windows are compared with (the first
   // window accepted since start, or the calibration file loaded at start).
   std::unique_ptr<WindowEstimate> baseline;

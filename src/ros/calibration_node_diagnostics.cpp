@@ -79,6 +79,17 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   status.add("decimator restarts", ch.decimator_restarts);
   status.add("pipeline resets (stamps backwards)", ch.pipeline_resets);
   status.add("buffered samples", ch.windows.buffered());
+  // The thermometer (temperature terms).
+  const std::string& temperature_topic = ch.settings.temperature_topic;
+  status.add("temperature topic", temperature_topic.empty() ? std::string("none") : nh_.resolveName(temperature_topic));
+  if (!temperature_topic.empty()) {
+    status.add("temperature samples", ch.temperature_messages);
+    status.add("temperature samples buffered", ch.temperature.buffered());
+    status.add("temperature samples out of order", ch.temperature.out_of_order());
+    status.add("temperature last (degC)", ch.temperature_last_C);
+    status.add("temperature last stamp",
+               ch.temperature_messages > 0 ? time_for_message(ch.temperature_last_stamp_s) : std::string("none"));
+  }
   status.add("windows queued", ch.windows.windows_emitted());
   status.add("windows skipped (no data)", ch.windows.windows_skipped_empty());
   const std::size_t dropped = ch.dropped_busy.load();
@@ -115,6 +126,9 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("last delay (s)", ch.last_delay_s);
     status.add("last delay ci95 (s)", ch.last_delay_ci95_s);
     status.add("last offset at window end (nT)", ch.last_offset);
+    status.add("temperature terms (last window)", ch.last_temperature.empty() ? std::string("no window yet") : ch.last_temperature);
+    status.add("temperature apparent coefficients (nT/degC)", ch.last_temperature_apparent);
+    status.add("windows with temperature terms", ch.temperature_fitted_windows);
     // Relative frequency response of the test against R n over the band used (relative_response.hpp).
     if (ch.last_response.bands > 0) {
       status.add("response bands in the band used", ch.last_response.bands);

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <limits>
 
 namespace magnetometer_insitu_calibration {
 
@@ -84,6 +85,20 @@ MagnetometerCalibration CalibrationNode::calibration_message(const Job& job, con
   m.condition_number = e.condition_number;
   copy3(m.coherence, e.coherence);
   copy3(m.residual_rms_nT, e.residual_rms_nT);
+  // Temperature terms (NaN coefficients when not fitted; reference and range when known).
+  const TemperatureFit& f = result.temperature;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::Vector3d none = Eigen::Vector3d::Constant(nan);
+  m.temperature_fitted = f.fitted;
+  m.temperature_text = f.text;
+  m.temperature_reference_C = result.temperature_known ? f.reference_C : nan;
+  m.temperature_range_C = result.temperature_known ? f.range_C : nan;
+  copy3(m.temperature_apparent_nT_per_C, f.fitted ? f.apparent_nT_per_C : none);
+  copy3(m.temperature_apparent_ci95_nT_per_C, f.fitted ? f.apparent_ci95_nT_per_C : none);
+  copy3(m.temperature_offset_nT_per_C, f.fitted ? f.offset_nT_per_C : none);
+  copy3(m.temperature_offset_ci95_nT_per_C, f.fitted ? f.offset_ci95_nT_per_C : none);
+  copy3(m.temperature_scale_ppm_per_C, f.fitted ? f.scale_ppm_per_C : none);
+  copy3(m.temperature_scale_ci95_ppm_per_C, f.fitted ? f.scale_ci95_ppm_per_C : none);
   m.quality = static_cast<std::uint8_t>(e.quality);
   m.quality_text = e.quality_text;
   if (e.quality == Quality::kOk && !(e.n.allFinite() && e.n_covariance.allFinite())) {

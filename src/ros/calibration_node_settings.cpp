@@ -23,7 +23,8 @@ const std::vector<std::string> kKnownParameters = {
     "gamma", "trend", "min_harmonics", "max_condition_number", "min_coherence", "silent_timeout",
     "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
     "eiv_noise_ratio", "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
-    "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix"};
+    "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
+    "temperature_min_range", "temperature_max_gap"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -48,6 +49,15 @@ std::string struct_string(XmlRpc::XmlRpcValue& entry, const std::string& key, co
   return value;
 }
 
+// An optional topic of a ~tests entry: absent or "" = none.
+std::string optional_topic(XmlRpc::XmlRpcValue& entry, const std::string& key, const std::string& where) {
+  if (!entry.hasMember(key)) return "";
+  if (entry[key].getType() != XmlRpc::XmlRpcValue::TypeString) throw ParameterError(where + "." + key, "must be a string");
+  const std::string value = static_cast<std::string>(entry[key]);
+  if (!value.empty()) require_topic_name(where + "." + key, value);
+  return value;
+}
+
 }  // namespace
 
 const std::vector<std::string>& CalibrationNodeSettings::known_parameters() { return kKnownParameters; }
@@ -68,11 +78,13 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     t.calibration_topic = param_string(p, "calibration_topic", "calibration");
     if (t.calibration_topic.empty()) throw ParameterError("calibration_topic", "must not be empty");
     t.calibration_file = required_string(p, "calibration_file");
+    t.temperature_topic = param_string(p, "temperature_topic", "");
+    if (!t.temperature_topic.empty()) require_topic_name("temperature_topic", t.temperature_topic);
     require_topic_name("test_topic", t.topic);
     require_topic_name("calibration_topic", t.calibration_topic);
     s.tests.push_back(t);
   } else {
-    for (const char* single_only : {"test_name", "calibration_topic", "calibration_file"}) {
+    for (const char* single_only : {"test_name", "calibration_topic", "calibration_file", "temperature_topic"}) {
       if (p.hasParam(single_only)) {
         throw ParameterError(single_only, "belongs to the single-instrument form (~test_topic); with ~tests give it per entry");
       }
@@ -80,18 +92,21 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     XmlRpc::XmlRpcValue list;
     p.getParam("tests", list);
     if (list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0) {
-      throw ParameterError("tests", "must be a non-empty list of {name, topic, calibration_file, calibration_topic (optional)}");
+      throw ParameterError("tests", "must be a non-empty list of {name, topic, calibration_file, calibration_topic (optional), "
+                                    "temperature_topic (optional)}");
     }
     for (int i = 0; i < list.size(); ++i) {
       const std::string where = "tests[" + std::to_string(i) + "]";
       XmlRpc::XmlRpcValue& entry = list[i];
       if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
-        throw ParameterError(where, "must be a map {name, topic, calibration_file, calibration_topic (optional)}");
+        throw ParameterError(where, "must be a map {name, topic, calibration_file, calibration_topic (optional), "
+                                    "temperature_topic (optional)}");
       }
       for (const auto& member : entry) {
         if (member.first != "name" && member.first != "topic" && member.first != "calibration_topic" &&
-            member.first != "calibration_file") {
-          throw ParameterError(where + "." + member.first, "unknown key (name, topic, calibration_topic, calibration_file)");
+            member.first != "calibration_file" && member.first != "temperature_topic") {
+          throw ParameterError(where + "." + member.first,
+                               "unknown key (name, topic, calibration_topic, calibration_file, temperature_topic)");
         }
       }
       TestInstrumentSettings t;
@@ -99,6 +114,7 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
       t.topic = struct_string(entry, "topic", where, true, "");
       t.calibration_topic = struct_string(entry, "calibration_topic", where, false, t.name + "/calibration");
       t.calibration_file = struct_string(entry, "calibration_file", where, true, "");
+      t.temperature_topic = optional_topic(entry, "temperature_topic", where);
       require_topic_name(where + ".topic", t.topic);
       require_topic_name(where + ".calibration_topic", t.calibration_topic);
       s.tests.push_back(t);
@@ -117,6 +133,15 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     }
     if (!files.insert(t.calibration_file).second) {
       throw ParameterError(where + "calibration_file", "'" + t.calibration_file + "' is used twice");
+    }
+  }
+  // A thermometer topic (sensor_msgs/Temperature) is never one of the field or calibration
+  // topics; two instruments may share one (a hut thermometer).
+  for (std::size_t i = 0; i < s.tests.size(); ++i) {
+    const std::string& topic = s.tests[i].temperature_topic;
+    if (!topic.empty() && (topics.count(topic) != 0 || outputs.count(topic) != 0)) {
+      throw ParameterError((has_list ? "tests[" + std::to_string(i) + "]." : std::string()) + "temperature_topic",
+                           "'" + topic + "' is a magnetic field or calibration topic");
     }
   }
 
@@ -222,6 +247,14 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   if (s.max_pending_windows < 1) throw ParameterError("max_pending_windows", "must be >= 1");
   s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
   require_positive("diagnostic_period", s.diagnostic_period_s, "s");
+
+  // Temperature terms (when an instrument has a temperature topic).
+  s.gap_rule.temperature.min_range_C = param_double(p, "temperature_min_range", s.gap_rule.temperature.min_range_C);
+  require_non_negative("temperature_min_range", s.gap_rule.temperature.min_range_C, "degC");
+  // Default: the gap rule's longest filled gap, at least two estimation periods.
+  s.gap_rule.temperature_max_gap_s =
+      param_double(p, "temperature_max_gap", std::max(s.gap_rule.gaps.max_fill_s, 2.0 * period));
+  require_positive("temperature_max_gap", s.gap_rule.temperature_max_gap_s, "s");
 
   // TF: the rotation part of accepted calibrations on /tf_static (calibration_node_tf.cpp).
   s.publish_tf = param_bool(p, "publish_tf", s.publish_tf);

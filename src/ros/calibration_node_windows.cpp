@@ -98,6 +98,18 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
     ch.last_band = band.str();
     ch.last_offset = offset.str();
   }
+  ch.last_temperature = m.temperature_text;
+  ch.last_temperature_apparent.clear();
+  if (m.temperature_fitted) {
+    ++ch.temperature_fitted_windows;
+    std::ostringstream apparent;
+    apparent.precision(4);
+    for (int k = 0; k < 3; ++k) apparent << (k ? " " : "") << m.temperature_apparent_nT_per_C[k];
+    apparent << " (95 % +-";
+    for (int k = 0; k < 3; ++k) apparent << " " << m.temperature_apparent_ci95_nT_per_C[k];
+    apparent << ") at " << m.temperature_reference_C << " degC";
+    ch.last_temperature_apparent = apparent.str();
+  }
   ch.last_method = m.method;
   ch.last_eiv = e.eiv;
   ch.last_response = result.response;

@@ -20,7 +20,7 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-constexpr int kFormatVersion = 3;  // 3: reference mean; 2: method, band used, delay, offset (1 and 2 still load)
+constexpr int kFormatVersion = 4;  // 4: temperature terms; 3: reference mean; 2: method, band used, delay, offset (1-3 still load)
 
 std::string number(double value) {
   if (std::isnan(value)) return ".nan";
@@ -174,6 +174,16 @@ std::string calibration_to_yaml(const MagnetometerCalibration& c, const std::str
   y << "residual_rms_nT: " << list(c.residual_rms_nT) << "\n";
   y << "quality: " << static_cast<int>(c.quality) << "\n";
   y << "quality_text: " << quoted(c.quality_text) << "\n";
+  y << "temperature_fitted: " << (c.temperature_fitted ? "true" : "false") << "\n";
+  y << "temperature_text: " << quoted(c.temperature_text) << "\n";
+  y << "temperature_reference_C: " << number(c.temperature_reference_C) << "  # deg C, n and offset_nT at it\n";
+  y << "temperature_range_C: " << number(c.temperature_range_C) << "  # deg C\n";
+  y << "temperature_apparent_nT_per_C: " << list(c.temperature_apparent_nT_per_C) << "  # c + s F, test frame\n";
+  y << "temperature_apparent_ci95_nT_per_C: " << list(c.temperature_apparent_ci95_nT_per_C) << "\n";
+  y << "temperature_offset_nT_per_C: " << list(c.temperature_offset_nT_per_C) << "  # c\n";
+  y << "temperature_offset_ci95_nT_per_C: " << list(c.temperature_offset_ci95_nT_per_C) << "\n";
+  y << "temperature_scale_ppm_per_C: " << list(c.temperature_scale_ppm_per_C) << "  # s\n";
+  y << "temperature_scale_ci95_ppm_per_C: " << list(c.temperature_scale_ci95_ppm_per_C) << "\n";
   y << "accepted: " << (c.accepted ? "true" : "false") << "  # last line\n";
   return y.str();
 }
@@ -251,6 +261,27 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
   r.array("residual_rms_nT", c.residual_rms_nT);
   c.quality = static_cast<std::uint8_t>(r.integer("quality", 0, 255));
   c.quality_text = r.text("quality_text");
+  if (version >= 4) {
+    c.temperature_fitted = r.boolean("temperature_fitted");
+    c.temperature_text = r.text("temperature_text");
+    c.temperature_reference_C = r.real("temperature_reference_C");
+    c.temperature_range_C = r.real("temperature_range_C");
+    r.array("temperature_apparent_nT_per_C", c.temperature_apparent_nT_per_C);
+    r.array("temperature_apparent_ci95_nT_per_C", c.temperature_apparent_ci95_nT_per_C);
+    r.array("temperature_offset_nT_per_C", c.temperature_offset_nT_per_C);
+    r.array("temperature_offset_ci95_nT_per_C", c.temperature_offset_ci95_nT_per_C);
+    r.array("temperature_scale_ppm_per_C", c.temperature_scale_ppm_per_C);
+    r.array("temperature_scale_ci95_ppm_per_C", c.temperature_scale_ci95_ppm_per_C);
+  } else {  // formats 1-3: no temperature terms (correction_node corrects without temperature)
+    c.temperature_fitted = false;
+    c.temperature_text = "calibration file format " + std::to_string(version) + " has no temperature terms";
+    c.temperature_reference_C = c.temperature_range_C = nan;
+    for (auto* a : {&c.temperature_apparent_nT_per_C, &c.temperature_apparent_ci95_nT_per_C,
+                    &c.temperature_offset_nT_per_C, &c.temperature_offset_ci95_nT_per_C,
+                    &c.temperature_scale_ppm_per_C, &c.temperature_scale_ci95_ppm_per_C}) {
+      a->fill(nan);
+    }
+  }
   c.accepted = r.boolean("accepted");
   return c;
 }
@@ -352,6 +383,19 @@ bool calibrations_equal(const MagnetometerCalibration& a, const MagnetometerCali
   MIC_SAME(residual_rms_nT, arrays_equal(a.residual_rms_nT, b.residual_rms_nT))
   MIC_SAME(quality, a.quality == b.quality)
   MIC_SAME(quality_text, a.quality_text == b.quality_text)
+  MIC_SAME(temperature_fitted, a.temperature_fitted == b.temperature_fitted)
+  MIC_SAME(temperature_text, a.temperature_text == b.temperature_text)
+  MIC_SAME(temperature_reference_C, reals_equal(a.temperature_reference_C, b.temperature_reference_C))
+  MIC_SAME(temperature_range_C, reals_equal(a.temperature_range_C, b.temperature_range_C))
+  MIC_SAME(temperature_apparent_nT_per_C, arrays_equal(a.temperature_apparent_nT_per_C, b.temperature_apparent_nT_per_C))
+  MIC_SAME(temperature_apparent_ci95_nT_per_C,
+           arrays_equal(a.temperature_apparent_ci95_nT_per_C, b.temperature_apparent_ci95_nT_per_C))
+  MIC_SAME(temperature_offset_nT_per_C, arrays_equal(a.temperature_offset_nT_per_C, b.temperature_offset_nT_per_C))
+  MIC_SAME(temperature_offset_ci95_nT_per_C,
+           arrays_equal(a.temperature_offset_ci95_nT_per_C, b.temperature_offset_ci95_nT_per_C))
+  MIC_SAME(temperature_scale_ppm_per_C, arrays_equal(a.temperature_scale_ppm_per_C, b.temperature_scale_ppm_per_C))
+  MIC_SAME(temperature_scale_ci95_ppm_per_C,
+           arrays_equal(a.temperature_scale_ci95_ppm_per_C, b.temperature_scale_ci95_ppm_per_C))
   MIC_SAME(accepted, a.accepted == b.accepted)
 #undef MIC_SAME
   return true;

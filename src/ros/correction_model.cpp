@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <sstream>
 #include <stdexcept>
@@ -33,6 +34,29 @@ CorrectionModel::CorrectionModel(const Eigen::Matrix3d& n, const Matrix9d& covar
   }
   n_inverse_ = n.inverse();
   n_inverse_transpose_ = n_inverse_.transpose();
+}
+
+void CorrectionModel::set_temperature(double reference_C, const Eigen::Vector3d& offset_per_C,
+                                      const Eigen::Vector3d& scale_per_C) {
+  if (!std::isfinite(reference_C)) throw std::invalid_argument("temperature reference is not finite");
+  if (!offset_per_C.allFinite()) throw std::invalid_argument("temperature offset coefficients are not finite");
+  if (!scale_per_C.allFinite()) throw std::invalid_argument("temperature scale coefficients are not finite");
+  has_temperature_ = true;
+  temperature_reference_C_ = reference_C;
+  temperature_offset_ = offset_per_C;
+  temperature_scale_ = scale_per_C;
+}
+
+Eigen::Vector3d CorrectionModel::correct(const Eigen::Vector3d& test, double temperature_C) const {
+  if (!has_temperature_) return correct(test);
+  const double u = temperature_C - temperature_reference_C_;
+  Eigen::Vector3d y;
+  for (int l = 0; l < 3; ++l) {
+    const double gain = 1.0 + temperature_scale_(l) * u;
+    y(l) = gain > 0.0 ? (test(l) - offset_(l) - temperature_offset_(l) * u) / gain
+                      : std::numeric_limits<double>::quiet_NaN();
+  }
+  return n_inverse_transpose_ * y;
 }
 
 Eigen::Matrix3d CorrectionModel::corrected_covariance(const Eigen::Matrix3d& test_covariance,

@@ -23,7 +23,7 @@ using diagnostic_updater::DiagnosticStatusWrapper;
 const std::vector<std::string> kKnownParameters = {
     "test_topic", "corrected_topic", "calibration_topic", "calibration_file", "reload_period", "queue_size",
     "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
-    "max_matrix_condition", "diagnostic_period", "apply_offset"};
+    "max_matrix_condition", "diagnostic_period", "apply_offset", "temperature_topic", "temperature_max_age", "temperature_model"};
 
 std::string window_text(const MagnetometerCalibration& c) {
   return time_for_message(c.window_start.toSec()) + " .. " + time_for_message(c.window_end.toSec());
@@ -58,6 +58,21 @@ CorrectionNodeSettings CorrectionNodeSettings::load(const ros::NodeHandle& p) {
   if (!(s.max_matrix_condition >= 1.0)) throw ParameterError("max_matrix_condition", "must be >= 1");
   s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
   require_positive("diagnostic_period", s.diagnostic_period_s, "s");
+  s.temperature_topic = param_string(p, "temperature_topic", s.temperature_topic);
+  if (!s.temperature_topic.empty()) {
+    require_topic_name("temperature_topic", s.temperature_topic);
+    for (const std::string* other : {&s.test_topic, &s.corrected_topic, &s.calibration_topic}) {
+      if (s.temperature_topic == *other) {
+        throw ParameterError("temperature_topic", "'" + s.temperature_topic + "' is a magnetic field or calibration topic");
+      }
+    }
+  }
+  s.temperature_max_age_s = param_double(p, "temperature_max_age", s.temperature_max_age_s);
+  require_positive("temperature_max_age", s.temperature_max_age_s, "s");
+  s.temperature_model = param_string(p, "temperature_model", s.temperature_model);
+  if (s.temperature_model != "apparent" && s.temperature_model != "full") {
+    throw ParameterError("temperature_model", "'" + s.temperature_model + "' must be apparent or full");
+  }
   return s;
 }
 
@@ -80,6 +95,10 @@ CorrectionNode::CorrectionNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   calibration_subscriber_ = nh_.subscribe(settings_.calibration_topic, 10, &CorrectionNode::on_calibration, this, hints);
   test_subscriber_ = nh_.subscribe(settings_.test_topic, static_cast<std::uint32_t>(settings_.queue_size),
                                    &CorrectionNode::on_test, this, hints);
+  if (!settings_.temperature_topic.empty()) {
+    temperature_subscriber_ = nh_.subscribe(settings_.temperature_topic, static_cast<std::uint32_t>(settings_.queue_size),
+                                            &CorrectionNode::on_temperature, this, hints);
+  }
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });
   if (settings_.reload_period_s > 0.0) {
@@ -114,6 +133,18 @@ std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::s
         anchor = 1e-9 * Eigen::Vector3d(c.reference_mean_nT[0], c.reference_mean_nT[1], c.reference_mean_nT[2]);
       }
       model = std::make_unique<CorrectionModel>(n, covariance, settings_.max_matrix_condition, offset, anchor);
+      if (c.temperature_fitted) {  // c in nT/degC -> T/degC; s in ppm/degC -> 1/degC
+        const auto vector = [](const boost::array<double, 3>& a, double factor) {
+          return Eigen::Vector3d(factor * a[0], factor * a[1], factor * a[2]);
+        };
+        if (settings_.temperature_model == "full") {
+          model->set_temperature(c.temperature_reference_C, vector(c.temperature_offset_nT_per_C, 1e-9),
+                                 vector(c.temperature_scale_ppm_per_C, 1e-6));
+        } else {  // apparent: a u, no scale term
+          model->set_temperature(c.temperature_reference_C, vector(c.temperature_apparent_nT_per_C, 1e-9),
+                                 Eigen::Vector3d::Zero());
+        }
+      }
     } catch (const std::invalid_argument& e) {
       reason = e.what();
     }
@@ -186,6 +217,12 @@ void CorrectionNode::on_calibration(const MagnetometerCalibration::ConstPtr& cal
   adopt(*calibration, "topic " + nh_.resolveName(settings_.calibration_topic));
 }
 
+void CorrectionNode::on_temperature(const sensor_msgs::Temperature::ConstPtr& message) {
+  ++temperature_messages_;
+  temperature_C_ = message->temperature;
+  temperature_stamp_s_ = message->header.stamp.toSec();
+}
+
 void CorrectionNode::on_test(const sensor_msgs::MagneticField::ConstPtr& message) {
   ++received_;
   if (!active_) {
@@ -207,7 +244,20 @@ void CorrectionNode::on_test(const sensor_msgs::MagneticField::ConstPtr& message
   }
   const CorrectionModel& model = *active_->model;
   const Eigen::Vector3d test(message->magnetic_field.x, message->magnetic_field.y, message->magnetic_field.z);  // T
-  const Eigen::Vector3d reference = model.correct(test);  // T, reference frame
+  Eigen::Vector3d reference;  // T, reference frame
+  if (model.has_temperature() && !settings_.temperature_topic.empty()) {
+    const double age_s = std::abs(message->header.stamp.toSec() - temperature_stamp_s_);
+    if (temperature_messages_ > 0 && age_s <= settings_.temperature_max_age_s && std::isfinite(temperature_C_)) {
+      reference = model.correct(test, temperature_C_);
+      ++corrected_with_temperature_;
+    } else {
+      reference = model.correct(test);
+      ++corrected_temperature_stale_;
+    }
+  } else {
+    reference = model.correct(test);
+    if (!settings_.temperature_topic.empty()) ++corrected_calibration_without_temperature_;
+  }
   Eigen::Matrix3d test_covariance;  // T^2, test frame
   for (int k = 0; k < 9; ++k) test_covariance(k / 3, k % 3) = message->magnetic_field_covariance[k];
 
@@ -239,6 +289,18 @@ void CorrectionNode::diagnose(DiagnosticStatusWrapper& status) {
   status.add("dropped, frame_id mismatch", dropped_frame_);
   status.add("dropped, before window", dropped_before_window_);
   status.add("corrected, before window", corrected_before_window_);
+  status.add("temperature topic",
+             settings_.temperature_topic.empty() ? std::string("none") : nh_.resolveName(settings_.temperature_topic));
+  if (!settings_.temperature_topic.empty()) {
+    status.add("temperature samples", temperature_messages_);
+    status.add("temperature last (degC)", temperature_C_);
+    status.add("temperature last stamp",
+               temperature_messages_ > 0 ? time_for_message(temperature_stamp_s_) : std::string("none"));
+    status.add("temperature model", settings_.temperature_model);
+    status.add("corrected with temperature", corrected_with_temperature_);
+    status.add("corrected without temperature, none recent", corrected_temperature_stale_);
+    status.add("corrected without temperature, calibration has none", corrected_calibration_without_temperature_);
+  }
   status.add("calibration messages", calibration_messages_);
   status.add("calibrations adopted", adopted_);
   status.add("calibrations rejected", rejected_);
@@ -267,6 +329,18 @@ void CorrectionNode::diagnose(DiagnosticStatusWrapper& status) {
     mean.precision(8);
     for (int k = 0; k < 3; ++k) mean << (k ? " " : "") << c.reference_mean_nT[k];
     status.add("calibration reference mean (nT; n's uncertainty propagates from it)", mean.str());
+    status.add("calibration temperature terms", c.temperature_fitted ? "fitted" : "none");
+    status.add("calibration temperature text", c.temperature_text);
+    if (c.temperature_fitted) {
+      std::ostringstream terms;
+      terms.precision(6);
+      terms << "reference " << c.temperature_reference_C << " degC; offset";
+      for (int k = 0; k < 3; ++k) terms << " " << c.temperature_offset_nT_per_C[k];
+      terms << " nT/degC; scale";
+      for (int k = 0; k < 3; ++k) terms << " " << c.temperature_scale_ppm_per_C[k];
+      terms << " ppm/degC";
+      status.add("calibration temperature coefficients", terms.str());
+    }
   } else {
     status.add("calibration source", "none");
   }
@@ -287,6 +361,12 @@ void CorrectionNode::diagnose(DiagnosticStatusWrapper& status) {
                                                     "' instead of '" + active_->calibration.test_frame_id + "'");
   }
   reported_frame_ = dropped_frame_;
+  if (corrected_temperature_stale_ > reported_stale_) {
+    status.mergeSummary(DiagnosticStatus::WARN, std::to_string(corrected_temperature_stale_ - reported_stale_) +
+                                                    " samples corrected without temperature: none within " +
+                                                    number_text(settings_.temperature_max_age_s) + " s");
+  }
+  reported_stale_ = corrected_temperature_stale_;
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -1,6 +1,8 @@
 // Sliding window over the live paired stream, and the estimate of one window.
 #include "magnetometer_insitu_calibration/ros/live_window.hpp"
 
+#include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -112,12 +114,55 @@ WindowData SlidingWindowBuffer::copy_window(double start_s) const {
   return w;
 }
 
+void TemperatureBuffer::push(double time_s, double value_C) {
+  if (!std::isfinite(time_s) || (!samples_.empty() && time_s <= samples_.back().first)) {
+    ++out_of_order_;
+    return;
+  }
+  samples_.emplace_back(time_s, value_C);
+  while (samples_.front().first < time_s - span_s_) samples_.pop_front();
+}
+
+TemperatureSamples TemperatureBuffer::copy(double low_s, double high_s) const {
+  TemperatureSamples out;
+  out.subscribed = true;
+  for (const auto& sample : samples_) {
+    if (sample.first < low_s) continue;
+    if (sample.first > high_s) break;
+    out.time_s.push_back(sample.first);
+    out.value_C.push_back(sample.second);
+  }
+  return out;
+}
+
+void TemperatureBuffer::drop_before(double time_s) {
+  while (!samples_.empty() && samples_.front().first < time_s) samples_.pop_front();
+}
+
+Eigen::VectorXd temperature_on_grid(const TemperatureSamples& samples, const std::vector<double>& at, double max_gap_s) {
+  const auto n = static_cast<Eigen::Index>(at.size());
+  Eigen::VectorXd out = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+  if (samples.time_s.empty() || n == 0) return out;
+  out = interpolate_channel(samples.time_s, samples.value_C, at, max_gap_s);
+  // The first and last finite samples hold over at most max_gap_s beyond them.
+  std::size_t first = 0, last = samples.time_s.size();
+  while (first < samples.time_s.size() && !std::isfinite(samples.value_C[first])) ++first;
+  while (last > first && !std::isfinite(samples.value_C[last - 1])) --last;
+  if (first >= last) return out;
+  const double t_first = samples.time_s[first], t_last = samples.time_s[last - 1];
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double t = at[static_cast<std::size_t>(i)];
+    if (t < t_first && t_first - t <= max_gap_s) out(i) = samples.value_C[first];
+    if (t > t_last && t - t_last <= max_gap_s) out(i) = samples.value_C[last - 1];
+  }
+  return out;
+}
+
 namespace {
 
 constexpr double kSecondsPerDay = 86400.0;
 
-using EstimateFunction =
-    std::function<WindowEstimate(const Eigen::Ref<const Readings>&, const Eigen::Ref<const Readings>&, double)>;
+using EstimateFunction = WindowEstimateFunction;
 
 // Offset of the window (see WindowResult::offset_end_nT for the model and the interval).
 void estimate_offset(WindowResult& r, const PairedRecord& paired) {
@@ -155,7 +200,35 @@ void estimate_offset(WindowResult& r, const PairedRecord& paired) {
   }
 }
 
-WindowResult estimate_window_with(WindowData window, const EstimateFunction& estimate, const WindowGapRule& rule) {
+// The temperature terms of the window (see estimate_window): fitted on the grid, removed from
+// window.paired.test_nT in place when fitted.
+void fit_window_temperature(WindowResult& r, WindowData& window, const EstimateFunction& estimate,
+                            const EstimatorSettings* settings, const WindowGapRule& rule) {
+  r.temperature_samples = window.temperature.time_s.size();
+  if (!window.temperature.subscribed) {
+    r.temperature.text = "no temperature topic: estimated without temperature terms";
+    return;
+  }
+  if (settings == nullptr) {
+    r.temperature.text = "temperature terms need the window estimator (not the plain FdWlseEstimator)";
+    return;
+  }
+  if (window.temperature.time_s.empty()) {
+    r.temperature.text = "no temperature sample in the window: estimated without temperature terms";
+    return;
+  }
+  const Eigen::VectorXd theta = temperature_on_grid(window.temperature, window.paired.time_s, rule.temperature_max_gap_s);
+  r.temperature_known = theta.size() > 0 && theta.allFinite();
+  r.temperature = with_temperature_terms(estimate, *settings, rule.temperature, window.paired.reference_nT,
+                                         window.paired.test_nT, theta, window.period_s, r.estimate);
+  if (r.temperature_known && !r.temperature.fitted) {  // as fit_temperature states them when it gets that far
+    r.temperature.reference_C = theta.mean();
+    r.temperature.range_C = theta.maxCoeff() - theta.minCoeff();
+  }
+}
+
+WindowResult estimate_window_with(WindowData window, const EstimateFunction& estimate, const EstimatorSettings* settings,
+                                  const WindowGapRule& rule) {
   WindowResult r;
   r.start_s = window.start_s;
   r.end_s = window.end_s();
@@ -172,6 +245,7 @@ WindowResult estimate_window_with(WindowData window, const EstimateFunction& est
   const double edge_gap_s = static_cast<double>(std::max(r.leading_missing, r.trailing_missing)) * period;
   r.long_gap = !gaps.long_gaps.empty() || edge_gap_s > rule.gaps.max_fill_s;
   r.estimate = estimate(window.paired.reference_nT, window.paired.test_nT, period);
+  fit_window_temperature(r, window, estimate, settings, rule);
   r.relative_response = relative_response(window.paired.reference_nT, window.paired.test_nT, r.estimate.n, period);
   const double band_low = std::isfinite(r.estimate.band_low_hz) ? r.estimate.band_low_hz : 0.0;
   const double band_high = std::isfinite(r.estimate.band_high_hz) ? r.estimate.band_high_hz : 0.5 / period;
@@ -199,7 +273,7 @@ WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, cons
       [&](const Eigen::Ref<const Readings>& r, const Eigen::Ref<const Readings>& t, double p) {
         return estimator.estimate(r, t, p);
       },
-      rule);
+      nullptr, rule);
 }
 
 WindowResult estimate_window(WindowData window, WindowEstimator& estimator, const WindowGapRule& rule) {
@@ -208,7 +282,7 @@ WindowResult estimate_window(WindowData window, WindowEstimator& estimator, cons
       [&](const Eigen::Ref<const Readings>& r, const Eigen::Ref<const Readings>& t, double p) {
         return estimator.estimate(r, t, p);
       },
-      rule);
+      &estimator.settings(), rule);
 }
 
 }  // namespace magnetometer_insitu_calibration

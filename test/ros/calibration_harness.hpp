@@ -6,6 +6,7 @@
 // the test stream in "test_frame".
 #pragma once
 
+#include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
@@ -15,6 +16,7 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/MagneticField.h>
+#include <sensor_msgs/Temperature.h>
 
 #include <atomic>
 #include <cmath>
@@ -86,6 +88,18 @@ class Harness {
     test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id});
   }
 
+  /// The test sees a hut's temperature (hut_temperature.hpp; the pair's test readings change), and
+  /// publish() also sends the thermometer's reading (deg C, the test's stamps) on `topic`, before
+  /// the test's field sample of the same stamp. Call before publishing.
+  void add_hut_temperature(const mic::HutTemperatureSettings& hut, const std::string& topic) {
+    hut_ = hut;
+    mic::add_hut_temperature(pair_, hut);
+    temperature_C_ = pair_.test.auxiliary.back().values;
+    temperature_pub_ = nh_.advertise<sensor_msgs::Temperature>(topic, 100000);
+  }
+  const mic::HutTemperatureSettings& hut() const { return hut_; }
+  std::size_t temperature_subscribers() const { return temperature_pub_.getNumSubscribers(); }
+
   /// Records MagnetometerCalibration messages of another topic (see calibrations_of()).
   void subscribe_calibration(const std::string& topic) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -140,6 +154,14 @@ class Harness {
       clock_pub_.publish(clock);
       const ros::Time stamp = ros::Time().fromSec(clock_s + stamp_offset_s);
       if (reference) reference_pub_.publish(field_message(stamp, "reference_frame", pair_.reference.values_nT.row(k), Eigen::Vector3d::Constant(0.01)));
+      if (test && !temperature_C_.empty()) {
+        sensor_msgs::Temperature t;
+        t.header.stamp = stamp;
+        t.header.frame_id = "test_frame";
+        t.temperature = temperature_C_[k];
+        t.variance = 0.0;  // unknown
+        temperature_pub_.publish(t);
+      }
       if (test) {
         test_pub_.publish(field_message(stamp, "test_frame", pair_.test.values_nT.row(k), test_noise_rms_nT_));
         for (auto& copy : test_copies_) {
@@ -295,7 +317,9 @@ class Harness {
   mic::SimulatedPair pair_;
   ros::AsyncSpinner spinner_;
   std::string reference_topic_, test_topic_, calibration_topic_;
-  ros::Publisher clock_pub_, reference_pub_, test_pub_;
+  ros::Publisher clock_pub_, reference_pub_, test_pub_, temperature_pub_;
+  mic::HutTemperatureSettings hut_;
+  std::vector<double> temperature_C_;  ///< thermometer reading per sample, deg C (empty: none published)
   ros::Subscriber calibration_sub_, diagnostics_sub_;
   std::vector<ros::Subscriber> corrected_subs_, extra_calibration_subs_;
   std::vector<std::pair<ros::Publisher, std::string>> test_copies_;

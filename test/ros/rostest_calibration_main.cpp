@@ -17,6 +17,9 @@
 //   Calibration.TwoInstruments two_instruments.test  a ~tests list: two test instruments, one node
 //   Calibration.CorrectionFileReload correction_reload.test  correction_node's calibration file
 //   Calibration.BadParameters  bad_parameters.test  impossible parameters: the node exits naming them
+//   Calibration.TemperatureTerms temperature.test  hut temperature on a Temperature topic: terms
+//                                                 fitted within their intervals, correction with
+//                                                 them closer to the field than without
 //   Calibration.RotationOnTfStatic calibration_tf.test  ~publish_tf: the rotation part of n on
 //                                                 /tf_static; nothing from a node without it
 #include <gtest/gtest.h>

@@ -54,6 +54,15 @@ mic::MagnetometerCalibration filled_calibration() {
   c.condition_number = 3.14159;
   c.quality = mic::MagnetometerCalibration::QUALITY_OK;
   c.quality_text = "ok";
+  c.temperature_fitted = true;
+  c.temperature_text = "temperature terms fitted; n at 20.125 degC (range 6.5 degC)";
+  c.temperature_reference_C = 20.125;
+  c.temperature_range_C = 6.5;
+  for (auto* array : {&c.temperature_apparent_nT_per_C, &c.temperature_apparent_ci95_nT_per_C,
+                      &c.temperature_offset_nT_per_C, &c.temperature_offset_ci95_nT_per_C,
+                      &c.temperature_scale_ppm_per_C, &c.temperature_scale_ci95_ppm_per_C}) {
+    for (auto& v : *array) v = normal(random);
+  }
   c.accepted = true;
   return c;
 }
@@ -82,7 +91,7 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   // A format-2 file (before reference_mean_nT): loads, with the mean 0 (the whole-field
   // propagation correction_node used before); a format it does not know is refused.
   std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
-  const std::size_t version = text.find("format_version: 3\n");
+  const std::size_t version = text.find("format_version: 4\n");
   ASSERT_NE(version, std::string::npos) << text;
   const std::size_t mean_line = text.find("reference_mean_nT: ");
   ASSERT_NE(mean_line, std::string::npos);
@@ -92,13 +101,54 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "old.yaml");
   for (double v : loaded.reference_mean_nT) EXPECT_EQ(v, 0.0);
   EXPECT_EQ(loaded.offset_nT, filled_calibration().offset_nT);
-  // Format 3 without the field is incomplete.
+  // Format 4 without the field is incomplete.
   std::string cut = text;
   cut.erase(mean_line, cut.find('\n', mean_line) + 1 - mean_line);
   EXPECT_THROW(mic::calibration_from_yaml(cut, "cut.yaml"), mic::CalibrationFileError);
   std::string future = text;
-  future.replace(version, 17, "format_version: 4");
+  future.replace(version, 17, "format_version: 5");
   EXPECT_THROW(mic::calibration_from_yaml(future, "future.yaml"), mic::CalibrationFileError);
+}
+
+TEST(CalibrationYaml, Format3LoadsWithoutTemperatureTerms) {
+  // A format-3 file (before the temperature terms): loads, not fitted, NaN coefficients, a text
+  // naming the format; a format-4 file without one of the temperature lines is incomplete.
+  const mic::MagnetometerCalibration c = filled_calibration();
+  const std::string text = mic::calibration_to_yaml(c, "/x");
+  std::string old = text;
+  for (std::size_t line = old.find("\ntemperature_"); line != std::string::npos; line = old.find("\ntemperature_")) {
+    old.erase(line + 1, old.find('\n', line + 1) - line);
+  }
+  ASSERT_EQ(old.find("temperature"), std::string::npos) << old;
+  const std::size_t version = old.find("format_version: 4\n");
+  ASSERT_NE(version, std::string::npos);
+  old.replace(version, 17, "format_version: 3");
+  const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v3.yaml");
+  EXPECT_FALSE(loaded.temperature_fitted);
+  EXPECT_EQ(loaded.temperature_text, "calibration file format 3 has no temperature terms");
+  EXPECT_TRUE(std::isnan(loaded.temperature_reference_C));
+  for (double v : loaded.temperature_apparent_nT_per_C) EXPECT_TRUE(std::isnan(v));
+  for (double v : loaded.temperature_scale_ppm_per_C) EXPECT_TRUE(std::isnan(v));
+  EXPECT_EQ(loaded.reference_mean_nT, c.reference_mean_nT);
+  EXPECT_EQ(loaded.matrix, c.matrix);
+  EXPECT_TRUE(loaded.accepted);
+  std::string cut = text;
+  const std::size_t scale = cut.find("temperature_scale_ppm_per_C: ");
+  ASSERT_NE(scale, std::string::npos);
+  cut.erase(scale, cut.find('\n', scale) + 1 - scale);
+  try {
+    mic::calibration_from_yaml(cut, "cut.yaml");
+    ADD_FAILURE() << "a format-4 file without temperature_scale_ppm_per_C loaded";
+  } catch (const mic::CalibrationFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.yaml: field 'temperature_scale_ppm_per_C' is missing"), std::string::npos)
+        << e.what();
+  }
+  // A difference in a temperature field is seen.
+  mic::MagnetometerCalibration other = c;
+  other.temperature_offset_nT_per_C[2] += 1e-9;
+  std::string difference;
+  EXPECT_FALSE(mic::calibrations_equal(c, other, &difference));
+  EXPECT_EQ(difference, "temperature_offset_nT_per_C");
 }
 
 TEST(CalibrationYaml, EveryTruncationIsRefused) {

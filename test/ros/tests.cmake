@@ -1,6 +1,6 @@
 # Tests of the ROS layer, included by CMakeLists.txt when CATKIN_ENABLE_TESTING.
 #  - test_ros_layer: gtest without a master (calibration YAML, sliding window, window
-#    estimate and gap flags, correction model);
+#    estimate and gap flags, correction model; test_ros_temperature.cpp: temperature terms);
 #  - rostests with a real master (rostest starts one per .test file): simulated streams with a
 #    fast /clock into calibration_node + correction_node (launch/calibration.launch).
 # Test binaries are EXCLUDE_FROM_ALL: build the `tests` target before ctest.
@@ -13,7 +13,7 @@
 find_package(rostest REQUIRED)
 find_package(tf2_msgs REQUIRED)  # rostest_calibration_tf.cpp reads /tf_static
 
-catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
+catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp test/ros/test_ros_temperature.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
 if(TARGET test_ros_layer)
   target_link_libraries(test_ros_layer ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
   target_compile_options(test_ros_layer PRIVATE -Wall -Wextra)
@@ -24,7 +24,8 @@ endif()
 add_rostest_gtest(rostest_calibration test/ros/nominal.test test/ros/rostest_calibration_main.cpp
   test/ros/rostest_calibration_nominal.cpp test/ros/rostest_calibration_streams.cpp
   test/ros/rostest_calibration_correction.cpp test/ros/rostest_calibration_parameters.cpp
-  test/ros/rostest_calibration_lifecycle.cpp test/ros/rostest_calibration_tf.cpp)
+  test/ros/rostest_calibration_lifecycle.cpp test/ros/rostest_calibration_tf.cpp
+  test/ros/rostest_calibration_temperature.cpp)
 target_link_libraries(rostest_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS} ${tf2_msgs_INCLUDE_DIRS})
 target_compile_options(rostest_calibration PRIVATE -Wall -Wextra)
@@ -33,7 +34,7 @@ target_compile_definitions(rostest_calibration PRIVATE
   CORRECTION_NODE_PATH="$<TARGET_FILE:correction_node>")
 # add_rostest_gtest does not make the test depend on the nodes it launches.
 add_dependencies(rostest_calibration calibration_node correction_node)
-foreach(rostest_file silent_topic time_jump decimation two_instruments correction_reload bad_parameters)
+foreach(rostest_file silent_topic time_jump decimation two_instruments correction_reload bad_parameters temperature)
   add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 endforeach()
 # ~publish_tf: the rotation part of n on /tf_static (and nothing from a node without it).

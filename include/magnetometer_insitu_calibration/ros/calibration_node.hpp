@@ -7,10 +7,14 @@
 //        duplicate samples)
 //     -> StreamingDecimator, both instruments on the same epochs (only when ~input_period is
 //        shorter than ~output_period, e.g. LEMI-025 10 Hz -> 1 Hz)
-//     -> SlidingWindowBuffer: windows [k step, k step + window) in UNIX time
+//     -> SlidingWindowBuffer: windows [k step, k step + window) in UNIX time; with the instrument's
+//        sensor_msgs/Temperature topic, its samples around the window go with it
+//        (TemperatureBuffer)
 //     -> worker thread (its own WindowEstimator, the offline CLI's: ~method robust | plain, auto
-//        band, EIV, delay): regularize_and_fill on the window copy, the estimate, gap flags, the
-//        offset at the window end, the change check against the accepted calibration (WARN)
+//        band, EIV, delay): regularize_and_fill on the window copy, the estimate, the temperature
+//        terms (fitted and removed when the window has a varying temperature; n then at the
+//        window's mean temperature), gap flags, the offset at the window end, the change check
+//        against the accepted calibration (WARN)
 //     -> MagnetometerCalibration on the instrument's calibration topic (latched), every window,
 //        accepted=false with the failed quality rule when it is flagged; the latest accepted
 //        one also written atomically to the instrument's YAML file.
@@ -46,6 +50,7 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>
+#include <sensor_msgs/Temperature.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
 #include <condition_variable>
@@ -65,6 +70,7 @@ struct TestInstrumentSettings {
   std::string topic;              ///< its sensor_msgs/MagneticField topic
   std::string calibration_topic;  ///< MagnetometerCalibration output (latched)
   std::string calibration_file;   ///< YAML of the latest accepted calibration (atomic writes)
+  std::string temperature_topic;  ///< its sensor_msgs/Temperature (deg C); "" = none (no temperature terms)
 };
 
 /// Every parameter of calibration_node, read and validated once at start-up
@@ -78,7 +84,7 @@ struct CalibrationNodeSettings {
   double pairing_max_wait_s = 600.0;    ///< longest wait (stamp time) for a partner, s
   double window_s = 86400.0;            ///< window length, s
   double step_s = 3600.0;               ///< step between window starts, s
-  WindowGapRule gap_rule;               ///< max_fill_s (s) and max_filled_fraction
+  WindowGapRule gap_rule;               ///< max_fill_s (s), max_filled_fraction, temperature min range (degC) and max gap (s)
   EstimatorSettings estimator;          ///< band (Hz), gamma, trend, quality rules, method, robust options
   CalibrationChangeSettings change;     ///< change check: false-alarm probability, tolerances
   double silent_timeout_s = 10.0;       ///< ROS time without a message before a topic is "silent", s
@@ -121,6 +127,7 @@ class CalibrationNode {
   // Streams (calibration_node.cpp): callback thread.
   void on_reference(const sensor_msgs::MagneticField::ConstPtr& message);
   void on_test(std::size_t channel, const sensor_msgs::MagneticField::ConstPtr& message);
+  void on_temperature(std::size_t channel, const sensor_msgs::Temperature::ConstPtr& message);
   void drain_pairs(std::size_t channel);
   void reset_pipeline(Channel& channel);
   // Windows (calibration_node_windows.cpp): enqueue on the callback thread, the rest on the worker.

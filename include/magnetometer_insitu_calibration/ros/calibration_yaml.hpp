@@ -1,8 +1,9 @@
 // The calibration file: one MagnetometerCalibration as YAML, written atomically by
 // calibration_node (latest accepted window) and loaded by correction_node.
 //
-// Format (format_version 2; version 1 files, without method, band used, delay and offset, still
-// load with the plain method, no delay and a zero offset): one key per message field with the message's field names and
+// Format (format_version 4; older files still load: version 3 without the temperature terms
+// (temperature_fitted false, coefficients NaN), 2 also without the reference mean (zero), 1 also
+// without method, band used, delay and offset (plain method, no delay, zero offset)): one key per message field with the message's field names and
 // units (header.stamp as "stamp", header.frame_id as "frame_id"; times as {secs, nsecs} so that
 // they load back exactly, plus an ISO 8601 comment; doubles with 17 significant digits, so that
 // every number loads back bit for bit). "accepted" is the last line: a file cut short anywhere

@@ -14,6 +14,16 @@
 // absorbs n's error. With a main field of ~50 000 nT and |r - m| of tens of nT this is the
 // difference between a stated uncertainty of nT and of hundredths of nT. `anchor` is m (zero:
 // the whole field, the conservative form for calibrations without m or without the offset).
+//
+// Temperature terms (estimation/temperature_regression.hpp; optional): the calibration's model
+// per test component l, with u = theta - theta_ref (theta the test sensor's temperature, theta_ref
+// the calibration's temperature_reference_C, deg C):
+//   t_l = (n^T r)_l (1 + s_l u) + c_l u + d_l
+// (s_l in 1/degC, c_l in the unit of t per degC). Its exact inverse, applied by correct(t, theta):
+//   y_l = (t_l - d_l - c_l u) / (1 + s_l u),   r = n^-T y.
+// (To first order this removes a_l u + s_l u ((n^T r)_l - F_l), a_l = c_l + s_l F_l the apparent
+// coefficient, F_l the calibration window's mean field in the test frame.) The temperature terms'
+// own uncertainty is not propagated into the covariance.
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
@@ -36,6 +46,15 @@ class CorrectionModel {
 
   /// r = n^-T (t - d), same unit as t.
   Eigen::Vector3d correct(const Eigen::Vector3d& test) const { return n_inverse_transpose_ * (test - offset_); }
+
+  /// Adds the temperature terms: reference_C (deg C), offset_per_C = c (unit of t per degC),
+  /// scale_per_C = s (1/degC, not ppm). Throws std::invalid_argument unless all are finite.
+  void set_temperature(double reference_C, const Eigen::Vector3d& offset_per_C, const Eigen::Vector3d& scale_per_C);
+  bool has_temperature() const { return has_temperature_; }
+  /// r = n^-T y, y_l = (t_l - d_l - c_l u) / (1 + s_l u), u = temperature_C - reference_C (see
+  /// above); without temperature terms, correct(test). NaN components where 1 + s_l u <= 0 (a
+  /// temperature tens of thousands of degC away: no physical reading).
+  Eigen::Vector3d correct(const Eigen::Vector3d& test, double temperature_C) const;
   const Eigen::Vector3d& offset() const { return offset_; }
 
   /// Covariance of r (unit^2) from the covariance of t: n^-T C_t n^-1, plus, when
@@ -57,6 +76,10 @@ class CorrectionModel {
   Eigen::Vector3d offset_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d anchor_ = Eigen::Vector3d::Zero();
   double condition_number_ = 1.0;
+  bool has_temperature_ = false;
+  double temperature_reference_C_ = 0.0;
+  Eigen::Vector3d temperature_offset_ = Eigen::Vector3d::Zero();  ///< c, unit of t per degC
+  Eigen::Vector3d temperature_scale_ = Eigen::Vector3d::Zero();   ///< s, 1/degC
 };
 
 }  // namespace magnetometer_insitu_calibration

@@ -33,6 +33,14 @@
 //    ("corrected, before window"); with false they are dropped and counted. Samples are never
 //    held back or re-corrected when a later calibration arrives: each is corrected once, on
 //    arrival, with the calibration in use at that moment.
+//  * temperature (~temperature_topic, sensor_msgs/Temperature in deg C; "" = none): when the
+//    calibration in use has temperature_fitted, each sample is corrected with its temperature
+//    terms (CorrectionModel::correct(t, theta); ~temperature_model apparent: c = a, s = 0, or
+//    full: c and s as fitted) using the latest temperature whose stamp is within
+//    ~temperature_max_age s of the sample's; with none that recent (or a NaN reading) the sample
+//    is corrected without them and counted ("corrected without temperature, none recent"). A
+//    calibration without temperature terms corrects every sample without them (counted when
+//    the topic is set).
 //  * queues (~queue_size in, ~publisher_queue_size out) are sized so that no sample is dropped
 //    at the rates of a replay; every sample is accounted for in the diagnostics:
 //    received = published + dropped (no calibration, frame, before window).
@@ -45,6 +53,7 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <ros/ros.h>
 #include <sensor_msgs/MagneticField.h>
+#include <sensor_msgs/Temperature.h>
 
 #include <cstddef>
 #include <memory>
@@ -67,6 +76,12 @@ struct CorrectionNodeSettings {
   bool apply_offset = true;                     ///< r = n^-T (t - offset_nT at window end); false: r = n^-T t
   double max_matrix_condition = 100.0;          ///< largest accepted condition number of n
   double diagnostic_period_s = 1.0;             ///< ROS time between diagnostics, s
+  std::string temperature_topic;                ///< test sensor's sensor_msgs/Temperature (deg C), "" = none
+  double temperature_max_age_s = 10.0;          ///< largest |sample stamp - temperature stamp| used, s
+  /// "apparent": c = the apparent coefficient a, s = 0 (what a window determines well); "full":
+  /// c and s as fitted (s is known only through the field's variations: intervals of thousands
+  /// of ppm/degC on a quiet day, which the correction then carries wherever the field leaves F).
+  std::string temperature_model = "apparent";
 
   /// Reads every private parameter; throws ParameterError naming the first impossible one.
   static CorrectionNodeSettings load(const ros::NodeHandle& private_nh);
@@ -91,13 +106,14 @@ class CorrectionNode {
   void load_file(bool at_start);
   void on_calibration(const MagnetometerCalibration::ConstPtr& calibration);
   void on_test(const sensor_msgs::MagneticField::ConstPtr& message);
+  void on_temperature(const sensor_msgs::Temperature::ConstPtr& message);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ros::NodeHandle nh_, private_nh_;
   CorrectionNodeSettings settings_;
   std::string node_name_;
   ros::Publisher corrected_publisher_;
-  ros::Subscriber calibration_subscriber_, test_subscriber_;
+  ros::Subscriber calibration_subscriber_, test_subscriber_, temperature_subscriber_;
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostic_timer_;
   ros::WallTimer reload_timer_;
@@ -106,6 +122,9 @@ class CorrectionNode {
   std::size_t received_ = 0, published_ = 0, dropped_no_calibration_ = 0, dropped_frame_ = 0,
               dropped_before_window_ = 0, corrected_before_window_ = 0, reported_frame_ = 0;
   std::string last_frame_seen_;
+  std::size_t temperature_messages_ = 0, corrected_with_temperature_ = 0, corrected_temperature_stale_ = 0,
+              corrected_calibration_without_temperature_ = 0, reported_stale_ = 0;
+  double temperature_C_ = 0.0, temperature_stamp_s_ = 0.0;  ///< latest reading (deg C) and its stamp (UNIX s)
   std::size_t adopted_ = 0, rejected_ = 0, calibration_messages_ = 0;
   std::string last_rejection_;
   bool rejected_since_adoption_ = false;

@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/temperature_terms.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
@@ -14,6 +15,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
@@ -46,12 +48,48 @@ struct StreamMonitor {
   bool behind_ = false;  ///< the previous sample was far behind the newest stamp
 };
 
+/// Readings of the test sensor's thermometer (UNIX s, deg C; NaN = missing) for one window.
+struct TemperatureSamples {
+  bool subscribed = false;            ///< the instrument has a temperature topic
+  std::vector<double> time_s;         ///< strictly increasing
+  std::vector<double> value_C;
+};
+
+/// The thermometer's samples of one test instrument, kept for the windows still to complete:
+/// push() appends (a stamp not later than the previous one is ignored and counted), copy()
+/// takes the samples of a window with a margin on both sides, drop_before() forgets what no
+/// later window needs. Bounded: samples older than the newest by more than span_s are dropped
+/// too (a temperature topic without field data does not grow the buffer).
+class TemperatureBuffer {
+ public:
+  explicit TemperatureBuffer(double span_s) : span_s_(span_s) {}
+  void push(double time_s, double value_C);
+  /// Samples with low_s <= t <= high_s, subscribed = true.
+  TemperatureSamples copy(double low_s, double high_s) const;
+  void drop_before(double time_s);
+  void reset() { samples_.clear(); }
+  std::size_t buffered() const { return samples_.size(); }
+  std::size_t out_of_order() const { return out_of_order_; }
+
+ private:
+  double span_s_;
+  std::deque<std::pair<double, double>> samples_;
+  std::size_t out_of_order_ = 0;
+};
+
+/// The thermometer on the window's grid `at` (UNIX s): interpolate_channel (linear, NaN across
+/// gaps longer than max_gap_s); epochs before the first or after the last sample take that
+/// sample's value when it is at most max_gap_s away (the thermometer's topic may lag the
+/// field's by a sample when the window completes), NaN otherwise.
+Eigen::VectorXd temperature_on_grid(const TemperatureSamples& samples, const std::vector<double>& at, double max_gap_s);
+
 /// One window of the live stream, copied out of the buffer for the estimator.
 struct WindowData {
   double start_s = 0.0;               ///< nominal first epoch, UNIX s (a whole multiple of step)
   double period_s = 1.0;              ///< sample period of the estimation grid, s
   std::size_t expected_samples = 0;   ///< round(window / period)
   PairedRecord paired;                ///< samples in the window, reference frame / test frame, nT (NaN = missing)
+  TemperatureSamples temperature;     ///< the test sensor's thermometer around the window (attached by the node)
 
   /// Nominal last epoch, UNIX s.
   double end_s() const { return start_s + (static_cast<double>(expected_samples) - 1.0) * period_s; }
@@ -81,6 +119,9 @@ class SlidingWindowBuffer {
   std::size_t windows_emitted() const { return emitted_; }
   std::size_t windows_skipped_empty() const { return skipped_empty_; }
   std::size_t out_of_order() const { return out_of_order_; }
+  /// Start of the next window to complete, UNIX s (samples before it minus half a period are no
+  /// longer needed).
+  double next_start_s() const { return next_start_; }
   double window_s() const { return window_s_; }
   double step_s() const { return step_s_; }
   double period_s() const { return period_s_; }
@@ -101,6 +142,10 @@ class SlidingWindowBuffer {
 struct WindowGapRule {
   GapSettings gaps;                   ///< max_fill_s: longest gap filled without flagging, s
   double max_filled_fraction = 0.05;  ///< of the window's expected samples, [0, 1]
+  /// Temperature terms (only min_range_C is used; band, gamma and trend are the estimator's).
+  TemperatureBand temperature;
+  /// Longest gap of the thermometer's samples bridged by interpolation (temperature_on_grid), s.
+  double temperature_max_gap_s = 60.0;
 };
 
 struct WindowResult {
@@ -130,7 +175,12 @@ struct WindowResult {
   /// m = mean(R) over the window's samples (reference frame, nT): where the offset absorbs the
   /// error of n (d = mean(T) - m n), so a corrected reading's error from dn is (r - m)^T dn n^-1.
   Eigen::Vector3d reference_mean_nT = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-
+  /// Temperature terms (temperature_terms.hpp): fitted, or why not (text). When fitted, the
+  /// estimate, the relative response and the offset are those of T with the terms removed, n at
+  /// temperature.reference_C.
+  TemperatureFit temperature;
+  std::size_t temperature_samples = 0;  ///< thermometer samples attached to the window
+  bool temperature_known = false;       ///< a finite temperature at every epoch of the grid
   /// Epochs without data: interpolated inside or missing at the edges.
   std::size_t missing() const { return leading_missing + trailing_missing + interpolated; }
 };
@@ -142,7 +192,12 @@ struct WindowResult {
 /// an edge. Unlike the offline rule this takes precedence over the estimator's own flags (a
 /// window shortened by missing data also fails min_harmonics, but the cause is the gap; the
 /// estimator's text is appended). Throws InputError when the window cannot be put on a grid
-/// (e.g. no complete epoch; stamps off the grid).
+/// (e.g. no complete epoch; stamps off the grid). With window.temperature.subscribed, the
+/// thermometer goes onto the grid (temperature_on_grid, rule.temperature_max_gap_s) and the
+/// temperature terms are fitted and removed as offline (with_temperature_terms); without it, or
+/// with a missing or too constant temperature, the window is estimated without them and
+/// result.temperature.text says why.
+/// The FdWlseEstimator form never fits temperature terms (text says so).
 WindowResult estimate_window(WindowData window, FdWlseEstimator& estimator, const WindowGapRule& rule);
 /// The same with the estimator the offline CLI uses (plain or robust, auto band, delay, EIV).
 WindowResult estimate_window(WindowData window, WindowEstimator& estimator, const WindowGapRule& rule);

@@ -2,8 +2,8 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/temperature_terms.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
 
 #include <algorithm>
@@ -152,35 +152,6 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
   return spans;
 }
 
-namespace {
-
-/// Fits the temperature terms with n0 = estimate.n; when fitted, removes them from `test` (in
-/// place), estimates again (n at the window's mean temperature) and adds the coefficients'
-/// uncertainty to the covariance of n.
-TemperatureFit with_temperature_terms(WindowEstimator& estimator, const Eigen::Ref<const Readings>& reference,
-                                      Readings& test, const Eigen::Ref<const Eigen::VectorXd>& temperature_C,
-                                      double sample_period_s, const CalibrationSettings& settings,
-                                      WindowEstimate& estimate) {
-  TemperatureBand band = settings.temperature;
-  band.low_hz = std::isfinite(estimate.band_low_hz) ? estimate.band_low_hz : settings.estimator.band_low_hz;
-  band.high_hz = std::isfinite(estimate.band_high_hz) ? estimate.band_high_hz : settings.estimator.band_high_hz;
-  band.gamma = settings.estimator.gamma;
-  band.trend = settings.estimator.trend;
-  if (!estimate.n.allFinite()) return {};
-  const Eigen::Matrix3d n0 = estimate.n;
-  TemperatureFit fit = fit_temperature(reference, test, temperature_C, sample_period_s, n0, band);
-  if (!fit.fitted) return fit;
-  test = remove_temperature_terms(reference, test, temperature_C, n0, fit);
-  estimate = estimator.estimate(reference, test, sample_period_s);
-  if (estimate.n.allFinite()) {
-    estimate.n_covariance += fit.coupling * fit.covariance * fit.coupling.transpose();
-    estimate.parameters = decompose(estimate.n, estimate.n_covariance);
-  }
-  return fit;
-}
-
-}  // namespace
-
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings) {
   settings.validate();
   const auto& p = prepared.paired;
@@ -200,9 +171,12 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
     Readings test = p.test_nT.middleRows(span.first, span.count);
     w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
     if (prepared.test_temperature_C.size() > 0) {
-      w.temperature = with_temperature_terms(estimator, reference, test,
-                                             prepared.test_temperature_C.segment(span.first, span.count),
-                                             prepared.sample_period_s, settings, w.estimate);
+      w.temperature = with_temperature_terms(
+          [&](const Eigen::Ref<const Readings>& r, const Eigen::Ref<const Readings>& t, double period) {
+            return estimator.estimate(r, t, period);
+          },
+          settings.estimator, settings.temperature, reference, test,
+          prepared.test_temperature_C.segment(span.first, span.count), prepared.sample_period_s, w.estimate);
     }
     if (settings.relative_response || settings.response_model) {
       w.relative_response = relative_response(reference, test, w.estimate.n, prepared.sample_period_s,
