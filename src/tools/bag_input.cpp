@@ -6,9 +6,46 @@
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 
+#include <cmath>
 #include <iostream>
+#include <limits>
 
 namespace magnetometer_insitu_calibration {
+
+namespace {
+
+/// The test's sensor temperature from the bag, if it has one beside the field topic
+/// ("/ns/magnetic_field" -> "/ns/sensor_temperature" as records_to_bag writes it, or
+/// "/ns/temperature/sensor" as the live driver publishes it), attached to the record as the
+/// auxiliary channel "sensor_temperature": each sample takes the latest reading at or before
+/// it, not older than 2 s (a LEMI packet's temperature belongs to its ten readings, as the LEMI
+/// file readers attach it), NaN otherwise.
+void attach_bag_temperature(const std::string& bag, const std::string& field_topic, VectorRecord& record) {
+  const std::string topic = bag_topic_name(field_topic);
+  const std::size_t slash = topic.rfind('/');
+  const std::string ns = slash == 0 ? topic + "_" : topic.substr(0, slash + 1);
+  for (const std::string& name : {ns + "sensor_temperature", ns + "temperature/sensor"}) {
+    BagTemperatureStream t;
+    try {
+      t = read_bag_temperatures(bag, name);
+    } catch (const InputError&) {
+      continue;  // no such topic (or not sensor_msgs/Temperature): no temperature from it
+    }
+    if (t.time_s.empty()) continue;
+    AuxiliaryChannel channel{"sensor_temperature", "T_sensor (" + name + ")", "degC", {}};
+    channel.values.reserve(record.size());
+    std::size_t k = 0;
+    for (double time : record.time_s) {
+      while (k + 1 < t.time_s.size() && t.time_s[k + 1] <= time + 1e-6) ++k;
+      const bool usable = t.time_s[k] <= time + 1e-6 && time - t.time_s[k] <= 2.0;
+      channel.values.push_back(usable ? t.celsius[k] : std::numeric_limits<double>::quiet_NaN());
+    }
+    record.auxiliary.push_back(std::move(channel));
+    return;
+  }
+}
+
+}  // namespace
 
 BagInputOptions::BagInputOptions(CLI::App& app, CLI::Option* reference, CLI::Option* test) {
   reference->required(false);
@@ -39,6 +76,7 @@ std::pair<VectorRecord, VectorRecord> BagInputOptions::records(const std::string
   std::vector<std::string> warnings;
   std::vector<VectorRecord> records = read_bag_records(bag_, {reference_topic_, test_topic_}, &warnings);
   for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  attach_bag_temperature(bag_, test_topic_, records[1]);
   return {std::move(records[0]), std::move(records[1])};
 }
 

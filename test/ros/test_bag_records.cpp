@@ -269,6 +269,9 @@ TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json bag = read_json(dir + "/bag.json");
   EXPECT_TRUE(bag["preprocessing"]["decimated"].get<bool>());
+  // The test's sensor temperature reaches the estimate from the bag (its sibling topic) as from
+  // the file (the packets), reading for reading: the same temperature terms.
+  EXPECT_EQ(bag["preprocessing"]["temperature_channel"], "sensor_temperature");
   expect_same_report(bag, read_json(dir + "/file.json"), 1e-7);
   // And the calibration is the simulated one.
   const nlohmann::json& whole = bag["windows"][2];
