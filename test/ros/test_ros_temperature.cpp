@@ -6,11 +6,14 @@
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
+#include "../core/hut_fixture.hpp"
+
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -28,12 +31,9 @@ struct HutWindow {
 /// thermometer channel as the window's temperature samples.
 HutWindow hut_window(std::uint64_t seed) {
   HutWindow h;
-  mic::SimulationSettings s;
-  s.seed = seed;
-  s.duration_s = 21600.0;
-  h.pair = mic::simulate_pair(s);
-  h.hut.seed = seed;
-  mic::add_hut_temperature(h.pair, h.hut);
+  mic::test::HutPair hut = mic::test::hut_pair(seed, 21600.0);
+  h.pair = std::move(hut.pair);
+  h.hut = hut.hut;
   mic::WindowData& w = h.window;
   w.start_s = h.pair.reference.time_s.front();
   w.period_s = 1.0;

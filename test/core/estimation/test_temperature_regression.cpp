@@ -6,6 +6,8 @@
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
+#include "hut_fixture.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,25 +18,9 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-struct HutPair {
-  mic::SimulatedPair pair;
-  mic::HutTemperatureSettings hut;
-  Eigen::VectorXd temperature_C;  // the thermometer's reading
-};
+using mic::test::HutPair;
 
-HutPair simulate_hut(std::uint64_t seed, double days = 2.0) {
-  HutPair h;
-  mic::SimulationSettings s;
-  s.duration_s = days * 86400.0;
-  s.seed = seed;
-  s.keep_clean_field = false;
-  h.pair = mic::simulate_pair(s);
-  h.hut.seed = seed;
-  mic::add_hut_temperature(h.pair, h.hut);
-  const auto& reading = h.pair.test.auxiliary.at(0).values;
-  h.temperature_C = Eigen::Map<const Eigen::VectorXd>(reading.data(), static_cast<Eigen::Index>(reading.size()));
-  return h;
-}
+HutPair simulate_hut(std::uint64_t seed, double days = 2.0) { return mic::test::hut_pair(seed, days * 86400.0); }
 
 }  // namespace
 
@@ -44,9 +30,9 @@ TEST(TemperatureRegression, RecoversTheHutCoefficientsWithinTheirIntervals) {
   const mic::Readings& t = h.pair.test.values_nT;
   mic::FdWlseEstimator plain;
   const mic::WindowEstimate without = plain.estimate(r, t, 1.0);
-  const mic::TemperatureFit fit = mic::fit_temperature(r, t, h.temperature_C, 1.0, without.n, mic::TemperatureBand{});
+  const mic::TemperatureFit fit = mic::fit_temperature(r, t, h.reading_C(), 1.0, without.n, mic::TemperatureBand{});
   ASSERT_TRUE(fit.fitted) << fit.text;
-  EXPECT_NEAR(fit.reference_C, h.temperature_C.mean(), 1e-12);
+  EXPECT_NEAR(fit.reference_C, h.reading_C().mean(), 1e-12);
   for (int l = 0; l < 3; ++l) {
     const double mean_test = t.col(l).mean();
     const double s_true = 1e-6 * h.hut.scale_ppm_per_C(l);
@@ -64,7 +50,7 @@ TEST(TemperatureRegression, RecoversTheHutCoefficientsWithinTheirIntervals) {
     EXPECT_LT(fit.apparent_ci95_nT_per_C(l), 0.05);
   }
   // Removing the terms and estimating again: n within 3 se of the truth, residual smaller.
-  const mic::Readings corrected = mic::remove_temperature_terms(r, t, h.temperature_C, without.n, fit);
+  const mic::Readings corrected = mic::remove_temperature_terms(r, t, h.reading_C(), without.n, fit);
   const mic::WindowEstimate with = plain.estimate(r, corrected, 1.0);
   const Eigen::Matrix3d se = with.n_stderr();
   for (int k = 0; k < 9; ++k) {
@@ -82,7 +68,7 @@ TEST(TemperatureRegression, StatesWhyItDoesNotFit) {
   EXPECT_FALSE(fit.fitted);
   EXPECT_NE(fit.text.find("temperature range 0 degC below 0.05 degC"), std::string::npos) << fit.text;
 
-  Eigen::VectorXd holes = h.temperature_C;
+  Eigen::VectorXd holes = h.reading_C();
   holes(100) = std::nan("");
   fit = mic::fit_temperature(r, t, holes, 1.0, Eigen::Matrix3d::Identity(), mic::TemperatureBand{});
   EXPECT_FALSE(fit.fitted);

@@ -9,6 +9,7 @@
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
+#include "hut_fixture.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -23,22 +24,9 @@ using mic::test::make_temp_dir;
 
 namespace {
 
-struct Hut {
-  mic::SimulatedPair pair;
-  mic::HutTemperatureSettings settings;
-};
+using Hut = mic::test::HutPair;
 
-Hut hut_pair(std::uint64_t seed) {
-  Hut h;
-  mic::SimulationSettings s;
-  s.seed = seed;
-  s.duration_s = 86400.0;
-  s.keep_clean_field = false;
-  h.pair = mic::simulate_pair(s);
-  h.settings.seed = seed;
-  mic::add_hut_temperature(h.pair, h.settings);
-  return h;
-}
+Hut hut_pair(std::uint64_t seed) { return mic::test::hut_pair(seed, 86400.0); }
 
 }  // namespace
 
@@ -58,7 +46,7 @@ TEST(TemperaturePipeline, CsvTemperatureColumnGivesTheCoefficientsAndWiderHonest
   const mic::CalibrationWindow& w = with.windows[0];
   ASSERT_TRUE(w.temperature.fitted) << w.temperature.text;
   for (int l = 0; l < 3; ++l) {
-    const double truth = h.settings.offset_nT_per_C(l) + 1e-6 * h.settings.scale_ppm_per_C(l) * back.values_nT.col(l).mean();
+    const double truth = h.hut.offset_nT_per_C(l) + 1e-6 * h.hut.scale_ppm_per_C(l) * back.values_nT.col(l).mean();
     EXPECT_LT(std::abs(w.temperature.apparent_nT_per_C(l) - truth), 1.5 * w.temperature.apparent_ci95_nT_per_C(l))
         << "component " << l << ": " << w.temperature.apparent_nT_per_C(l) << " vs " << truth;
   }
