@@ -1,0 +1,95 @@
+// The delay estimator's spectra (delay_estimation.hpp) from a record's own whole-window DFT,
+// without a transform of their own. Not installed: src/core only.
+//
+// For one column x_0 .. x_{N-1} (nT) the delay wants the DFT (length N, bins j at j / (N dt)) of
+//   q_i = h_i (d_i - a - b (i - c)),  d_i = x_{i+1} - x_i  (i = 0 .. N-2),  q_{N-1} = 0,
+// the first differences, detrended by their least-squares line a + b (i - c), c = (N - 2) / 2,
+// zero-padded to N and tapered by h_i = 0.5 - 0.5 cos(2 pi (i + 1/2) / N). Each step is exact
+// in the frequency domain, with X the DFT of x, z = e^{-2 pi i j / N} and w = 1 / z:
+//   D(j) = (w - 1) X(j) + w (x_{N-1} - x_0)                     (differences, wrap term removed)
+//   L0(j) = sum_{i<N-1} z^i = -w,  L1(j) = sum_{i<N-1} (i - c) z^i = N / (z - 1) - (N - 1 - c) w
+//   Q(j) = D(j) - a L0(j) - b L1(j)                               (j != 0)
+//   H(j) = 0.5 Q(j) - 0.25 u Q(j - 1) - 0.25 u^* Q(j + 1),  u = e^{i pi / N}   (the taper)
+// with a = (x_{N-1} - x_0) / (N - 1) and b = [c (x_{N-1} - x_0) - S] / [M (M^2 - 1) / 12],
+// M = N - 1, S = sum_{i=1}^{N-2} (x_i - x_0) (summation by parts of sum (i - c) d_i). A constant
+// added to x changes none of them, so the spectra of Eq. 2's centred columns serve as they are.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <complex>
+#include <cstddef>
+
+namespace magnetometer_insitu_calibration::detail {
+
+/// The time-domain figures of one column the differencing and detrending need (nT): its first and
+/// last value and S = sum_{i=1}^{N-2} (x_i - x_0). Linear in x, so those of R n are n's
+/// combinations of R's.
+struct ColumnEnds {
+  double first = 0.0, last = 0.0, interior_sum = 0.0;
+};
+
+template <typename Column>
+ColumnEnds column_ends(const Column& x) {
+  ColumnEnds e;
+  const Eigen::Index n = x.size();
+  if (n == 0) return e;
+  e.first = x(0);
+  e.last = x(n - 1);
+  double s = 0.0;
+  for (Eigen::Index i = 1; i + 1 < n; ++i) s += x(i) - e.first;
+  e.interior_sum = s;
+  return e;
+}
+
+/// H(j) for j = j_first .. j_last (1 < j_first, j_last < N / 2) into out[0 ..], from
+/// x_bins[k] = X(j_first - 1 + k), k = 0 .. j_last - j_first + 2 (X at j_first - 1 .. j_last + 1).
+inline void tapered_difference_spectrum(const std::complex<double>* x_bins, const ColumnEnds& ends, std::size_t length,
+                                        long j_first, long j_last, std::complex<double>* out) {
+  const double n = static_cast<double>(length);
+  const double m = n - 1.0;
+  const double c = 0.5 * (n - 2.0);
+  const double rise = ends.last - ends.first;
+  const double a = rise / m;
+  const double b = (c * rise - ends.interior_sum) / (m * (m * m - 1.0) / 12.0);
+  const auto q = [&](long j, const std::complex<double>& x) {
+    const double angle = 2.0 * M_PI * static_cast<double>(j) / n;
+    const std::complex<double> w = std::polar(1.0, angle), z = std::conj(w);
+    const std::complex<double> d = (w - 1.0) * x + w * rise;
+    const std::complex<double> l0 = -w;
+    const std::complex<double> l1 = n / (z - 1.0) - (n - 1.0 - c) * w;
+    return d - a * l0 - b * l1;
+  };
+  const std::complex<double> u = std::polar(0.25, M_PI / n);
+  std::complex<double> below = q(j_first - 1, x_bins[0]), here = q(j_first, x_bins[1]);
+  for (long j = j_first; j <= j_last; ++j) {
+    const std::size_t k = static_cast<std::size_t>(j - j_first);
+    const std::complex<double> above = q(j + 1, x_bins[k + 2]);
+    out[k] = 0.5 * here - u * below - std::conj(u) * above;
+    below = here;
+    here = above;
+  }
+}
+
+}  // namespace magnetometer_insitu_calibration::detail
+
+#include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
+
+#include <array>
+
+namespace magnetometer_insitu_calibration::detail {
+
+/// A window's whole-record DFTs (length N, bins j = 0 .. N/2, FFTW's convention) of R's three
+/// columns then T's, with their ColumnEnds: what estimate_delay_from_spectra needs.
+struct WholeWindowSpectra {
+  std::size_t length = 0;
+  std::array<const std::complex<double>*, 6> bins{};
+  std::array<ColumnEnds, 6> ends{};
+};
+
+/// estimate_delay (delay_estimation.hpp) on spectra already computed: no transform.
+DelayEstimate estimate_delay_from_spectra(const WholeWindowSpectra& spectra, const Eigen::Matrix3d& n,
+                                          double sample_period_s, const DelaySettings& settings);
+
+}  // namespace magnetometer_insitu_calibration::detail
