@@ -71,6 +71,8 @@ DelayEstimate detail::estimate_delay_from_spectra(const WholeWindowSpectra& whol
   thread_local std::vector<std::complex<double>> spectra[6];
   thread_local std::vector<std::complex<double>> combined;
   combined.resize(count + 2);
+  thread_local detail::DifferenceKernel kernel;
+  kernel.prepare(padded, j_low, j_high);
   for (int k = 0; k < 3; ++k) {
     detail::ColumnEnds ends;
     for (std::size_t i = 0; i < count + 2; ++i) {
@@ -83,11 +85,10 @@ DelayEstimate detail::estimate_delay_from_spectra(const WholeWindowSpectra& whol
       ends.interior_sum += n(m, k) * whole.ends[static_cast<std::size_t>(m)].interior_sum;
     }
     spectra[k].resize(count);
-    detail::tapered_difference_spectrum(combined.data(), ends, padded, j_low, j_high, spectra[k].data());
+    detail::tapered_difference_spectrum(combined.data(), ends, kernel, spectra[k].data());
     spectra[k + 3].resize(count);
     detail::tapered_difference_spectrum(whole.bins[static_cast<std::size_t>(k + 3)] + (j_low - 1),
-                                        whole.ends[static_cast<std::size_t>(k + 3)], padded, j_low, j_high,
-                                        spectra[k + 3].data());
+                                        whole.ends[static_cast<std::size_t>(k + 3)], kernel, spectra[k + 3].data());
   }
   // Phase bins. The Hann taper correlates neighbouring harmonics: G harmonics carry about
   // G / 1.5 independent values (equivalent bandwidth of the Hann window, 1.5 bins).

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <complex>
 #include <cstddef>
+#include <vector>
 
 namespace magnetometer_insitu_calibration::detail {
 
@@ -43,29 +44,50 @@ ColumnEnds column_ends(const Column& x) {
   return e;
 }
 
-/// H(j) for j = j_first .. j_last (1 < j_first, j_last < N / 2) into out[0 ..], from
-/// x_bins[k] = X(j_first - 1 + k), k = 0 .. j_last - j_first + 2 (X at j_first - 1 .. j_last + 1).
-inline void tapered_difference_spectrum(const std::complex<double>* x_bins, const ColumnEnds& ends, std::size_t length,
-                                        long j_first, long j_last, std::complex<double>* out) {
-  const double n = static_cast<double>(length);
+/// The factors of D, L0 and L1 above that depend only on j and N, for j = j_first - 1 ..
+/// j_last + 1 (index j - j_first + 1): computed once per window for all six columns.
+/// 1 / (z - 1) = -1/2 + (i/2) cot(pi j / N): no complex division.
+struct DifferenceKernel {
+  std::size_t length = 0;
+  long j_first = 0, j_last = 0;
+  std::vector<std::complex<double>> w, l1;
+
+  void prepare(std::size_t n_samples, long first, long last) {
+    if (n_samples == length && first == j_first && last == j_last) return;
+    length = n_samples;
+    j_first = first;
+    j_last = last;
+    const double n = static_cast<double>(n_samples);
+    const double c = 0.5 * (n - 2.0);
+    const std::size_t count = static_cast<std::size_t>(last - first + 3);
+    w.resize(count);
+    l1.resize(count);
+    for (std::size_t k = 0; k < count; ++k) {
+      const double half = M_PI * static_cast<double>(first - 1 + static_cast<long>(k)) / n;  // theta / 2
+      w[k] = std::polar(1.0, 2.0 * half);
+      l1[k] = n * std::complex<double>(-0.5, 0.5 / std::tan(half)) - (n - 1.0 - c) * w[k];
+    }
+  }
+};
+
+/// H(j) for j = j_first .. j_last of `kernel` (1 < j_first, j_last < N / 2) into out[0 ..],
+/// from x_bins[k] = X(j_first - 1 + k), k = 0 .. j_last - j_first + 2 (X at j_first - 1 ..
+/// j_last + 1).
+inline void tapered_difference_spectrum(const std::complex<double>* x_bins, const ColumnEnds& ends,
+                                        const DifferenceKernel& kernel, std::complex<double>* out) {
+  const double n = static_cast<double>(kernel.length);
   const double m = n - 1.0;
   const double c = 0.5 * (n - 2.0);
   const double rise = ends.last - ends.first;
   const double a = rise / m;
   const double b = (c * rise - ends.interior_sum) / (m * (m * m - 1.0) / 12.0);
-  const auto q = [&](long j, const std::complex<double>& x) {
-    const double angle = 2.0 * M_PI * static_cast<double>(j) / n;
-    const std::complex<double> w = std::polar(1.0, angle), z = std::conj(w);
-    const std::complex<double> d = (w - 1.0) * x + w * rise;
-    const std::complex<double> l0 = -w;
-    const std::complex<double> l1 = n / (z - 1.0) - (n - 1.0 - c) * w;
-    return d - a * l0 - b * l1;
-  };
+  // Q = (w - 1) X + w rise - a L0 - b L1 with L0 = -w.
+  const auto q = [&](std::size_t k) { return (kernel.w[k] - 1.0) * x_bins[k] + kernel.w[k] * (rise + a) - b * kernel.l1[k]; };
   const std::complex<double> u = std::polar(0.25, M_PI / n);
-  std::complex<double> below = q(j_first - 1, x_bins[0]), here = q(j_first, x_bins[1]);
-  for (long j = j_first; j <= j_last; ++j) {
-    const std::size_t k = static_cast<std::size_t>(j - j_first);
-    const std::complex<double> above = q(j + 1, x_bins[k + 2]);
+  std::complex<double> below = q(0), here = q(1);
+  const std::size_t count = static_cast<std::size_t>(kernel.j_last - kernel.j_first + 1);
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::complex<double> above = q(k + 2);
     out[k] = 0.5 * here - u * below - std::conj(u) * above;
     below = here;
     here = above;

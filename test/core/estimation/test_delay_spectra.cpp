@@ -60,7 +60,9 @@ void check_length(std::size_t n, double offset) {
   for (long j = j_first - 1; j <= j_last + 1; ++j) bins.push_back(direct_dft(x, j));
   detail::ColumnEnds ends = detail::column_ends(Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(n)));
   std::vector<std::complex<double>> fast(static_cast<std::size_t>(j_last - j_first + 1));
-  detail::tapered_difference_spectrum(bins.data(), ends, n, j_first, j_last, fast.data());
+  detail::DifferenceKernel kernel;
+  kernel.prepare(n, j_first, j_last);
+  detail::tapered_difference_spectrum(bins.data(), ends, kernel, fast.data());
   const std::vector<double> q = tapered_differences(x);
   double scale = 0.0;
   for (double v : q) scale += std::abs(v);
