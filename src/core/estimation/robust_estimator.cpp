@@ -152,21 +152,21 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   std::vector<Cell> cells;
   std::vector<std::size_t> section_first(k_sections + 1);
   for (std::size_t s = 0; s <= k_sections; ++s) section_first[s] = length * s / k_sections;
-  std::vector<double> column;
   std::vector<Eigen::VectorXcd> spectra(6);
   for (std::size_t s = 0; s < k_sections; ++s) {
     const std::size_t first = section_first[s], count = section_first[s + 1] - first;
-    column.resize(count);
-    for (int c = 0; c < 6; ++c) {
-      const auto& src = c < 3 ? reference : test;
-      for (std::size_t i = 0; i < count; ++i) column[i] = src(static_cast<Eigen::Index>(first + i), c % 3);
-      detail::detrend(column.data(), count);
-      impl_->dft.transform(column.data(), count, spectra[static_cast<std::size_t>(c)]);
-    }
     const double section_duration = static_cast<double>(count) * sample_period_s;
     const long j0 = std::max(1L, static_cast<long>(std::ceil(band_low * section_duration - 1e-9)));
     const long j1 = std::min(static_cast<long>(std::floor(band_high * section_duration + 1e-9)),
                              static_cast<long>((count - 1) / 2));
+    for (int c = 0; c < 6; ++c) {  // detrended in the plan's input, only bins up to j1 kept
+      const auto& src = c < 3 ? reference : test;
+      double* column = impl_->dft.input(count);
+      const double* from = src.col(c % 3).data() + first;
+      std::copy(from, from + count, column);
+      detail::detrend(column, count);
+      impl_->dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
+    }
     for (long j = j0; j <= j1; ++j) {
       Cell cell;
       cell.section = static_cast<int>(s);

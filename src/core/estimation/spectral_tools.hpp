@@ -42,6 +42,18 @@ class RealDft {
     for (std::size_t j = 0; j < length / 2 + 1; ++j) out(static_cast<Eigen::Index>(j)) = {p.out[j][0], p.out[j][1]};
   }
 
+  /// The input array of the plan for `length` (values): fill it, then execute(length, ...).
+  double* input(std::size_t length) { return plan(length).in; }
+
+  /// Transforms what input(length) holds into out: bins 0 .. bins - 1 (bins <= length/2 + 1).
+  void execute(std::size_t length, std::size_t bins, Eigen::VectorXcd& out) {
+    Plan& p = plan(length);
+    fftw_execute(p.plan);
+    bins = std::min(bins, length / 2 + 1);
+    out.resize(static_cast<Eigen::Index>(bins));
+    for (std::size_t j = 0; j < bins; ++j) out(static_cast<Eigen::Index>(j)) = {p.out[j][0], p.out[j][1]};
+  }
+
  private:
   struct Plan {
     double* in = nullptr;
