@@ -14,26 +14,25 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-/// Running-median baseline of x (one column), evaluated at block centres every `step` samples
-/// over `window` samples and interpolated linearly: O(N window / step) comparisons. Each
-/// window's median is searched (BracketedMedian) where the previous one's rank in the new
-/// window puts it, in a bracket sized to hold a few dozen values; the result is exactly the
-/// window's median.
-void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step, Eigen::VectorXd& base) {
-  const std::size_t n = static_cast<std::size_t>(x.size());
-  base.resize(x.size());
+/// Exact medians of x[0 .. n) over `window` values centred every `step` values (the last centre
+/// at n - 1): centres (indices into x) and values. Each window's median is searched
+/// (BracketedMedian) where the previous one's rank in the new window puts it, in a bracket sized
+/// to hold a few dozen values; the result is exactly the window's median.
+void running_medians(const double* x, std::size_t n, std::size_t window, std::size_t step, std::vector<double>& centres,
+                     std::vector<double>& values) {
+  centres.clear();
+  values.clear();
   if (n == 0) return;
   window = std::min(window, n);
   detail::BracketedMedian selector;
   const double target = std::max(32.0, static_cast<double>(window) / 64.0);  // values in the bracket
   double density = 0.0;  // values of the last window per unit of x near its median
-  std::vector<double> centres, values;
   for (std::size_t c = 0;; c += step) {
     const std::size_t centre_index = std::min(c, n - 1);
     const std::size_t first = centre_index >= window / 2 ? centre_index - window / 2 : 0;
     const std::size_t last = std::min(n, first + window);
     const std::size_t count = last - first;
-    const double* data = x.data() + first;
+    const double* data = x + first;
     double m;
     if (values.empty() || !(density > 0.0)) {
       m = detail::subsampled_median(data, count, selector);
@@ -58,14 +57,45 @@ void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::
     values.push_back(m);
     if (centre_index == n - 1) break;
   }
+}
+
+/// Running-median baseline of x (one column) on a decimated series: the means of blocks of
+/// `decimation` samples (the last block may be shorter), their exact running median over
+/// window / decimation blocks every step / decimation blocks, interpolated linearly between the
+/// blocks' centre times (flat beyond the first and last). O(N) with a small constant: the
+/// medians see a tenth of the values (a spike enters one block mean; the median of the blocks
+/// ignores it as the median of the samples did).
+void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step, std::size_t decimation,
+                             Eigen::VectorXd& base) {
+  const std::size_t n = static_cast<std::size_t>(x.size());
+  base.resize(x.size());
+  if (n == 0) return;
+  decimation = std::max<std::size_t>(1, decimation);
+  thread_local std::vector<double> blocks, centres, values;
+  const std::size_t count = (n + decimation - 1) / decimation;
+  blocks.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t first = k * decimation, last = std::min(n, first + decimation);
+    double sum = 0.0;
+    for (std::size_t i = first; i < last; ++i) sum += x(static_cast<Eigen::Index>(i));
+    blocks[k] = sum / static_cast<double>(last - first);
+  }
+  running_medians(blocks.data(), count, std::max<std::size_t>(3, window / decimation),
+                  std::max<std::size_t>(1, step / decimation), centres, values);
+  for (double& c : centres) {  // block index -> sample time of the block's centre
+    const std::size_t k = static_cast<std::size_t>(c);
+    const std::size_t first = k * decimation, last = std::min(n, first + decimation);
+    c = 0.5 * static_cast<double>(first + last - 1);
+  }
   std::size_t k = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    while (k + 1 < centres.size() && centres[k + 1] < static_cast<double>(i)) ++k;
-    if (k + 1 >= centres.size()) {
-      base(static_cast<Eigen::Index>(i)) = values.back();
+    const double t = static_cast<double>(i);
+    while (k + 1 < centres.size() && centres[k + 1] < t) ++k;
+    if (k + 1 >= centres.size() || t <= centres[0]) {
+      base(static_cast<Eigen::Index>(i)) = t <= centres[0] ? values.front() : values.back();
       continue;
     }
-    const double a = (static_cast<double>(i) - centres[k]) / (centres[k + 1] - centres[k]);
+    const double a = (t - centres[k]) / (centres[k + 1] - centres[k]);
     base(static_cast<Eigen::Index>(i)) = values[k] + std::clamp(a, 0.0, 1.0) * (values[k + 1] - values[k]);
   }
 }
@@ -91,6 +121,7 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   residual = test_nT - residual;
   const std::size_t window = std::max<std::size_t>(3, static_cast<std::size_t>(std::llround(settings.screen_baseline_s / sample_period_s)));
   const std::size_t step = std::max<std::size_t>(1, window / 10);
+  const std::size_t decimation = std::max<std::size_t>(1, step / 36);  // 10 at 1 Hz (360 blocks a window)
   const std::size_t margin = static_cast<std::size_t>(std::llround(settings.screen_margin_s / sample_period_s));
   std::vector<char> flag(length, 0);
   detail::BracketedMedian selector;
@@ -98,7 +129,7 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
     Eigen::VectorXd& e = scratch.e;
     Eigen::VectorXd& hp = scratch.hp;
     e = residual.col(c);
-    running_median_baseline(e, window, step, scratch.base);
+    running_median_baseline(e, window, step, decimation, scratch.base);
     hp = e - scratch.base;
     std::vector<double>& abs_dev = scratch.abs_dev;
     abs_dev.resize(length);
