@@ -56,6 +56,7 @@ struct RobustFdEstimator::Impl {
   detail::RealDft dft;
   FdWlseEstimator plain;
   Readings screened_reference, screened_test;  ///< nT, the records with the masked runs filled
+  std::vector<double> section_columns[6];       ///< nT, one section's six columns, detrended
 };
 
 RobustFdEstimator::RobustFdEstimator(EstimatorSettings settings) : settings_(std::move(settings)) {
@@ -159,12 +160,17 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     const long j0 = std::max(1L, static_cast<long>(std::ceil(band_low * section_duration - 1e-9)));
     const long j1 = std::min(static_cast<long>(std::floor(band_high * section_duration + 1e-9)),
                              static_cast<long>((count - 1) / 2));
-    for (int c = 0; c < 6; ++c) {  // detrended in the plan's input, only bins up to j1 kept
-      const auto& src = c < 3 ? reference : test;
-      double* column = impl_->dft.input(count);
-      const double* from = src.col(c % 3).data() + first;
-      std::copy(from, from + count, column);
-      detail::detrend(column, count);
+    double* columns[6];
+    for (int c = 0; c < 6; ++c) {
+      std::vector<double>& column = impl_->section_columns[static_cast<std::size_t>(c)];
+      column.resize(count);
+      const double* from = (c < 3 ? reference : test).col(c % 3).data() + first;
+      std::copy(from, from + count, column.begin());
+      columns[c] = column.data();
+    }
+    detail::detrend_columns<6>(columns, count);
+    for (int c = 0; c < 6; ++c) {  // only the bins up to j1 are copied out
+      std::copy(columns[c], columns[c] + count, impl_->dft.input(count));
       impl_->dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
     }
     for (long j = j0; j <= j1; ++j) {
