@@ -59,16 +59,16 @@ void running_medians(const double* x, std::size_t n, std::size_t window, std::si
   }
 }
 
-/// Running-median baseline of x (one column) on a decimated series: the means of blocks of
-/// `decimation` samples (the last block may be shorter), their exact running median over
-/// window / decimation blocks every step / decimation blocks, interpolated linearly between the
-/// blocks' centre times (flat beyond the first and last). O(N) with a small constant: the
-/// medians see a tenth of the values (a spike enters one block mean; the median of the blocks
-/// ignores it as the median of the samples did).
-void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step, std::size_t decimation,
-                             Eigen::VectorXd& base) {
+/// x minus its running-median baseline, into hp. The baseline is computed on a decimated
+/// series: the means of blocks of `decimation` samples (the last block may be shorter), their
+/// exact running median over window / decimation blocks every step / decimation blocks,
+/// interpolated linearly between the blocks' centre times (flat beyond the first and last).
+/// O(N) with a small constant: the medians see a tenth of the values (a spike enters one block
+/// mean; the median of the blocks ignores it as the median of the samples did).
+void subtract_running_median(const Eigen::VectorXd& x, std::size_t window, std::size_t step, std::size_t decimation,
+                             Eigen::VectorXd& hp) {
   const std::size_t n = static_cast<std::size_t>(x.size());
-  base.resize(x.size());
+  hp.resize(x.size());
   if (n == 0) return;
   decimation = std::max<std::size_t>(1, decimation);
   thread_local std::vector<double> blocks, centres, values;
@@ -87,24 +87,21 @@ void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::
     const std::size_t first = k * decimation, last = std::min(n, first + decimation);
     c = 0.5 * static_cast<double>(first + last - 1);
   }
-  std::size_t k = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = static_cast<double>(i);
-    while (k + 1 < centres.size() && centres[k + 1] < t) ++k;
-    if (k + 1 >= centres.size() || t <= centres[0]) {
-      base(static_cast<Eigen::Index>(i)) = t <= centres[0] ? values.front() : values.back();
-      continue;
+  std::size_t i = 0;
+  for (; i < n && static_cast<double>(i) <= centres.front(); ++i) hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - values.front();
+  for (std::size_t k = 0; k + 1 < centres.size(); ++k) {  // samples in (centres[k], centres[k + 1]]
+    const double slope = (values[k + 1] - values[k]) / (centres[k + 1] - centres[k]);
+    for (; i < n && static_cast<double>(i) <= centres[k + 1]; ++i) {
+      hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - (values[k] + (static_cast<double>(i) - centres[k]) * slope);
     }
-    const double a = (t - centres[k]) / (centres[k + 1] - centres[k]);
-    base(static_cast<Eigen::Index>(i)) = values[k] + std::clamp(a, 0.0, 1.0) * (values[k + 1] - values[k]);
   }
+  for (; i < n; ++i) hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - values.back();
 }
 
-/// Work arrays of one screen (N or N x 3 values), kept per thread so that a run of windows of
+/// Work arrays of one screen (N values each), kept per thread so that a run of windows of
 /// one length allocates (and page-faults) once.
 struct ScreenScratch {
-  Readings residual;
-  Eigen::VectorXd e, base, hp;
+  Eigen::VectorXd e, hp;
   std::vector<double> abs_dev;
 };
 
@@ -116,9 +113,6 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   std::vector<char> mask(length, 0);
   if (length < 16 || !n.allFinite()) return mask;
   thread_local ScreenScratch scratch;
-  Readings& residual = scratch.residual;
-  residual.noalias() = reference_nT * n;  // R n, then T - R n in place
-  residual = test_nT - residual;
   const std::size_t window = std::max<std::size_t>(3, static_cast<std::size_t>(std::llround(settings.screen_baseline_s / sample_period_s)));
   const std::size_t step = std::max<std::size_t>(1, window / 10);
   const std::size_t decimation = std::max<std::size_t>(1, step / 36);  // 10 at 1 Hz (360 blocks a window)
@@ -128,9 +122,8 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   for (int c = 0; c < 3; ++c) {
     Eigen::VectorXd& e = scratch.e;
     Eigen::VectorXd& hp = scratch.hp;
-    e = residual.col(c);
-    running_median_baseline(e, window, step, decimation, scratch.base);
-    hp = e - scratch.base;
+    e.noalias() = test_nT.col(c) - reference_nT * n.col(c);  // residual T - R n, nT
+    subtract_running_median(e, window, step, decimation, hp);
     std::vector<double>& abs_dev = scratch.abs_dev;
     abs_dev.resize(length);
     const double centre = detail::subsampled_median(hp.data(), length, selector);
