@@ -14,9 +14,11 @@
 // fit when the scatter of the phases exceeds their stated variance (never scaled down), so the
 // interval stays honest when neighbouring harmonics are correlated or the noise is not stationary.
 // The records are first-differenced (flattens the red geomagnetic spectrum, so that low
-// frequencies do not leak into high ones), detrended and Hann-tapered, identically for both,
-// and transformed with one zero appended (N samples, the record's length: a fast FFT length
-// where N - 1 seldom is; harmonic j at j / (N dt)).
+// frequencies do not leak into high ones), detrended, padded with one zero to the record's
+// length N and Hann-tapered over N samples, identically for both (harmonic j at j / (N dt)).
+// These steps are applied to the records' whole-window DFTs in the frequency domain, exactly
+// (src/core/estimation/delay_spectra.hpp): the robust estimator passes Eq. 2's transforms of
+// the same records, so the delay costs no transform of its own.
 // Delays well below one sample are resolved: the paper requires synchronisation better than
 // 10 ms; at 0.05 Hz a delay of 1 ms is a phase of 3e-4 rad.
 #pragma once

@@ -89,6 +89,7 @@ Eigen::Matrix3d WindowEstimate::n_stderr() const {
 /// stored column after column (Eigen's column-major layout).
 struct FdWlseEstimator::Workspace {
   std::size_t length = 0;
+  bool transformed = false;  ///< the last estimate() executed the plan
   int columns = 0;
   double* input = nullptr;
   fftw_complex* output = nullptr;
@@ -125,6 +126,7 @@ struct FdWlseEstimator::Workspace {
     output = nullptr;
     length = 0;
     columns = 0;
+    transformed = false;
   }
 
   double* column(int c) { return input + static_cast<std::size_t>(c) * length; }
@@ -169,6 +171,7 @@ double FdWlseEstimator::transform_only(const Eigen::Ref<const Readings>& referen
   workspace_->prepare(static_cast<std::size_t>(reference_nT.rows()), p + 3);
   workspace_->load(reference_nT, test_nT, settings_.trend, 1.0);
   fftw_execute(workspace_->plan);
+  workspace_->transformed = false;  // the sample period was not known: not an estimate's spectra
   return workspace_->output[1][0];
 }
 
@@ -180,6 +183,7 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   }
   if (!(sample_period_s > 0.0)) throw std::invalid_argument("FdWlseEstimator: sample period <= 0");
 
+  workspace_->transformed = false;
   const int p = settings_.trend ? 4 : 3;  // regressors
   const std::size_t length = static_cast<std::size_t>(reference_nT.rows());
   WindowEstimate result;
@@ -210,6 +214,7 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   ws.prepare(length, p + 3);
   ws.load(reference_nT, test_nT, settings_.trend, sample_period_s);
   fftw_execute(ws.plan);
+  ws.transformed = true;
 
   using VectorP = Eigen::Matrix<std::complex<double>, Eigen::Dynamic, 1>;
   VectorP wx(p);
@@ -285,6 +290,13 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   result.residual_rms_nT = (2.0 * residual_power).cwiseSqrt() / static_cast<double>(length);
   apply_quality_rules(result, a.topLeftCorner<3, 3>(), harmonics, "harmonics", settings_);
   return result;
+}
+
+const std::complex<double>* FdWlseEstimator::last_spectrum(int column) const {
+  const Workspace& ws = *workspace_;
+  if (!ws.transformed || column < 0 || column >= ws.columns) return nullptr;
+  // fftw_complex is double[2], laid out as std::complex<double> (FFTW manual, "Complex numbers").
+  return reinterpret_cast<const std::complex<double>*>(ws.output + static_cast<std::size_t>(column) * ws.bins());
 }
 
 void apply_quality_rules(WindowEstimate& e, const Eigen::Matrix3d& field_block_of_a, long harmonics,

@@ -14,26 +14,25 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-/// Running-median baseline of x (one column), evaluated at block centres every `step` samples
-/// over `window` samples and interpolated linearly: O(N window / step) comparisons. Each
-/// window's median is searched (BracketedMedian) where the previous one's rank in the new
-/// window puts it, in a bracket sized to hold a few dozen values; the result is exactly the
-/// window's median.
-void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::size_t step, Eigen::VectorXd& base) {
-  const std::size_t n = static_cast<std::size_t>(x.size());
-  base.resize(x.size());
+/// Exact medians of x[0 .. n) over `window` values centred every `step` values (the last centre
+/// at n - 1): centres (indices into x) and values. Each window's median is searched
+/// (BracketedMedian) where the previous one's rank in the new window puts it, in a bracket sized
+/// to hold a few dozen values; the result is exactly the window's median.
+void running_medians(const double* x, std::size_t n, std::size_t window, std::size_t step, std::vector<double>& centres,
+                     std::vector<double>& values) {
+  centres.clear();
+  values.clear();
   if (n == 0) return;
   window = std::min(window, n);
   detail::BracketedMedian selector;
   const double target = std::max(32.0, static_cast<double>(window) / 64.0);  // values in the bracket
   double density = 0.0;  // values of the last window per unit of x near its median
-  std::vector<double> centres, values;
   for (std::size_t c = 0;; c += step) {
     const std::size_t centre_index = std::min(c, n - 1);
     const std::size_t first = centre_index >= window / 2 ? centre_index - window / 2 : 0;
     const std::size_t last = std::min(n, first + window);
     const std::size_t count = last - first;
-    const double* data = x.data() + first;
+    const double* data = x + first;
     double m;
     if (values.empty() || !(density > 0.0)) {
       m = detail::subsampled_median(data, count, selector);
@@ -58,23 +57,51 @@ void running_median_baseline(const Eigen::VectorXd& x, std::size_t window, std::
     values.push_back(m);
     if (centre_index == n - 1) break;
   }
-  std::size_t k = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    while (k + 1 < centres.size() && centres[k + 1] < static_cast<double>(i)) ++k;
-    if (k + 1 >= centres.size()) {
-      base(static_cast<Eigen::Index>(i)) = values.back();
-      continue;
-    }
-    const double a = (static_cast<double>(i) - centres[k]) / (centres[k + 1] - centres[k]);
-    base(static_cast<Eigen::Index>(i)) = values[k] + std::clamp(a, 0.0, 1.0) * (values[k + 1] - values[k]);
-  }
 }
 
-/// Work arrays of one screen (N or N x 3 values), kept per thread so that a run of windows of
+/// x minus its running-median baseline, into hp. The baseline is computed on a decimated
+/// series: the means of blocks of `decimation` samples (the last block may be shorter), their
+/// exact running median over window / decimation blocks every step / decimation blocks,
+/// interpolated linearly between the blocks' centre times (flat beyond the first and last).
+/// O(N) with a small constant: the medians see a tenth of the values (a spike enters one block
+/// mean; the median of the blocks ignores it as the median of the samples did).
+void subtract_running_median(const Eigen::VectorXd& x, std::size_t window, std::size_t step, std::size_t decimation,
+                             Eigen::VectorXd& hp) {
+  const std::size_t n = static_cast<std::size_t>(x.size());
+  hp.resize(x.size());
+  if (n == 0) return;
+  decimation = std::max<std::size_t>(1, decimation);
+  thread_local std::vector<double> blocks, centres, values;
+  const std::size_t count = (n + decimation - 1) / decimation;
+  blocks.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t first = k * decimation, last = std::min(n, first + decimation);
+    double sum = 0.0;
+    for (std::size_t i = first; i < last; ++i) sum += x(static_cast<Eigen::Index>(i));
+    blocks[k] = sum / static_cast<double>(last - first);
+  }
+  running_medians(blocks.data(), count, std::max<std::size_t>(3, window / decimation),
+                  std::max<std::size_t>(1, step / decimation), centres, values);
+  for (double& c : centres) {  // block index -> sample time of the block's centre
+    const std::size_t k = static_cast<std::size_t>(c);
+    const std::size_t first = k * decimation, last = std::min(n, first + decimation);
+    c = 0.5 * static_cast<double>(first + last - 1);
+  }
+  std::size_t i = 0;
+  for (; i < n && static_cast<double>(i) <= centres.front(); ++i) hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - values.front();
+  for (std::size_t k = 0; k + 1 < centres.size(); ++k) {  // samples in (centres[k], centres[k + 1]]
+    const double slope = (values[k + 1] - values[k]) / (centres[k + 1] - centres[k]);
+    for (; i < n && static_cast<double>(i) <= centres[k + 1]; ++i) {
+      hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - (values[k] + (static_cast<double>(i) - centres[k]) * slope);
+    }
+  }
+  for (; i < n; ++i) hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - values.back();
+}
+
+/// Work arrays of one screen (N values each), kept per thread so that a run of windows of
 /// one length allocates (and page-faults) once.
 struct ScreenScratch {
-  Readings residual;
-  Eigen::VectorXd e, base, hp;
+  Eigen::VectorXd e, hp;
   std::vector<double> abs_dev;
 };
 
@@ -86,20 +113,17 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   std::vector<char> mask(length, 0);
   if (length < 16 || !n.allFinite()) return mask;
   thread_local ScreenScratch scratch;
-  Readings& residual = scratch.residual;
-  residual.noalias() = reference_nT * n;  // R n, then T - R n in place
-  residual = test_nT - residual;
   const std::size_t window = std::max<std::size_t>(3, static_cast<std::size_t>(std::llround(settings.screen_baseline_s / sample_period_s)));
   const std::size_t step = std::max<std::size_t>(1, window / 10);
+  const std::size_t decimation = std::max<std::size_t>(1, step / 36);  // 10 at 1 Hz (360 blocks a window)
   const std::size_t margin = static_cast<std::size_t>(std::llround(settings.screen_margin_s / sample_period_s));
   std::vector<char> flag(length, 0);
   detail::BracketedMedian selector;
   for (int c = 0; c < 3; ++c) {
     Eigen::VectorXd& e = scratch.e;
     Eigen::VectorXd& hp = scratch.hp;
-    e = residual.col(c);
-    running_median_baseline(e, window, step, scratch.base);
-    hp = e - scratch.base;
+    e.noalias() = test_nT.col(c) - reference_nT * n.col(c);  // residual T - R n, nT
+    subtract_running_median(e, window, step, decimation, hp);
     std::vector<double>& abs_dev = scratch.abs_dev;
     abs_dev.resize(length);
     const double centre = detail::subsampled_median(hp.data(), length, selector);

@@ -5,6 +5,7 @@
 
 #include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "delay_spectra.hpp"
 #include "failed_window_estimate.hpp"
 #include "robust_sections.hpp"
 #include "spectral_tools.hpp"
@@ -55,6 +56,7 @@ struct RobustFdEstimator::Impl {
   detail::RealDft dft;
   FdWlseEstimator plain;
   Readings screened_reference, screened_test;  ///< nT, the records with the masked runs filled
+  std::vector<double> section_columns[6];       ///< nT, one section's six columns, detrended
 };
 
 RobustFdEstimator::RobustFdEstimator(EstimatorSettings settings) : settings_(std::move(settings)) {
@@ -91,8 +93,12 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   Readings& screened_reference = impl_->screened_reference;
   Readings& screened_test = impl_->screened_test;
   bool masked = false;  // true: the records are screened_reference, screened_test
+  // True while the plain estimator's last transform is of the records in use (the delay reads
+  // its spectra).
+  bool plain_spectra_current = true;
   const auto use_mask = [&](const std::vector<char>& m) {
     masked = std::find(m.begin(), m.end(), 1) != m.end();
+    plain_spectra_current = false;
     if (!masked) return;
     screened_reference = reference_nT;
     screened_test = test_nT;
@@ -104,6 +110,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     std::vector<char> mask = screen_residual(reference_nT, test_nT, initial.n, sample_period_s, rs);
     use_mask(mask);
     if (masked) screened_fit = plain.estimate(screened_reference, screened_test, sample_period_s);
+    plain_spectra_current = true;  // of the screened records, or no mask: of the records themselves
     const Eigen::Matrix3d n0 = screened_fit->n.allFinite() ? screened_fit->n : initial.n;
     if (n0 != initial.n) {  // second pass: n0 re-estimated on the cleaned records
       std::vector<char> second = screen_residual(reference_nT, test_nT, n0, sample_period_s, rs);
@@ -146,21 +153,26 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   std::vector<Cell> cells;
   std::vector<std::size_t> section_first(k_sections + 1);
   for (std::size_t s = 0; s <= k_sections; ++s) section_first[s] = length * s / k_sections;
-  std::vector<double> column;
   std::vector<Eigen::VectorXcd> spectra(6);
   for (std::size_t s = 0; s < k_sections; ++s) {
     const std::size_t first = section_first[s], count = section_first[s + 1] - first;
-    column.resize(count);
-    for (int c = 0; c < 6; ++c) {
-      const auto& src = c < 3 ? reference : test;
-      for (std::size_t i = 0; i < count; ++i) column[i] = src(static_cast<Eigen::Index>(first + i), c % 3);
-      detail::detrend(column.data(), count);
-      impl_->dft.transform(column.data(), count, spectra[static_cast<std::size_t>(c)]);
-    }
     const double section_duration = static_cast<double>(count) * sample_period_s;
     const long j0 = std::max(1L, static_cast<long>(std::ceil(band_low * section_duration - 1e-9)));
     const long j1 = std::min(static_cast<long>(std::floor(band_high * section_duration + 1e-9)),
                              static_cast<long>((count - 1) / 2));
+    double* columns[6];
+    for (int c = 0; c < 6; ++c) {
+      std::vector<double>& column = impl_->section_columns[static_cast<std::size_t>(c)];
+      column.resize(count);
+      const double* from = (c < 3 ? reference : test).col(c % 3).data() + first;
+      std::copy(from, from + count, column.begin());
+      columns[c] = column.data();
+    }
+    detail::detrend_columns<6>(columns, count);
+    for (int c = 0; c < 6; ++c) {  // only the bins up to j1 are copied out
+      std::copy(columns[c], columns[c] + count, impl_->dft.input(count));
+      impl_->dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
+    }
     for (long j = j0; j <= j1; ++j) {
       Cell cell;
       cell.section = static_cast<int>(s);
@@ -210,13 +222,30 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     return detail::failed_window_estimate(result, Quality::kIllConditioned, "weighted A is singular: no signal in the band");
   }
 
+  // Eq. 2 on the screened records, for the trend below, unless already fitted; its whole-window
+  // transforms are the delay's.
+  if (!screened_fit) {
+    screened_fit = plain.estimate(reference, test, sample_period_s);
+    plain_spectra_current = true;
+  }
+
   // Step 4: delay, and its removal when significant.
   if (rs.estimate_delay) {
     DelaySettings ds;
     ds.low_hz = std::max(band_low, 2.0 / duration_s);
     ds.high_hz = std::max(rs.delay_max_hz, 2.0 * ds.low_hz);
     try {
-      diagnostics_.delay = estimate_delay(reference, test, fit.n, sample_period_s, ds);
+      const int test_first = plain.settings().trend ? 4 : 3;
+      detail::WholeWindowSpectra whole;
+      whole.length = length;
+      for (int c = 0; c < 6; ++c) {
+        whole.bins[static_cast<std::size_t>(c)] = plain.last_spectrum(c < 3 ? c : test_first + c - 3);
+        whole.ends[static_cast<std::size_t>(c)] = detail::column_ends(c < 3 ? reference.col(c) : test.col(c - 3));
+      }
+      const bool have_spectra = plain_spectra_current &&
+                                std::all_of(whole.bins.begin(), whole.bins.end(), [](const auto* b) { return b != nullptr; });
+      diagnostics_.delay = have_spectra ? detail::estimate_delay_from_spectra(whole, fit.n, sample_period_s, ds)
+                                        : estimate_delay(reference, test, fit.n, sample_period_s, ds);
     } catch (const InputError&) {
       diagnostics_.delay = DelayEstimate{};
     }
@@ -318,7 +347,6 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   // sandwich standard error. The sections are detrended one by one, so the robust fit itself
   // has no single trend; the screened records no longer hold the transients that would bias it.
   {
-    if (!screened_fit) screened_fit = plain.estimate(reference, test, sample_period_s);
     const WindowEstimate& trend_fit = *screened_fit;
     result.trend_nT_per_day = trend_fit.trend_nT_per_day;
     result.trend_stderr_nT_per_day = trend_fit.trend_stderr_nT_per_day;

@@ -42,6 +42,18 @@ class RealDft {
     for (std::size_t j = 0; j < length / 2 + 1; ++j) out(static_cast<Eigen::Index>(j)) = {p.out[j][0], p.out[j][1]};
   }
 
+  /// The input array of the plan for `length` (values): fill it, then execute(length, ...).
+  double* input(std::size_t length) { return plan(length).in; }
+
+  /// Transforms what input(length) holds into out: bins 0 .. bins - 1 (bins <= length/2 + 1).
+  void execute(std::size_t length, std::size_t bins, Eigen::VectorXcd& out) {
+    Plan& p = plan(length);
+    fftw_execute(p.plan);
+    bins = std::min(bins, length / 2 + 1);
+    out.resize(static_cast<Eigen::Index>(bins));
+    for (std::size_t j = 0; j < bins; ++j) out(static_cast<Eigen::Index>(j)) = {p.out[j][0], p.out[j][1]};
+  }
+
  private:
   struct Plan {
     double* in = nullptr;
@@ -103,6 +115,32 @@ inline void detrend(double* x, std::size_t length) {
   }
   const double slope = slope_num / slope_den;
   for (std::size_t i = 0; i < length; ++i) x[i] -= mean + slope * (static_cast<double>(i) - centre);
+}
+
+/// detrend() of K columns of one length at once, each with exactly detrend()'s arithmetic (the
+/// same sums in the same order, so the same doubles): the K running sums are independent, so
+/// their additions overlap instead of waiting for each other.
+template <int K>
+void detrend_columns(double* const* x, std::size_t length) {
+  if (length < 2) {
+    for (int c = 0; c < K; ++c) detrend(x[c], length);
+    return;
+  }
+  const double centre = 0.5 * static_cast<double>(length - 1);
+  double mean[K], slope_num[K], slope[K];
+  for (int c = 0; c < K; ++c) mean[c] = slope_num[c] = 0.0;
+  double slope_den = 0.0;
+  for (std::size_t i = 0; i < length; ++i)
+    for (int c = 0; c < K; ++c) mean[c] += x[c][i];
+  for (int c = 0; c < K; ++c) mean[c] /= static_cast<double>(length);
+  for (std::size_t i = 0; i < length; ++i) {
+    const double t = static_cast<double>(i) - centre;
+    for (int c = 0; c < K; ++c) slope_num[c] += t * (x[c][i] - mean[c]);
+    slope_den += t * t;
+  }
+  for (int c = 0; c < K; ++c) slope[c] = slope_num[c] / slope_den;
+  for (int c = 0; c < K; ++c)
+    for (std::size_t i = 0; i < length; ++i) x[c][i] -= mean[c] + slope[c] * (static_cast<double>(i) - centre);
 }
 
 /// Median of a copy (empty: NaN).
