@@ -123,6 +123,13 @@ std::string bag_topic_name(const std::string& topic) {
   return !topic.empty() && topic[0] != '/' ? "/" + topic : topic;
 }
 
+std::string bag_sibling_topic(const std::string& field_topic, const std::string& name) {
+  const std::string topic = bag_topic_name(field_topic);
+  const std::size_t slash = topic.rfind('/');
+  if (slash == 0) return topic + "_" + name;
+  return topic.substr(0, slash + 1) + name;
+}
+
 BagWriteSummary write_records_bag(const std::string& path, const std::vector<BagFieldStream>& fields,
                                   const std::vector<BagTemperatureStream>& temperatures, BagCompression compression,
                                   const std::function<void(std::size_t, std::size_t)>& progress) {

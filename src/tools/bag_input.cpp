@@ -21,10 +21,8 @@ namespace {
 /// it, not older than 2 s (a LEMI packet's temperature belongs to its ten readings, as the LEMI
 /// file readers attach it), NaN otherwise.
 void attach_bag_temperature(const std::string& bag, const std::string& field_topic, VectorRecord& record) {
-  const std::string topic = bag_topic_name(field_topic);
-  const std::size_t slash = topic.rfind('/');
-  const std::string ns = slash == 0 ? topic + "_" : topic.substr(0, slash + 1);
-  for (const std::string& name : {ns + "sensor_temperature", ns + "temperature/sensor"}) {
+  for (const std::string& name :
+       {bag_sibling_topic(field_topic, "sensor_temperature"), bag_sibling_topic(field_topic, "temperature/sensor")}) {
     BagTemperatureStream t;
     try {
       t = read_bag_temperatures(bag, name);

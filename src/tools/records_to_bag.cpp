@@ -130,13 +130,6 @@ class ReadWatcher {
   bool stop_ = false;
 };
 
-/// Temperature topics next to the field topic: "/ns/magnetic_field" -> "/ns/<name>".
-std::string sibling_topic(const std::string& field_topic, const std::string& name) {
-  const std::string topic = mic::bag_topic_name(field_topic);
-  const std::size_t slash = topic.rfind('/');
-  if (slash == 0) return topic + "_" + name;  // "/mag" -> "/mag_sensor_temperature"
-  return topic.substr(0, slash + 1) + name;
-}
 
 std::string time_range(const mic::VectorRecord& r) {
   if (r.empty()) return "no samples";
@@ -247,9 +240,9 @@ int main(int argc, char** argv) {
                                                                                           {&test, &fields[1]}};
       for (const auto& [record, field] : inputs) {
         if (record->temperatures.empty()) continue;
-        temperatures.push_back({sibling_topic(field->topic, "sensor_temperature"), field->frame_id,
+        temperatures.push_back({mic::bag_sibling_topic(field->topic, "sensor_temperature"), field->frame_id,
                                 record->temperatures.time_s, record->temperatures.sensor_C});
-        temperatures.push_back({sibling_topic(field->topic, "electronics_temperature"), field->frame_id,
+        temperatures.push_back({mic::bag_sibling_topic(field->topic, "electronics_temperature"), field->frame_id,
                                 record->temperatures.time_s, record->temperatures.electronics_C});
       }
     }

@@ -47,6 +47,10 @@ BagCompression parse_bag_compression(const std::string& text, const std::string&
 /// Normalises a topic name as a bag stores it: a leading '/' is added when missing.
 std::string bag_topic_name(const std::string& topic);
 
+/// A topic next to a field topic, as records_to_bag names the temperatures:
+/// "/ns/magnetic_field" -> "/ns/<name>"; a top-level "/mag" -> "/mag_<name>".
+std::string bag_sibling_topic(const std::string& field_topic, const std::string& name);
+
 struct BagWriteSummary {
   std::size_t messages = 0;
   std::map<std::string, std::size_t> per_topic;
