@@ -6,6 +6,9 @@
 //
 //   monte_carlo_unmodelled disturbed [seeds=50] [days=5] [first_seed=1000]
 //   monte_carlo_unmodelled quiet     [seeds=100] [days=2] [first_seed=1000]
+//   monte_carlo_unmodelled filter    [seeds=100] [days=2] [first_seed=1000]  the quiet station,
+//                                    test behind a 1-pole low-pass MC_CORNER (0.03 Hz) and a
+//                                    delay MC_DELAY (2 s), nothing else (issue 14)
 //   monte_carlo_unmodelled hat       [seeds=200] [days=1] [first_seed=7000]  three instruments,
 //                                    reference noise identified by the three-cornered hat
 //   monte_carlo_unmodelled wic       [data_dir=data]   four 6-hour quarters + the whole day
@@ -19,7 +22,8 @@
 // MC_METHODS (default "default,plain") lists the estimators, each on the same records: default
 // (the package's defaults), plain (Eq. 2), ratio1 (robust, EIV ratio 1: the default before
 // issue 13), none (robust, no EIV correction), given (robust, EIV with the simulated reference
-// noise given as the maker's figure), model (the default pipeline with --response-model).
+// noise given as the maker's figure), nomodel (the default estimator without the response model,
+// --no-response-model: the default before issue 14).
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
@@ -93,7 +97,18 @@ void scenario(const std::string& kind, std::uint64_t seed, double days, mic::Sim
   d.seed = seed;
   u = mic::UnmodelledDisturbanceSettings{};
   u.seed = seed;
+  // Instrument noise (simulator defaults: white 0.01 nT per sample, 1/f 0.005 nT/sqrt(Hz) at 1 Hz).
+  s.reference_white_nT = knob("MC_REF_WHITE", s.reference_white_nT);
+  s.test_white_nT = knob("MC_TEST_WHITE", s.test_white_nT);
+  s.reference_pink_nT_per_sqrt_hz = knob("MC_REF_PINK", s.reference_pink_nT_per_sqrt_hz);
+  s.test_pink_nT_per_sqrt_hz = knob("MC_TEST_PINK", s.test_pink_nT_per_sqrt_hz);
   if (kind == "quiet") return;
+  if (kind == "filter") {  // a quiet station whose test sits behind a filter and a delay (issue 14)
+    s.variation_rms_nT = knob("MC_RMS", s.variation_rms_nT);
+    u.test_corner_hz = knob("MC_CORNER", 0.03);
+    u.test_delay_s = knob("MC_DELAY", 2.0);
+    return;
+  }
   // Weak in-band signal, weak vertical (rms over the record; the f^-2 spectrum puts most of it
   // in the lowest harmonics).
   s.variation_rms_nT = knob("MC_RMS", 5.0) * std::sqrt(days);
@@ -128,7 +143,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     for (std::size_t at = 0; at <= list.size(); ++at) {
       if (at == list.size() || list[at] == ',') {
         if (item != "default" && item != "plain" && item != "ratio1" && item != "none" && item != "given" &&
-            item != "model")
+            item != "nomodel")
           throw std::runtime_error("MC_METHODS: unknown estimator '" + item + "'");
         names.push_back(item);
         item.clear();
@@ -151,10 +166,8 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     mic::UnmodelledDisturbanceSettings u;
     scenario(kind, seed, days, s, d, u);
     mic::SimulatedPair pair = mic::simulate_pair(s);
-    if (kind != "quiet") {
-      mic::add_station_disturbances(pair, d);
-      mic::add_unmodelled_disturbances(pair, u);
-    }
+    if (kind == "disturbed") mic::add_station_disturbances(pair, d);
+    if (kind != "quiet") mic::add_unmodelled_disturbances(pair, u);
     const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, base.preprocess);
     for (int m = 0; m < methods; ++m) {
       mic::EstimatorSettings es = base.estimator;
@@ -173,10 +186,8 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       }
       mic::WindowEstimator estimator(es);
       mic::WindowEstimate e;
-      if (name == "model") {  // the default pipeline with the response model (--response-model)
-        mic::CalibrationSettings cs = base;
-        cs.response_model = true;
-        e = mic::calibrate_prepared(prepared, cs).back().estimate;
+      if (name == "default") {  // the default pipeline: robust estimator and response model
+        e = mic::calibrate_prepared(prepared, base).back().estimate;
       } else {
         e = estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
       }
@@ -185,10 +196,9 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       const mic::CalibrationParameters t = mic::decompose(pair.n_true);
       const Eigen::Vector3d ds = 100.0 * (e.parameters.scale_ratio - t.scale_ratio);
       const Eigen::Vector3d da = e.parameters.nonorthogonality_deg - t.nonorthogonality_deg;
-      const auto* diag = estimator.robust_diagnostics();
       std::printf("seed %llu %s %.4f %.4f %.4f %.4f %.4f %.4f %d %s\n", static_cast<unsigned long long>(seed), name.c_str(), ds(0),
                   ds(1), ds(2), da(0), da(1), da(2), cov[0] + cov[1] + cov[2] + cov[3] + cov[4] + cov[5],
-                  diag == nullptr ? "-" : (diag->eiv_applied ? "applied" : "none"));
+                  name == "plain" ? "-" : (e.eiv.rfind("none", 0) == 0 ? "none" : "applied"));
     }
     std::fflush(stdout);
   }
@@ -310,8 +320,8 @@ int run_hat(int seeds, double days, std::uint64_t first_seed) {
 int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "disturbed";
   try {
-    if (mode == "disturbed" || mode == "quiet") {
-      const bool quiet = mode == "quiet";
+    if (mode == "disturbed" || mode == "quiet" || mode == "filter") {
+      const bool quiet = mode != "disturbed";
       return run_simulated(mode, argc > 2 ? std::atoi(argv[2]) : (quiet ? 100 : 50),
                            argc > 3 ? std::atof(argv[3]) : (quiet ? 2.0 : 5.0),
                            argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 1000);
@@ -324,6 +334,6 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "monte_carlo_unmodelled: %s\n", e.what());
     return 1;
   }
-  std::fprintf(stderr, "usage: monte_carlo_unmodelled disturbed|quiet [seeds] [days] [first_seed] | wic [data_dir]\n");
+  std::fprintf(stderr, "usage: monte_carlo_unmodelled disturbed|quiet|filter [seeds] [days] [first_seed] | wic [data_dir]\n");
   return 2;
 }

@@ -87,8 +87,10 @@ int main(int argc, char** argv) {
                  "robust, --eiv given: the reference's noise figure, pT/sqrt(Hz) at 1 Hz (maker's data "
                  "sheet; taken as 1/f noise below 1 Hz); 0: not identified, no correction")
       ->capture_default_str();
-  app.add_flag("--response-model", settings.response_model,
-               "fit a delay + 1-pole low-pass per component to the relative response; estimate n through it");
+  auto* model_option = app.add_flag(
+      "--response-model,!--no-response-model", settings.response_model,
+      "fit a delay + 1-pole low-pass per component to the relative response and estimate n through a "
+      "significant corner (default with --method robust; off with --method plain unless given)");
   app.add_option("--temperature-channel", settings.preprocess.temperature_channel,
                  "the test record's sensor temperature: auto (sensor_temperature, a T_sensor channel, "
                  "temperature), none, or a channel name; fits nT/degC and ppm/degC terms when it varies")
@@ -106,6 +108,10 @@ int main(int argc, char** argv) {
     settings.estimator.trend = !no_trend;
     settings.preprocess.despike = !no_despike;
     settings.estimator.method = mic::parse_estimator_method(method, "--method");
+    // --method plain is Eq. 2 as printed: no modelled filter unless asked for.
+    if (settings.estimator.method == mic::EstimatorMethod::kPlain && model_option->count() == 0) {
+      settings.response_model = false;
+    }
     // --eiv-ratio alone keeps meaning what it meant: the ratio mode, asked for explicitly.
     if (ratio_option->count() > 0 && eiv_option->count() == 0) eiv = "ratio";
     settings.estimator.robust.eiv = mic::parse_eiv_correction(eiv, "--eiv");

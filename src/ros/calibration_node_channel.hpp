@@ -83,6 +83,8 @@ struct CalibrationNode::Channel {
   std::string last_eiv;  ///< noise model of the last window's errors-in-variables step
   ResponseSummary last_response;  ///< relative response over the band used (bands == 0: none yet)
   std::string last_temperature;   ///< temperature terms of the last window: fitted or why not
+  std::string last_response_model;  ///< response model of the last window: fitted, applied, or why not
+  std::size_t response_model_applied_windows = 0;  ///< windows estimated through a modelled filter
   std::string last_temperature_apparent;  ///< a (nT/degC) with 95 % half-widths, "" when not fitted
   std::size_t temperature_fitted_windows = 0;
   // Change check: the accepted calibration the sliding windows are compared with (the first

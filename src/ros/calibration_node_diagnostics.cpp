@@ -129,6 +129,9 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("temperature terms (last window)", ch.last_temperature.empty() ? std::string("no window yet") : ch.last_temperature);
     status.add("temperature apparent coefficients (nT/degC)", ch.last_temperature_apparent);
     status.add("windows with temperature terms", ch.temperature_fitted_windows);
+    status.add("response model (last window)",
+               ch.last_response_model.empty() ? std::string("no window yet") : ch.last_response_model);
+    status.add("windows estimated through a modelled filter", ch.response_model_applied_windows);
     // Relative frequency response of the test against R n over the band used (relative_response.hpp).
     if (ch.last_response.bands > 0) {
       status.add("response bands in the band used", ch.last_response.bands);

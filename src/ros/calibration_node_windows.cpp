@@ -99,6 +99,8 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
     ch.last_offset = offset.str();
   }
   ch.last_temperature = m.temperature_text;
+  ch.last_response_model = result.response_model.text;
+  ch.response_model_applied_windows += result.response_model.applied;
   ch.last_temperature_apparent.clear();
   if (m.temperature_fitted) {
     ++ch.temperature_fitted_windows;

@@ -69,6 +69,20 @@ void expect_same_report(const nlohmann::json& a, const nlohmann::json& b, double
   std::string worst_at;
   std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> walk =
       [&](const nlohmann::json& x, const nlohmann::json& y, const std::string& at) {
+        if (at.size() > 15 && at.compare(at.size() - 15, 15, ".response_model") == 0 && x.is_object()) {
+          // The response model lowers its fit band at a chi^2/dof threshold: a one-ulp difference in
+          // the inputs may stop the fit one band lower (seen: chi^2/dof 2.01 vs 1.84 on the WIC day),
+          // which moves its fitted numbers but not what it decides about n.
+          ASSERT_TRUE(y.is_object()) << at;
+          EXPECT_EQ(x.at("fitted"), y.at("fitted")) << at;
+          EXPECT_EQ(x.at("applied"), y.at("applied")) << at;
+          for (std::size_t k = 0; k < 3; ++k) {  // a corner applied in both or in neither
+            const nlohmann::json &u = x.at("corner_hz").at(k), &v = y.at("corner_hz").at(k);
+            ASSERT_EQ(u.is_null(), v.is_null()) << at << ".corner_hz[" << k << "]";
+            if (!u.is_null()) EXPECT_NEAR(u.get<double>(), v.get<double>(), 1e-6 * u.get<double>()) << at;
+          }
+          return;
+        }
         if (x.is_number_float() || y.is_number_float()) {
           ASSERT_TRUE(x.is_number() && y.is_number()) << at;
           const double u = x.get<double>(), v = y.get<double>();

@@ -9,6 +9,7 @@
 
 #include <complex>
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -139,6 +140,12 @@ struct WindowEstimate {
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
   Eigen::Matrix3d n_stderr() const;
 };
+
+/// Estimates n of a window (reference nT, test nT, sample period s): the estimator the window was
+/// estimated with, so that a second estimate (temperature terms, response model) is made the same
+/// way.
+using WindowEstimateFunction =
+    std::function<WindowEstimate(const Eigen::Ref<const Readings>&, const Eigen::Ref<const Readings>&, double)>;
 
 /// Quality figures and rules shared by every estimator: sets e.condition_number from the 3x3
 /// field block of A (strongest / weakest in-band signal direction), then e.quality and

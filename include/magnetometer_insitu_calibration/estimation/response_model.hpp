@@ -15,6 +15,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 
 #include <Eigen/Core>
@@ -57,5 +58,14 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
 /// The straight line through the first and last samples is taken out first (no wrap-around
 /// step) and put back with its filtered slope. Returns test unchanged when !model.applied.
 Readings remove_modelled_filter(const Readings& test, double period_s, const ResponseModel& model);
+
+/// The response-model step of one window, shared by the offline pipeline (calibrate_prepared) and
+/// calibration_node (live_window): the relative response of test_nT against R n (estimate.n, as
+/// estimated from test_nT), the model fitted to it and, when a corner is applied, test_nT replaced
+/// by the record with the filter removed and estimate by estimate_again on it. A window whose
+/// estimate is not finite is left alone (model not fitted, text says why).
+ResponseModel with_response_model(const WindowEstimateFunction& estimate_again, const Eigen::Ref<const Readings>& reference_nT,
+                                  Readings& test_nT, double period_s, const RelativeResponseSettings& response,
+                                  const ResponseModelSettings& model, WindowEstimate& estimate);
 
 }  // namespace magnetometer_insitu_calibration

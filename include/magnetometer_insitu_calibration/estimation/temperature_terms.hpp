@@ -8,14 +8,8 @@
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
 
-#include <functional>
 
 namespace magnetometer_insitu_calibration {
-
-/// Estimates n of a window (reference nT, test nT, sample period s): the estimator the window was
-/// estimated with, so that the second estimate is made the same way.
-using WindowEstimateFunction =
-    std::function<WindowEstimate(const Eigen::Ref<const Readings>&, const Eigen::Ref<const Readings>&, double)>;
 
 /// Fits the temperature terms of a window already estimated (`estimate`, from `test` as given)
 /// over the estimate's band (or settings' band when the estimate has none), with settings' gamma

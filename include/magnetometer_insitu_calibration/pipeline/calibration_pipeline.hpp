@@ -60,7 +60,8 @@ struct CalibrationSettings {
   RelativeResponseSettings response;
   /// Fit a delay + first-order low-pass per component to the response and, where a corner is
   /// significant, estimate n again on the test record with that filter removed (response_model.hpp).
-  bool response_model = false;
+  /// On by default since issue 14: where no corner is significant the estimate is unchanged.
+  bool response_model = true;
   ResponseModelSettings model;
   /// Temperature terms when the test record has a temperature (temperature_regression.hpp); the
   /// band, gamma and trend follow each window's estimate, min_range_C is used as given.

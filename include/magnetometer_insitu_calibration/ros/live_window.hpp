@@ -5,6 +5,7 @@
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
+#include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/temperature_terms.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
@@ -146,6 +147,10 @@ struct WindowGapRule {
   TemperatureBand temperature;
   /// Longest gap of the thermometer's samples bridged by interpolation (temperature_on_grid), s.
   double temperature_max_gap_s = 60.0;
+  /// Response model (response_model.hpp) of every window estimated by the WindowEstimator: where a
+  /// test component's 1-pole corner is significant, n is estimated through it (~response_model).
+  bool response_model = true;
+  ResponseModelSettings model;
 };
 
 struct WindowResult {
@@ -160,6 +165,9 @@ struct WindowResult {
   /// band used: largest |gain - 1| with its half-width, group delay (s), for the diagnostics.
   std::vector<ResponseBand> relative_response;
   ResponseSummary response;
+  /// The response model of the window: fitted and applied, or why not (text); not fitted when
+  /// rule.response_model is off or the estimator is the plain FdWlseEstimator.
+  ResponseModel response_model;
   /// Baseline of the test relative to the reference (test frame, nT), model
   /// T = R n + d + trend (t - t_c) + e with t_c the mean epoch of the window's samples (the trend
   /// column is centred there, so d is the offset at the window centre):

@@ -168,29 +168,28 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
       w.overlaps_long_gap |= gap.first < span.first + span.count && gap.second >= span.first;
     }
     const auto reference = p.reference_nT.middleRows(span.first, span.count);
-    Readings test = p.test_nT.middleRows(span.first, span.count);
+    const Readings recorded = p.test_nT.middleRows(span.first, span.count);
+    Readings test = recorded;  // loses a modelled filter, then the temperature terms
+    const WindowEstimateFunction estimate_again = [&](const Eigen::Ref<const Readings>& r,
+                                                      const Eigen::Ref<const Readings>& t, double period) {
+      return estimator.estimate(r, t, period);
+    };
     w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
-    if (prepared.test_temperature_C.size() > 0) {
-      w.temperature = with_temperature_terms(
-          [&](const Eigen::Ref<const Readings>& r, const Eigen::Ref<const Readings>& t, double period) {
-            return estimator.estimate(r, t, period);
-          },
-          settings.estimator, settings.temperature, reference, test,
-          prepared.test_temperature_C.segment(span.first, span.count), prepared.sample_period_s, w.estimate);
-    }
-    if (settings.relative_response || settings.response_model) {
-      w.relative_response = relative_response(reference, test, w.estimate.n, prepared.sample_period_s,
-                                              settings.response);
-    }
     if (settings.response_model) {
-      w.response_model = fit_response_model(w.relative_response, settings.model);
-      if (w.response_model.applied) {
-        w.estimate = estimator.estimate(reference, remove_modelled_filter(test, prepared.sample_period_s, w.response_model),
-                                        prepared.sample_period_s);
-        w.relative_response = relative_response(reference, test, w.estimate.n, prepared.sample_period_s,
-                                                settings.response);
-      }
-      if (!settings.relative_response) w.relative_response.clear();
+      w.response_model = with_response_model(estimate_again, reference, test, prepared.sample_period_s,
+                                             settings.response, settings.model, w.estimate);
+    }
+    const Readings before_temperature = w.response_model.applied ? test : Readings();
+    if (prepared.test_temperature_C.size() > 0) {
+      w.temperature = with_temperature_terms(estimate_again, settings.estimator, settings.temperature, reference, test,
+                                             prepared.test_temperature_C.segment(span.first, span.count),
+                                             prepared.sample_period_s, w.estimate);
+    }
+    if (settings.relative_response) {
+      // Of the test as recorded (a modelled filter shows), without the temperature terms.
+      const Readings shown = w.response_model.applied ? Readings(recorded - (before_temperature - test)) : test;
+      w.relative_response = relative_response(reference, shown, w.estimate.n, prepared.sample_period_s,
+                                              settings.response);
     }
     const double filled_fraction = static_cast<double>(w.filled_samples) / static_cast<double>(span.count);
     if (w.estimate.quality == Quality::kOk &&
