@@ -28,6 +28,7 @@
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
+#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
@@ -259,8 +260,8 @@ int run_wic(const std::string& dir) {
 
 /// Three instruments on one node: reference (white 0.1 nT, x10 the test's), test (0.01 nT) and
 /// a second test (0.05 nT, independent noise). The reference's noise is identified by the
-/// three-cornered hat (one band-wide bin, white PSD 2 sigma^2 dt -> sigma) and given to the EIV
-/// correction. Printed: identified / true noise level per axis (mean over seeds), and the z,
+/// three-cornered hat (cross-spectral, 4 bins, white + 1/f fit: reference_noise.hpp) and given to
+/// the EIV correction. Printed: identified / true noise level per axis (mean over seeds), and the z,
 /// x, y scale-ratio bias in units of its scatter (the "bias below 0.2 standard errors" aim).
 int run_hat(int seeds, double days, std::uint64_t first_seed) {
   std::vector<Eigen::Vector3d> err[2], level;
@@ -280,16 +281,24 @@ int run_hat(int seeds, double days, std::uint64_t first_seed) {
     mic::Readings third = pair.field_nT * n_c;
     for (Eigen::Index i = 0; i < third.rows(); ++i)
       for (int c = 0; c < 3; ++c) third(i, c) += 0.05 * normal(rng);
-    mic::ThreeCorneredHatSettings hs;
-    hs.bins = 1;
+    // As calibrate_records --third does it (reference_noise.hpp): the hat in 4 bins over the
+    // band, the reference's bins fitted by white + 1/f noise.
     const mic::ThreeCorneredHatResult hat =
-        mic::three_cornered_hat(pair.reference.values_nT, pair.test.values_nT, third, s.sample_period_s, hs);
-    const Eigen::Vector3d white = (hat.psd_nT2_per_hz[0][0].cwiseMax(0.0) / (2.0 * s.sample_period_s)).cwiseSqrt();
-    level.push_back(white / s.reference_white_nT);
+        mic::three_cornered_hat(pair.reference.values_nT, pair.test.values_nT, third, s.sample_period_s);
+    Eigen::Vector3d white, pink;
+    mic::fit_white_and_pink(hat.psd_nT2_per_hz[0], hat.bin_low_hz, hat.bin_high_hz, s.sample_period_s, white, pink);
+    // Level: the ASD of the fitted noise over the band against the simulated white level.
+    const double band_low = hat.bin_low_hz.front(), band_high = hat.bin_high_hz.back();
+    const double inverse_f = std::log(band_high / band_low) / (band_high - band_low);
+    const Eigen::Vector3d fitted_psd = 2.0 * s.sample_period_s * white.cwiseAbs2() + inverse_f * pink.cwiseAbs2();
+    level.push_back((fitted_psd / (2.0 * s.sample_period_s)).cwiseSqrt() / s.reference_white_nT);
     const Eigen::Vector3d truth = mic::decompose(pair.n_true).scale_ratio;
     for (int m = 0; m < 2; ++m) {
       mic::EstimatorSettings es;
-      if (m == 1) es.robust.reference_white_nT = white;  // identified; m == 0: not identified
+      if (m == 1) {  // identified; m == 0: not identified
+        es.robust.reference_white_nT = white;
+        es.robust.reference_pink_nT_per_sqrt_hz = pink;
+      }
       mic::WindowEstimator estimator(es);
       const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT, pair.test.values_nT, s.sample_period_s);
       err[m].push_back(e.parameters.scale_ratio - truth);

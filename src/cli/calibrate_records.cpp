@@ -3,6 +3,8 @@
 // instrument). Prints the table; --json writes the full report.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
+#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
+#include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 
@@ -39,7 +41,7 @@ void parse_band(const std::string& text, mic::EstimatorSettings& s) {
 
 int main(int argc, char** argv) {
   CLI::App app{"In-situ calibration of a test magnetometer against a co-located reference (FD-WLSE, Eq. 2)."};
-  std::vector<std::string> reference_paths, test_paths;  // several files per instrument: joined in time order
+  std::vector<std::string> reference_paths, test_paths, third_paths;  // several files: joined in time order
   std::string json_path, band = "0.0002:0.01";
   mic::CalibrationSettings settings;
   bool no_trend = false, no_despike = false;
@@ -83,10 +85,15 @@ int main(int argc, char** argv) {
                                       "robust, --eiv ratio (implied when given alone): reference noise PSD / test "
                                       "noise PSD")
                            ->capture_default_str();
-  app.add_option("--reference-noise-pT", reference_noise_pT,
+  auto* third_option = app.add_option(
+      "--third", third_paths,
+      "a third co-located instrument's record (same formats, one or several files), used only to identify the "
+      "reference's noise by the three-cornered hat for --eiv given");
+  auto* noise_option = app.add_option("--reference-noise-pT", reference_noise_pT,
                  "robust, --eiv given: the reference's noise figure, pT/sqrt(Hz) at 1 Hz (maker's data "
                  "sheet; taken as 1/f noise below 1 Hz); 0: not identified, no correction")
       ->capture_default_str();
+  third_option->excludes(noise_option);
   auto* model_option = app.add_flag(
       "--response-model,!--no-response-model", settings.response_model,
       "fit a delay + 1-pole low-pass per component to the relative response and estimate n through a "
@@ -122,8 +129,23 @@ int main(int argc, char** argv) {
       throw mic::InputError("--reference-noise-pT", "is used by --eiv given only (got --eiv " + eiv + ")");
     }
     settings.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(reference_noise_pT / 1000.0);
+    if (!third_paths.empty() && settings.estimator.robust.eiv != mic::EivCorrection::kGiven) {
+      throw mic::InputError("--third", "identifies the noise for --eiv given only (got --eiv " + eiv + ")");
+    }
     settings.validate();
     const auto [reference, test] = bag.records(reference_paths, test_paths);
+    if (!third_paths.empty()) {
+      std::vector<std::string> warnings;
+      const mic::VectorRecord third = mic::read_records(third_paths, &warnings);
+      for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+      const mic::IdentifiedNoise noise =
+          mic::identify_reference_noise(reference, test, third, settings.preprocess, settings.estimator.band_low_hz,
+                                        settings.estimator.band_high_hz);
+      std::cout << noise.text << "\n";
+      settings.estimator.robust.reference_white_nT = noise.white_nT;
+      settings.estimator.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
+      settings.estimator.robust.reference_noise_source = "three-cornered hat with --third";
+    }
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
     const mic::ReportInputs inputs = bag.inputs(reference_paths, test_paths);
     std::cout << mic::format_calibration_table(result, inputs);

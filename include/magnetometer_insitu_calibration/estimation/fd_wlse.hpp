@@ -71,6 +71,9 @@ struct RobustSettings {
   /// kGiven: ASD at 1 Hz of 1/f noise, nT/sqrt(Hz) (a fluxgate maker's figure "pT/sqrt(Hz) at
   /// 1 Hz" / 1000, taken as 1/f below 1 Hz, which is what fluxgates show in the band).
   Eigen::Vector3d reference_pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
+  /// kGiven: where the figure came from, appended to WindowEstimate::eiv in parentheses when not
+  /// empty (e.g. "three-cornered hat"); empty: a maker's figure.
+  std::string reference_noise_source;
 
   /// True when kGiven has a non-zero reference noise: the correction has noise to use.
   bool reference_noise_identified() const;

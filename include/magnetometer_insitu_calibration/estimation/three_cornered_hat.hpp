@@ -25,10 +25,23 @@
 
 namespace magnetometer_insitu_calibration {
 
+enum class ThreeCorneredHatMethod {
+  /// Default. From the 3 x 3 cross-spectral matrices S_uv of the records (u, v = a, b, c; bin
+  /// sums of U^H V): N_a = diag(S_aa - S_ac S_bc^-1 S_ba), and likewise for b and c. Any 3 x 3
+  /// gain and mixing between the records cancels, and the field to first order in the noises.
+  kCrossSpectral,
+  /// The pairwise residual PSDs combined as above (S_a = (S_ab + S_ac - S_bc) / 2). A noisy
+  /// reference attenuates each pair's n, which leaves (attenuation x field) in the residuals:
+  /// with a steep field spectrum that dominates the lowest bins (2.3x the truth measured in the
+  /// lowest of 4 bins over 0.0002-0.01 Hz, reference 1/f 20 pT/sqrt(Hz) at 1 Hz, test_reference_noise).
+  kResidual,
+};
+
 struct ThreeCorneredHatSettings {
   double band_low_hz = 0.0002;  ///< Hz
   double band_high_hz = 0.01;   ///< Hz
   int bins = 4;                 ///< log-spaced frequency bins over the band (>= 1)
+  ThreeCorneredHatMethod method = ThreeCorneredHatMethod::kCrossSpectral;
 };
 
 struct ThreeCorneredHatResult {
@@ -36,7 +49,7 @@ struct ThreeCorneredHatResult {
   /// psd_nT2_per_hz[instrument][bin]: one-sided PSD per axis of that instrument's frame,
   /// nT^2/Hz (the mean over the bin's harmonics); instrument 0, 1, 2 = a, b, c.
   std::array<std::vector<Eigen::Vector3d>, 3> psd_nT2_per_hz;
-  /// Pairwise residual PSDs (ab, ac, bc), same layout: the inputs of the hat.
+  /// Pairwise residual PSDs (ab, ac, bc), same layout: the inputs of the kResidual hat.
   std::array<std::vector<Eigen::Vector3d>, 3> pair_psd_nT2_per_hz;
 };
 

@@ -38,6 +38,7 @@ std::string eiv_text(const RobustSettings& rs, bool applied) {
       if (!applied) return "none (given noise as large as the signal: refused)";
       text << "given reference noise: white " << rs.reference_white_nT.maxCoeff() * 1000.0 << " pT rms, 1/f "
            << rs.reference_pink_nT_per_sqrt_hz.maxCoeff() * 1000.0 << " pT/sqrt(Hz) at 1 Hz";
+      if (!rs.reference_noise_source.empty()) text << " (" << rs.reference_noise_source << ")";
       return text.str();
     case EivCorrection::kNoiseRatio:
       if (!applied) return "none (ratio correction refused)";

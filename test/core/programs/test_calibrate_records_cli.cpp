@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+#include <random>
 #include <fstream>
 #include <sstream>
 
@@ -138,4 +140,44 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
   const ProgramRun negative = run(io + "/x.json --reference-noise-pT -1");
   EXPECT_NE(negative.status, 0);
   EXPECT_NE(negative.output.find("--reference-noise-pT"), std::string::npos) << negative.output;
+}
+
+// Issue 13: --third identifies the reference's noise by the three-cornered hat and gives it to
+// the errors-in-variables correction; every report says where the figure came from.
+TEST_F(CalibrateRecordsCli, ThirdInstrumentIdentifiesTheReferenceNoise) {
+  mic::SimulationSettings s;
+  s.duration_s = 6 * 3600.0;
+  s.seed = 5;
+  s.reference_white_nT = 0.1;  // a noisy reference: 10x the test
+  s.keep_clean_field = true;
+  const mic::SimulatedPair p = mic::simulate_pair(s);
+  mic::VectorRecord third = p.test;  // a second instrument: the field, its own white noise
+  third.values_nT = p.field_nT;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.03);  // nT, white
+  for (Eigen::Index i = 0; i < third.values_nT.rows(); ++i) {
+    for (int c = 0; c < 3; ++c) third.values_nT(i, c) += noise(rng);
+  }
+  mic::write_csv_record(dir_ + "/hat_ref.csv", p.reference);
+  mic::write_csv_record(dir_ + "/hat_test.csv", p.test);
+  mic::write_csv_record(dir_ + "/hat_third.csv", third);
+  const std::string io = "--reference " + dir_ + "/hat_ref.csv --test " + dir_ + "/hat_test.csv ";
+  const ProgramRun r = run(io + "--third " + dir_ + "/hat_third.csv --json " + dir_ + "/hat.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("reference noise from the three-cornered hat"), std::string::npos) << r.output;
+  std::ifstream in(dir_ + "/hat.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const std::string eiv = j["windows"][0]["eiv"];
+  EXPECT_EQ(eiv.rfind("given reference noise: white ", 0), 0u) << eiv;
+  EXPECT_NE(eiv.find("(three-cornered hat with --third)"), std::string::npos) << eiv;
+
+  const ProgramRun off = run(io + "--third " + dir_ + "/hat_third.csv --eiv none");
+  EXPECT_NE(off.status, 0);
+  EXPECT_NE(off.output.find("--third"), std::string::npos) << off.output;
+  const ProgramRun both = run(io + "--third " + dir_ + "/hat_third.csv --reference-noise-pT 5");
+  EXPECT_NE(both.status, 0);
+  EXPECT_NE(both.output.find("--third"), std::string::npos) << both.output;
+  const ProgramRun missing = run(io + "--third " + dir_ + "/no_such.csv");
+  EXPECT_NE(missing.status, 0);
+  EXPECT_NE(missing.output.find("no_such.csv"), std::string::npos) << missing.output;
 }

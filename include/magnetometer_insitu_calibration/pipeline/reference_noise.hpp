@@ -1,0 +1,55 @@
+// The reference's noise identified from the instruments themselves (issue 13): with a third
+// co-located instrument, the three-cornered hat (estimation/three_cornered_hat.hpp) gives each
+// instrument's noise PSD from the pairwise Eq. 2 residuals; the reference's is fitted by white +
+// 1/f noise per axis and given to the errors-in-variables correction (EivCorrection::kGiven) as
+// a maker's figure would be. calibrate_records --third FILE.
+//
+// What it assumes (three_cornered_hat.hpp): the three instruments' noises are independent. A
+// disturbance seen by the reference only counts as its noise (and is then corrected for, as an
+// error in the regressor should be); noise shared by two instruments makes the third's estimate
+// too large and theirs too small, possibly negative: a negative bin is left out of the fit, and
+// with none left the noise is reported as not identified (no correction).
+#pragma once
+
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <string>
+
+namespace magnetometer_insitu_calibration {
+
+struct IdentifiedNoise {
+  bool identified = false;  ///< a non-zero white or 1/f level on at least one axis
+  /// The reference's noise per axis of its frame: white, nT rms per sample at the estimation
+  /// period; 1/f, nT/sqrt(Hz) at 1 Hz (the units of RobustSettings::reference_white_nT / _pink_).
+  Eigen::Vector3d white_nT = Eigen::Vector3d::Zero();
+  Eigen::Vector3d pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
+  ThreeCorneredHatResult hat;   ///< every instrument's PSD per bin, and the pairwise residual PSDs
+  std::size_t samples = 0;      ///< epochs all three records share on the estimation grid
+  double sample_period_s = 0.0; ///< of that grid, s
+  std::string text;             ///< one line: levels, or why not identified
+};
+
+/// Fits S(f) = 2 w^2 dt + p^2 / f per axis to a PSD given per bin (nT^2/Hz, bins [low, high) Hz;
+/// the 1/f term is averaged over each bin as ln(high / low) / (high - low)) by least squares
+/// relative to each bin, w^2 >= 0 and p^2 >= 0: first relative to the bin's own value, then to the
+/// first fit's model value (the noisy value itself as weight favours low bins: a level biased
+/// low). Bins <= 0 are left out. Returns false for an axis with no positive bin (w = p = 0 there).
+bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, const std::vector<double>& bin_low_hz,
+                        const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,
+                        Eigen::Vector3d& pink_nT_per_sqrt_hz);
+
+/// The three records (reference, test, a third instrument; any frames, nearly aligned) paired on
+/// the estimation grid by prepare_pair(reference, X, preprocess) and cut to the epochs all three
+/// share; the hat over [band_low_hz, band_high_hz] in `bins` log-spaced bins; the reference's PSD
+/// fitted by fit_white_and_pink. Throws InputError("--third", ...) when the three share fewer
+/// than 64 epochs; the hat's own errors name "three_cornered_hat".
+IdentifiedNoise identify_reference_noise(const VectorRecord& reference, const VectorRecord& test,
+                                         const VectorRecord& third, const PreprocessSettings& preprocess,
+                                         double band_low_hz, double band_high_hz, int bins = 4);
+
+}  // namespace magnetometer_insitu_calibration

@@ -1,0 +1,163 @@
+// The reference's noise from a third instrument: see reference_noise.hpp.
+#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+/// min |a x - b| over x >= 0 in two unknowns: the unconstrained solution when both are >= 0,
+/// else the better of the two one-term fits (zero when neither is positive).
+Eigen::Vector2d non_negative_fit(const Eigen::MatrixX2d& a, const Eigen::VectorXd& b) {
+  Eigen::Vector2d x = Eigen::Vector2d::Zero();
+  if (a.rows() >= 2) x = a.colPivHouseholderQr().solve(b);
+  if (a.rows() >= 2 && x(0) >= 0.0 && x(1) >= 0.0) return x;
+  double best = b.squaredNorm();
+  x.setZero();
+  for (int j = 0; j < 2; ++j) {
+    const double v = a.col(j).dot(b) / a.col(j).squaredNorm();
+    const double misfit = (a.col(j) * v - b).squaredNorm();
+    if (v > 0.0 && misfit < best) {
+      best = misfit;
+      x.setZero();
+      x(j) = v;
+    }
+  }
+  return x;
+}
+
+}  // namespace
+
+bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vector<double>& low,
+                        const std::vector<double>& high, double dt, Eigen::Vector3d& white_nT,
+                        Eigen::Vector3d& pink_nT_per_sqrt_hz) {
+  white_nT.setZero();
+  pink_nT_per_sqrt_hz.setZero();
+  bool all = true;
+  for (int c = 0; c < 3; ++c) {
+    std::vector<std::size_t> used;
+    std::vector<Eigen::RowVector2d> design;  // [2 dt, mean(1/f) over the bin]: S = design . (w^2, p^2)
+    for (std::size_t k = 0; k < psd.size(); ++k) {
+      const double s = psd[k](c);
+      if (!(s > 0.0) || !std::isfinite(s)) continue;
+      used.push_back(k);
+      design.emplace_back(2.0 * dt, std::log(high[k] / low[k]) / (high[k] - low[k]));
+    }
+    if (used.empty()) {
+      all = false;
+      continue;
+    }
+    // Least squares relative to each bin: first to the bin's own value, then to the first fit's
+    // model value (weighting by the noisy value itself favours low bins and biases the level low).
+    Eigen::Vector2d x = Eigen::Vector2d::Zero();
+    for (int pass = 0; pass < 2; ++pass) {
+      const auto rows = static_cast<Eigen::Index>(used.size());
+      Eigen::MatrixX2d a(rows, 2);
+      Eigen::VectorXd b(rows);
+      for (Eigen::Index i = 0; i < rows; ++i) {
+        const double model = design[static_cast<std::size_t>(i)].dot(x);
+        const double scale = pass == 0 || !(model > 0.0) ? psd[used[static_cast<std::size_t>(i)]](c) : model;
+        a.row(i) = design[static_cast<std::size_t>(i)] / scale;
+        b(i) = psd[used[static_cast<std::size_t>(i)]](c) / scale;
+      }
+      x = non_negative_fit(a, b);
+    }
+    white_nT(c) = std::sqrt(x(0));
+    pink_nT_per_sqrt_hz(c) = std::sqrt(x(1));
+  }
+  return all;
+}
+
+namespace {
+
+/// Row of each grid epoch (time rounded to the period) of a prepared pair.
+std::map<long long, Eigen::Index> epoch_rows(const PreparedPair& p) {
+  std::map<long long, Eigen::Index> rows;
+  for (std::size_t i = 0; i < p.paired.time_s.size(); ++i) {
+    rows[std::llround(p.paired.time_s[i] / p.sample_period_s)] = static_cast<Eigen::Index>(i);
+  }
+  return rows;
+}
+
+}  // namespace
+
+IdentifiedNoise identify_reference_noise(const VectorRecord& reference, const VectorRecord& test,
+                                         const VectorRecord& third, const PreprocessSettings& preprocess,
+                                         double band_low_hz, double band_high_hz, int bins) {
+  const PreparedPair with_test = prepare_pair(reference, test, preprocess);
+  PreparedPair with_third;
+  try {
+    with_third = prepare_pair(reference, third, preprocess);
+  } catch (const InputError& e) {  // name the third record, not the pair's own options
+    throw InputError("--third", "paired with the reference: " + e.problem());
+  }
+  if (std::abs(with_test.sample_period_s - with_third.sample_period_s) > 1e-9 * with_test.sample_period_s) {
+    throw InputError("--third", "its pair with the reference has another estimation period than the test's");
+  }
+  IdentifiedNoise out;
+  out.sample_period_s = with_test.sample_period_s;
+  const std::map<long long, Eigen::Index> third_rows = epoch_rows(with_third);
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> common;
+  for (std::size_t i = 0; i < with_test.paired.time_s.size(); ++i) {
+    const auto it = third_rows.find(std::llround(with_test.paired.time_s[i] / out.sample_period_s));
+    if (it != third_rows.end()) common.emplace_back(static_cast<Eigen::Index>(i), it->second);
+  }
+  // The hat needs one regular record: the longest run of consecutive shared epochs.
+  std::size_t best_first = 0, best_count = 0;
+  for (std::size_t i = 0, first = 0; i <= common.size(); ++i) {
+    const bool breaks = i == common.size() || (i > first && (common[i].first != common[i - 1].first + 1 ||
+                                                              common[i].second != common[i - 1].second + 1));
+    if (!breaks) continue;
+    if (i - first > best_count) {
+      best_first = first;
+      best_count = i - first;
+    }
+    first = i;
+  }
+  if (best_count < 64) {
+    throw InputError("--third", "the reference, the test and the third record share " + std::to_string(best_count) +
+                                    " consecutive epochs on the estimation grid (at least 64 needed)");
+  }
+  out.samples = best_count;
+  const auto n = static_cast<Eigen::Index>(best_count);
+  Readings r(n, 3), t(n, 3), c(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto& rows = common[best_first + static_cast<std::size_t>(i)];
+    r.row(i) = with_test.paired.reference_nT.row(rows.first);
+    t.row(i) = with_test.paired.test_nT.row(rows.first);
+    c.row(i) = with_third.paired.test_nT.row(rows.second);
+  }
+  ThreeCorneredHatSettings hs;
+  hs.band_low_hz = band_low_hz;
+  hs.band_high_hz = band_high_hz;
+  hs.bins = bins;
+  out.hat = three_cornered_hat(r, t, c, out.sample_period_s, hs);
+  fit_white_and_pink(out.hat.psd_nT2_per_hz[0], out.hat.bin_low_hz, out.hat.bin_high_hz, out.sample_period_s,
+                     out.white_nT, out.pink_nT_per_sqrt_hz);
+  out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();
+  char text[256];
+  if (out.identified) {
+    std::snprintf(text, sizeof text,
+                  "reference noise from the three-cornered hat (%zu epochs, %d bins): white %.3g/%.3g/%.3g pT rms, "
+                  "1/f %.3g/%.3g/%.3g pT/sqrt(Hz) at 1 Hz (x/y/z)",
+                  out.samples, bins, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1), 1e3 * out.white_nT(2),
+                  1e3 * out.pink_nT_per_sqrt_hz(0), 1e3 * out.pink_nT_per_sqrt_hz(1), 1e3 * out.pink_nT_per_sqrt_hz(2));
+  } else {
+    std::snprintf(text, sizeof text,
+                  "reference noise not identified by the three-cornered hat (%zu epochs): no bin with a positive "
+                  "estimate (noise shared between instruments?)",
+                  out.samples);
+  }
+  out.text = text;
+  return out;
+}
+
+}  // namespace magnetometer_insitu_calibration

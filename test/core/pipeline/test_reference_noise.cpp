@@ -1,0 +1,131 @@
+// The reference's noise identified from a third instrument (pipeline/reference_noise.hpp): the
+// white + 1/f fit against PSDs computed by hand, and the whole path on three simulated
+// instruments of known, different noise.
+#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <random>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+/// Bins of the default band in 4 log-spaced steps, and S = 2 w^2 dt + p^2 mean(1/f) per bin.
+struct Bins {
+  std::vector<double> low{0.0002, 0.0002 * std::pow(50.0, 0.25), 0.0002 * std::pow(50.0, 0.5),
+                          0.0002 * std::pow(50.0, 0.75)};
+  std::vector<double> high{0.0002 * std::pow(50.0, 0.25), 0.0002 * std::pow(50.0, 0.5),
+                           0.0002 * std::pow(50.0, 0.75), 0.01};
+  std::vector<Eigen::Vector3d> psd(const Eigen::Vector3d& w, const Eigen::Vector3d& p, double dt) const {
+    std::vector<Eigen::Vector3d> out;
+    for (std::size_t k = 0; k < low.size(); ++k) {
+      const double inverse_f = std::log(high[k] / low[k]) / (high[k] - low[k]);
+      out.push_back(2.0 * dt * w.cwiseAbs2() + inverse_f * p.cwiseAbs2());
+    }
+    return out;
+  }
+};
+
+}  // namespace
+
+TEST(FitWhiteAndPink, RecoversLevelsFromExactBins) {
+  const Bins b;
+  const Eigen::Vector3d w(0.01, 0.03, 0.0), p(0.005, 0.0, 0.02);  // nT, nT/sqrt(Hz) at 1 Hz
+  Eigen::Vector3d white, pink;
+  ASSERT_TRUE(mic::fit_white_and_pink(b.psd(w, p, 1.0), b.low, b.high, 1.0, white, pink));
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(white(c), w(c), 1e-9) << c;
+    EXPECT_NEAR(pink(c), p(c), 1e-9) << c;
+  }
+}
+
+TEST(FitWhiteAndPink, LeavesOutNegativeBinsAndReportsAnAxisWithNone) {
+  const Bins b;
+  std::vector<Eigen::Vector3d> psd = b.psd(Eigen::Vector3d::Constant(0.02), Eigen::Vector3d::Constant(0.004), 1.0);
+  psd[3](0) = -1e-3;                         // x: one bin negative (shared noise), left out
+  for (auto& bin : psd) bin(2) = -1e-4;      // z: every bin negative
+  Eigen::Vector3d white, pink;
+  EXPECT_FALSE(mic::fit_white_and_pink(psd, b.low, b.high, 1.0, white, pink));
+  EXPECT_NEAR(white(0), 0.02, 1e-9);
+  EXPECT_NEAR(pink(0), 0.004, 1e-9);
+  EXPECT_EQ(white(2), 0.0);
+  EXPECT_EQ(pink(2), 0.0);
+}
+
+namespace {
+
+struct ThreeInstruments {
+  mic::SimulatedPair pair;
+  mic::VectorRecord third;
+  mic::SimulationSettings settings;
+};
+
+/// Two days at 1 Hz: reference white 0.1 nT + 1/f 0.02 nT/sqrt(Hz) at 1 Hz, test white 0.01 nT,
+/// third white 0.05 nT with its own small misalignment; the third starts 2 h late.
+ThreeInstruments three_instruments(std::uint64_t seed) {
+  ThreeInstruments t;
+  mic::SimulationSettings& s = t.settings;
+  s.seed = seed;
+  s.duration_s = 2.0 * 86400.0;
+  s.reference_white_nT = 0.1;
+  s.reference_pink_nT_per_sqrt_hz = 0.02;
+  s.test_white_nT = 0.01;
+  s.test_pink_nT_per_sqrt_hz = 0.0;
+  s.keep_clean_field = true;
+  t.pair = mic::simulate_pair(s);
+  const Eigen::Matrix3d n_c = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
+                                                      Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
+  std::mt19937_64 rng(seed * 31 + 7);
+  std::normal_distribution<double> normal;
+  const Eigen::Index skip = 7200;
+  const Eigen::Index rows = t.pair.field_nT.rows() - skip;
+  t.third.values_nT = t.pair.field_nT.bottomRows(rows) * n_c;
+  for (Eigen::Index i = 0; i < rows; ++i) {
+    for (int c = 0; c < 3; ++c) t.third.values_nT(i, c) += 0.05 * normal(rng);
+  }
+  t.third.time_s.assign(t.pair.reference.time_s.begin() + skip, t.pair.reference.time_s.end());
+  return t;
+}
+
+}  // namespace
+
+TEST(IdentifyReferenceNoise, RecoversTheReferenceNoiseOfThreeInstruments) {
+  // MIC_HAT_SEED: another seed (seeds 91-110 checked when written).
+  const char* seed = std::getenv("MIC_HAT_SEED");
+  const ThreeInstruments t = three_instruments(seed != nullptr ? std::strtoull(seed, nullptr, 10) : 91);
+  const mic::IdentifiedNoise noise = mic::identify_reference_noise(t.pair.reference, t.pair.test, t.third,
+                                                                   mic::PreprocessSettings{}, 0.0002, 0.01);
+  ASSERT_TRUE(noise.identified) << noise.text;
+  EXPECT_EQ(noise.samples, t.third.time_s.size());  // the epochs all three share
+  EXPECT_NE(noise.text.find("three-cornered hat"), std::string::npos) << noise.text;
+  // The identified noise level (ASD, the square root of the fitted PSD) against the simulated one
+  // in every bin of the band, every axis: within 20 % (issue 13's aim for each instrument's
+  // level). The lowest bin holds 56 harmonics: its periodogram alone scatters by about 13 % in PSD.
+  const Bins b;
+  const std::vector<Eigen::Vector3d> truth =
+      b.psd(Eigen::Vector3d::Constant(0.1), Eigen::Vector3d::Constant(0.02), 1.0);
+  const std::vector<Eigen::Vector3d> fitted = b.psd(noise.white_nT, noise.pink_nT_per_sqrt_hz, 1.0);
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(std::sqrt(fitted[k](c) / truth[k](c)), 1.0, 0.2) << "bin " << k << ", axis " << c << ": " << noise.text;
+    }
+  }
+}
+
+TEST(IdentifyReferenceNoise, AThirdRecordOutsideThePairIsNamed) {
+  ThreeInstruments t = three_instruments(92);
+  for (double& time : t.third.time_s) time += 2.0 * 86400.0;  // two days later: no shared epoch
+  try {
+    mic::identify_reference_noise(t.pair.reference, t.pair.test, t.third, mic::PreprocessSettings{}, 0.0002, 0.01);
+    FAIL() << "no error";
+  } catch (const mic::InputError& e) {
+    EXPECT_EQ(e.where(), "--third") << e.what();
+    EXPECT_NE(std::string(e.what()).find("overlap"), std::string::npos) << e.what();
+  }
+}
