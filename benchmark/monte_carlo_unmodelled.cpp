@@ -187,8 +187,11 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       }
       mic::WindowEstimator estimator(es);
       mic::WindowEstimate e;
+      std::string model_text;
       if (name == "default") {  // the default pipeline: robust estimator and response model
-        e = mic::calibrate_prepared(prepared, base).back().estimate;
+        const mic::CalibrationWindow w = mic::calibrate_prepared(prepared, base).back();
+        e = w.estimate;
+        model_text = w.response_model.text;
       } else {
         e = estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
       }
@@ -200,6 +203,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       std::printf("seed %llu %s %.4f %.4f %.4f %.4f %.4f %.4f %d %s\n", static_cast<unsigned long long>(seed), name.c_str(), ds(0),
                   ds(1), ds(2), da(0), da(1), da(2), cov[0] + cov[1] + cov[2] + cov[3] + cov[4] + cov[5],
                   name == "plain" ? "-" : (e.eiv.rfind("none", 0) == 0 ? "none" : "applied"));
+      if (!model_text.empty() && std::getenv("MC_PRINT_MODEL") != nullptr) std::printf("#   %s\n", model_text.c_str());
     }
     std::fflush(stdout);
   }

@@ -50,10 +50,12 @@ struct Fit {
 /// Levenberg-Marquardt on the weighted residuals, q >= 0 kept by clamping; q_k held at 0 where
 /// free_corner(k) is false.
 Fit fit(const std::vector<ResponseBand>& bands, double initial_delay_s,
-        const Eigen::Array<bool, 3, 1>& free_corner = Eigen::Array<bool, 3, 1>::Constant(true)) {
+        const Eigen::Array<bool, 3, 1>& free_corner = Eigen::Array<bool, 3, 1>::Constant(true),
+        const Params* start = nullptr) {
   Fit out;
   Params p;
   p << initial_delay_s, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0;
+  if (start != nullptr) p = *start;
   double lambda = 1e-3;
   Eigen::VectorXd r = residuals(p, bands);
   double cost = r.squaredNorm();
@@ -118,6 +120,30 @@ Fit fit(const std::vector<ResponseBand>& bands, double initial_delay_s,
   return out;
 }
 
+/// How much better the gains alone (|H| of component k over the bands) fit a 1-pole roll-off
+/// with 1/fc = q than a flat gain: chi^2(flat) - chi^2(roll-off), each with its best constant g.
+/// A delay and a corner share their low-frequency phase (a 1-pole lags by 1 / (2 pi fc) s), so
+/// only the gain tells a filter from a delay.
+double gain_rolloff_chi2(const std::vector<ResponseBand>& bands, int k, double q) {
+  double chi2[2];
+  for (int m = 0; m < 2; ++m) {
+    double swx = 0.0, sxx = 0.0;  // weighted LS of gain = g * shape
+    std::vector<double> shape, gain, weight;
+    for (const auto& b : bands) {
+      const double sd = std::max(1e-12, b.gain_ci95(k) / student_t95(2.0 * (static_cast<double>(b.harmonics) - 2.0)));
+      shape.push_back(m == 0 ? 1.0 : 1.0 / std::hypot(1.0, b.frequency_hz * q));
+      gain.push_back(b.gain(k));
+      weight.push_back(1.0 / (sd * sd));
+      swx += weight.back() * shape.back() * gain.back();
+      sxx += weight.back() * shape.back() * shape.back();
+    }
+    const double g = swx / sxx;
+    chi2[m] = 0.0;
+    for (std::size_t i = 0; i < gain.size(); ++i) chi2[m] += weight[i] * std::pow(gain[i] - g * shape[i], 2);
+  }
+  return chi2[0] - chi2[1];
+}
+
 }  // namespace
 
 void ResponseModelSettings::validate() const {
@@ -139,18 +165,47 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
   const double initial_delay = summarise_response(used, 0.0, settings.min_fit_max_hz).group_delay_s;
   // Lower the top of the fit band by band until the model fits.
   while (used.size() >= 5 && used.back().frequency_hz >= settings.min_fit_max_hz) {
-    const Fit f = fit(used, std::isfinite(initial_delay) ? initial_delay : 0.0);
+    // Start each corner where the gains alone put it (a grid over 1/fc; 0 when no roll-off shows)
+    // and the delay at the group delay less those corners' lag: from 1/fc = 0 the phase the
+    // group delay already holds pushes the corners against their bound and the fit stalls there.
+    Params start;
+    start << (std::isfinite(initial_delay) ? initial_delay : 0.0), 1.0, 1.0, 1.0, 0.0, 0.0, 0.0;
+    for (int k = 0; k < 3; ++k) {
+      double best = 0.0;
+      for (int i = 0; i <= 40; ++i) {
+        const double q = 0.1 / used.back().frequency_hz * std::pow(1000.0, i / 40.0);  // fc from 10 fmax down
+        const double gain = gain_rolloff_chi2(used, k, q);
+        if (gain > best) {
+          best = gain;
+          start(4 + k) = q;
+        }
+      }
+      start(0) -= start(4 + k) / (2.0 * kPi) / 3.0;
+    }
+    const Fit f = fit(used, start(0), Eigen::Array<bool, 3, 1>::Constant(true), &start);
     if (f.ok && f.chi2_per_dof <= settings.max_chi2_per_dof) {
       m.fitted = true;
       m.fit_max_hz = used.back().frequency_hz;
       Eigen::Array<bool, 3, 1> significant;
       for (int k = 0; k < 3; ++k) {
         const double q = f.p(4 + k), se = std::sqrt(f.covariance(4 + k, 4 + k));
-        significant(k) = q > settings.min_significance * se && q * m.fit_max_hz >= 1.0;
+        // Significant, inside the fitted range, and seen in the gains (not only in the phase,
+        // which a delay explains as well).
+        significant(k) = q > settings.min_significance * se && q * m.fit_max_hz >= 1.0 &&
+                         gain_rolloff_chi2(used, k, q) >= settings.min_significance * settings.min_significance;
       }
       // The delay and the corners that count, fitted again without the others (a corner far above
       // the data trades its phase against the delay).
-      const Fit final_fit = significant.all() ? f : fit(used, f.p(0), significant);
+      // It starts from the first fit, the dropped corners' lag (1 / (2 pi fc)) moved into the delay.
+      Params start = f.p;
+      double common_lag = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        if (significant(k)) continue;
+        common_lag += start(4 + k) / (2.0 * kPi) / 3.0;
+        start(4 + k) = 0.0;
+      }
+      start(0) += common_lag;
+      const Fit final_fit = significant.all() ? f : fit(used, start(0), significant, &start);
       m.chi2_per_dof = final_fit.chi2_per_dof;
       m.delay_s = final_fit.p(0);
       m.delay_ci95_s = 1.959964 * std::sqrt(final_fit.covariance(0, 0));
@@ -160,7 +215,7 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
         // A corner counts when it is significant AND inside the fitted range, where its roll-off
         // was seen: above it, a small fitted 1/fc is what reference noise does to the measured
         // gain at high frequency (errors in variables), not a filter.
-        if (significant(k)) {
+        if (significant(k) && q * m.fit_max_hz >= 1.0) {  // still inside the fitted range after the refit
           m.inverse_corner_s(k) = q;
           m.corner_hz(k) = 1.0 / q;
           m.applied = true;

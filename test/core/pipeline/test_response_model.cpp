@@ -123,7 +123,7 @@ TEST(ResponseModel, RemovingTheModelledFilterRestoresTheUnfilteredRecord) {
   EXPECT_LT(rms_after, 0.01 * rms_before) << rms_after << " vs " << rms_before;
 }
 
-TEST(ResponseModel, FitsTheCornerAndDelayOfAFilteredPairAndNotOfAFlatOne) {
+TEST(ResponseModel, FitsTheCornerAndDelayOfAFilteredPairAndNotOfAFlatOrLaggedOne) {
   mic::CalibrationSettings settings;
   settings.windows.intervals = 0;
   const Pair filtered = simulate(11, 2.0, 0.03, 2);
@@ -141,6 +141,14 @@ TEST(ResponseModel, FitsTheCornerAndDelayOfAFilteredPairAndNotOfAFlatOne) {
   const auto without = mic::calibrate_records(flat.reference, flat.test, settings);
   EXPECT_TRUE(without.windows.back().response_model.fitted);
   EXPECT_FALSE(without.windows.back().response_model.applied) << without.windows.back().response_model.text;
+  // A pure 3 s lag (a time-stamping delay, as the WIC FGE's) is a delay, not a filter: its phase
+  // alone would fit a corner, its flat gains do not.
+  const Pair lagged = simulate(13, 2.0, 0.0, 3.0);
+  const auto lag = mic::calibrate_records(lagged.reference, lagged.test, settings);
+  const mic::ResponseModel& l = lag.windows.back().response_model;
+  EXPECT_TRUE(l.fitted) << l.text;
+  EXPECT_FALSE(l.applied) << l.text;
+  EXPECT_NEAR(l.delay_s, 3.0, 0.2) << l.text;
 }
 
 // The held-out case: Eq. 2 over the default band (0.0002-0.01 Hz) takes the filter's
@@ -179,6 +187,34 @@ TEST(ResponseModel, FilterMismatchDoesNotBiasNThroughTheModel) {
   EXPECT_GT(worst_without_z, 5.0) << "the filter must bias the estimate without the model";
   EXPECT_LT(worst_with_z, 3.5) << "through the model, every scale ratio within 3.5 standard errors";
   EXPECT_LT(100 * bias_with.cwiseAbs().maxCoeff(), 0.05) << "mean scale error over the seeds, %";
+}
+
+// Gains flat within 0.5 % but a 1-pole's phase (0.08 Hz) on top of a 1 s lag: what the phase
+// says could be a filter or stamping, the gains show no roll-off (a 1-pole at 0.08 Hz would be
+// 0.67 at 0.09 Hz), so no corner counts (WIC's fourth quarter took its lag for X and Y corners
+// before this rule).
+TEST(ResponseModel, ACornerSeenOnlyInThePhaseDoesNotCount) {
+  std::vector<mic::ResponseBand> bands;
+  for (int i = 0; i < 20; ++i) {
+    mic::ResponseBand b;
+    b.frequency_hz = 0.001 * std::pow(100.0, i / 19.0);
+    b.low_hz = b.frequency_hz * 0.9;
+    b.high_hz = b.frequency_hz * 1.1;
+    b.harmonics = 50;
+    const double phase = -360.0 * b.frequency_hz * 1.0 - std::atan(b.frequency_hz / 0.08) * 180.0 / kPi;
+    b.gain.setConstant(1.0);
+    b.gain_ci95.setConstant(0.01);
+    b.phase_deg.setConstant(phase);
+    b.phase_ci95_deg.setConstant(0.6);
+    bands.push_back(b);
+  }
+  const mic::ResponseModel m = mic::fit_response_model(bands);
+  EXPECT_FALSE(m.applied) << m.text;
+  // The same phase with the gains of that 1-pole: the corner counts.
+  for (auto& b : bands) b.gain.setConstant(1.0 / std::hypot(1.0, b.frequency_hz / 0.08));
+  const mic::ResponseModel filtered = mic::fit_response_model(bands);
+  ASSERT_TRUE(filtered.applied) << filtered.text;
+  EXPECT_NEAR(filtered.corner_hz(0), 0.08, 0.004) << filtered.text;
 }
 
 TEST(ResponseModel, ImpossibleSettingsAreRefused) {
