@@ -217,6 +217,11 @@ TEST(Calibration, Nominal) {
   EXPECT_EQ(value_of(cal, "windows accepted"), 2u);
   EXPECT_EQ(value_of(cal, "paired"), paired_samples);
   EXPECT_EQ(value_of(cal, "late") + value_of(cal, "duplicates"), 0u);
+  // The response model ran on each window (~response_model, default on) and, the simulated pair
+  // having matched filters, removed none.
+  EXPECT_EQ(cal->values.at("response model (last window)").rfind("response model to ", 0), 0u)
+      << cal->values.at("response model (last window)");
+  EXPECT_EQ(value_of(cal, "windows estimated through a modelled filter"), 0u);
 
   // 5. Correction nodes started with a malformed / half-written file: an error in the
   //    diagnostics, nothing published until a calibration arrives on the topic, then correcting.
