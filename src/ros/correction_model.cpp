@@ -47,6 +47,19 @@ void CorrectionModel::set_temperature(double reference_C, const Eigen::Vector3d&
   temperature_scale_ = scale_per_C;
 }
 
+void CorrectionModel::set_temperature_uncertainty(const Eigen::Vector3d& apparent_se_per_C,
+                                                  const Eigen::Vector3d& scale_se_per_C,
+                                                  const Eigen::Vector3d& mean_test_field) {
+  if (!apparent_se_per_C.allFinite() || (apparent_se_per_C.array() < 0.0).any() || !scale_se_per_C.allFinite() ||
+      (scale_se_per_C.array() < 0.0).any()) {
+    throw std::invalid_argument("temperature coefficient uncertainties must be finite and >= 0");
+  }
+  if (!mean_test_field.allFinite()) throw std::invalid_argument("the window's mean test field is not finite");
+  apparent_se_ = apparent_se_per_C;
+  scale_se_ = scale_se_per_C;
+  mean_test_field_ = mean_test_field;
+}
+
 Eigen::Vector3d CorrectionModel::correct(const Eigen::Vector3d& test, double temperature_C) const {
   if (!has_temperature_) return correct(test);
   const double u = temperature_C - temperature_reference_C_;
@@ -61,8 +74,20 @@ Eigen::Vector3d CorrectionModel::correct(const Eigen::Vector3d& test, double tem
 
 Eigen::Matrix3d CorrectionModel::corrected_covariance(const Eigen::Matrix3d& test_covariance,
                                                       const Eigen::Vector3d& corrected,
-                                                      bool include_calibration) const {
+                                                      bool include_calibration, double temperature_C) const {
   Eigen::Matrix3d c = n_inverse_transpose_ * test_covariance * n_inverse_;
+  if (include_calibration && has_temperature_ && std::isfinite(temperature_C)) {
+    const double u = temperature_C - temperature_reference_C_;
+    const Eigen::Vector3d y = n_.transpose() * corrected;  // test frame, offset and temperature terms removed
+    Eigen::Vector3d variance;
+    for (int l = 0; l < 3; ++l) {
+      const double factor = u / (1.0 + temperature_scale_(l) * u);
+      const double lever = y(l) + offset_(l) - mean_test_field_(l);  // the reading's field about F
+      variance(l) = factor * factor *
+                    (apparent_se_(l) * apparent_se_(l) + lever * lever * scale_se_(l) * scale_se_(l));
+    }
+    c += n_inverse_transpose_ * variance.asDiagonal() * n_inverse_;
+  }
   if (include_calibration) {
     Eigen::Matrix<double, 3, 9> jacobian;
     for (int j = 0; j < 3; ++j) {

@@ -9,6 +9,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <sstream>
 #include <sys/stat.h>
@@ -137,13 +138,21 @@ std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::s
         const auto vector = [](const boost::array<double, 3>& a, double factor) {
           return Eigen::Vector3d(factor * a[0], factor * a[1], factor * a[2]);
         };
-        if (settings_.temperature_model == "full") {
+        const bool full = settings_.temperature_model == "full";
+        if (full) {
           model->set_temperature(c.temperature_reference_C, vector(c.temperature_offset_nT_per_C, 1e-9),
                                  vector(c.temperature_scale_ppm_per_C, 1e-6));
         } else {  // apparent: a u, no scale term
           model->set_temperature(c.temperature_reference_C, vector(c.temperature_apparent_nT_per_C, 1e-9),
                                  Eigen::Vector3d::Zero());
         }
+        // Standard errors (ci95 / 1.96) in T/degC and 1/degC; F = n^T m + d, the window's mean
+        // test field (0 without the offset: the scale term's lever is then the whole field).
+        constexpr double kZ95 = 1.959963984540054;
+        model->set_temperature_uncertainty(vector(c.temperature_apparent_ci95_nT_per_C, 1e-9 / kZ95),
+                                           full ? vector(c.temperature_scale_ci95_ppm_per_C, 1e-6 / kZ95)
+                                                : Eigen::Vector3d::Zero(),
+                                           n.transpose() * anchor + offset);
       }
     } catch (const std::invalid_argument& e) {
       reason = e.what();
@@ -245,10 +254,12 @@ void CorrectionNode::on_test(const sensor_msgs::MagneticField::ConstPtr& message
   const CorrectionModel& model = *active_->model;
   const Eigen::Vector3d test(message->magnetic_field.x, message->magnetic_field.y, message->magnetic_field.z);  // T
   Eigen::Vector3d reference;  // T, reference frame
+  double corrected_at_C = std::numeric_limits<double>::quiet_NaN();  // temperature the terms were applied at
   if (model.has_temperature() && !settings_.temperature_topic.empty()) {
     const double age_s = std::abs(message->header.stamp.toSec() - temperature_stamp_s_);
     if (temperature_messages_ > 0 && age_s <= settings_.temperature_max_age_s && std::isfinite(temperature_C_)) {
       reference = model.correct(test, temperature_C_);
+      corrected_at_C = temperature_C_;
       ++corrected_with_temperature_;
     } else {
       reference = model.correct(test);
@@ -269,7 +280,7 @@ void CorrectionNode::on_test(const sensor_msgs::MagneticField::ConstPtr& message
   out.magnetic_field.z = reference(2);
   if (!test_covariance.isZero(0.0)) {  // all zero = unknown, and stays unknown
     const Eigen::Matrix3d covariance =
-        model.corrected_covariance(test_covariance, reference, settings_.include_calibration_covariance);
+        model.corrected_covariance(test_covariance, reference, settings_.include_calibration_covariance, corrected_at_C);
     for (int k = 0; k < 9; ++k) out.magnetic_field_covariance[k] = covariance(k / 3, k % 3);
   }
   corrected_publisher_.publish(out);

@@ -23,13 +23,17 @@
 //   y_l = (t_l - d_l - c_l u) / (1 + s_l u),   r = n^-T y.
 // (To first order this removes a_l u + s_l u ((n^T r)_l - F_l), a_l = c_l + s_l F_l the apparent
 // coefficient, F_l the calibration window's mean field in the test frame.) The temperature terms'
-// own uncertainty is not propagated into the covariance.
+// own uncertainty (set_temperature_uncertainty) enters corrected_covariance at a given
+// temperature: with y = n^T r, delta y_l = -u (delta a_l + (y_l - F_l) delta s_l) / (1 + s_l u),
+// a_l and s_l taken as independent (the apparent coefficient is the well-determined combination;
+// c_l and s_l alone are strongly anti-correlated, which the message does not carry).
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 
 #include <Eigen/Core>
 
+#include <limits>
 #include <string>
 
 namespace magnetometer_insitu_calibration {
@@ -51,6 +55,12 @@ class CorrectionModel {
   /// scale_per_C = s (1/degC, not ppm). Throws std::invalid_argument unless all are finite.
   void set_temperature(double reference_C, const Eigen::Vector3d& offset_per_C, const Eigen::Vector3d& scale_per_C);
   bool has_temperature() const { return has_temperature_; }
+  /// Standard errors of the apparent coefficients a (unit of t per degC) and of the scale
+  /// coefficients s (1/degC; zero for the apparent model), and F, the calibration window's mean
+  /// field in the test frame (unit of t), for corrected_covariance. Throws std::invalid_argument
+  /// unless all are finite and the errors >= 0.
+  void set_temperature_uncertainty(const Eigen::Vector3d& apparent_se_per_C, const Eigen::Vector3d& scale_se_per_C,
+                                   const Eigen::Vector3d& mean_test_field);
   /// r = n^-T y, y_l = (t_l - d_l - c_l u) / (1 + s_l u), u = temperature_C - reference_C (see
   /// above); without temperature terms, correct(test). NaN components where 1 + s_l u <= 0 (a
   /// temperature tens of thousands of degC away: no physical reading).
@@ -61,9 +71,12 @@ class CorrectionModel {
   /// include_calibration, the uncertainty of n itself propagated to first order:
   /// dr_j = -sum_ab (r - m)_a dn_ab (n^-1)_bj, i.e. J Cov(vec n) J^T with
   /// J_j,3a+b = -(r - m)_a (n^-1)_bj, m = anchor. (The offset's own noise terms, residual rms^2 / N
-  /// and the trend's, are left out: they are small next to the test noise.)
+  /// and the trend's, are left out: they are small next to the test noise.) With temperature
+  /// terms and a finite temperature_C (the temperature the reading was corrected at), also the
+  /// terms' own uncertainty (see above): n^-T diag(var y) n^-1.
   Eigen::Matrix3d corrected_covariance(const Eigen::Matrix3d& test_covariance, const Eigen::Vector3d& corrected,
-                                       bool include_calibration) const;
+                                       bool include_calibration,
+                                       double temperature_C = std::numeric_limits<double>::quiet_NaN()) const;
 
   const Eigen::Matrix3d& n() const { return n_; }
   double condition_number() const { return condition_number_; }
@@ -80,6 +93,9 @@ class CorrectionModel {
   double temperature_reference_C_ = 0.0;
   Eigen::Vector3d temperature_offset_ = Eigen::Vector3d::Zero();  ///< c, unit of t per degC
   Eigen::Vector3d temperature_scale_ = Eigen::Vector3d::Zero();   ///< s, 1/degC
+  Eigen::Vector3d apparent_se_ = Eigen::Vector3d::Zero();         ///< of a, unit of t per degC
+  Eigen::Vector3d scale_se_ = Eigen::Vector3d::Zero();            ///< of s, 1/degC
+  Eigen::Vector3d mean_test_field_ = Eigen::Vector3d::Zero();     ///< F, unit of t
 };
 
 }  // namespace magnetometer_insitu_calibration
