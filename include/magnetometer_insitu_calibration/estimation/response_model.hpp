@@ -30,10 +30,15 @@ struct ResponseModelSettings {
   double fit_max_hz = 0.1;        ///< highest band used in the fit, Hz
   double min_fit_max_hz = 0.02;   ///< the fit is given up when it needs to stop below this, Hz
   double max_chi2_per_dof = 2.0;  ///< a fit worse than this drops its highest band
-  /// A corner is applied only when 1/fc is this many standard errors above 0 and the corner lies
-  /// inside the fitted range (else no filter: a roll-off extrapolated from above the data is what
-  /// reference noise does to the measured gain at high frequency).
+  /// A corner is applied only when 1/fc is this many standard errors above 0, the gains alone
+  /// show its roll-off (chi^2 flat - chi^2 1-pole >= min_significance^2) and the corner lies at
+  /// most max_corner_above_fit times above the highest fitted band (else no filter: a roll-off
+  /// extrapolated from far above the data is what reference noise does to the measured gain at
+  /// high frequency). At 1.5 the 1-pole's gain at the top of the fit is 0.83: its roll-off was
+  /// seen. (1.0, the rule until session 6, missed the 0.03 Hz filter on disturbed records whose
+  /// fit stops at 0.0225 Hz.)
   double min_significance = 3.0;
+  double max_corner_above_fit = 1.5;
 
   void validate() const;  ///< throws InputError naming the field
 };

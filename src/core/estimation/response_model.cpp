@@ -153,6 +153,7 @@ void ResponseModelSettings::validate() const {
   }
   if (!(max_chi2_per_dof >= 1.0)) throw InputError("response_model.max_chi2_per_dof", "must be >= 1");
   if (!(min_significance > 0.0)) throw InputError("response_model.min_significance", "must be > 0");
+  if (!(max_corner_above_fit >= 1.0)) throw InputError("response_model.max_corner_above_fit", "must be >= 1");
 }
 
 ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const ResponseModelSettings& settings) {
@@ -191,7 +192,7 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
         const double q = f.p(4 + k), se = std::sqrt(f.covariance(4 + k, 4 + k));
         // Significant, inside the fitted range, and seen in the gains (not only in the phase,
         // which a delay explains as well).
-        significant(k) = q > settings.min_significance * se && q * m.fit_max_hz >= 1.0 &&
+        significant(k) = q > settings.min_significance * se && q * m.fit_max_hz * settings.max_corner_above_fit >= 1.0 &&
                          gain_rolloff_chi2(used, k, q) >= settings.min_significance * settings.min_significance;
       }
       // The delay and the corners that count, fitted again without the others (a corner far above
@@ -212,10 +213,11 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
       for (int k = 0; k < 3; ++k) {
         const double q = final_fit.p(4 + k), se = std::sqrt(f.covariance(4 + k, 4 + k));
         m.inverse_corner_ci95_s(k) = 1.959964 * se;
-        // A corner counts when it is significant AND inside the fitted range, where its roll-off
-        // was seen: above it, a small fitted 1/fc is what reference noise does to the measured
-        // gain at high frequency (errors in variables), not a filter.
-        if (significant(k) && q * m.fit_max_hz >= 1.0) {  // still inside the fitted range after the refit
+        // A corner counts when it is significant AND near the fitted range (at most
+        // max_corner_above_fit above it), where its roll-off was seen: far above it, a small fitted
+        // 1/fc is what reference noise does to the measured gain at high frequency (errors in
+        // variables), not a filter. Checked again on the refit's corner.
+        if (significant(k) && q * m.fit_max_hz * settings.max_corner_above_fit >= 1.0) {
           m.inverse_corner_s(k) = q;
           m.corner_hz(k) = 1.0 / q;
           m.applied = true;

@@ -227,4 +227,7 @@ TEST(ResponseModel, ImpossibleSettingsAreRefused) {
   s = {};
   s.max_chi2_per_dof = 0.5;
   EXPECT_THROW(s.validate(), mic::InputError);
+  s = {};
+  s.max_corner_above_fit = 0.9;
+  EXPECT_THROW(s.validate(), mic::InputError);
 }
