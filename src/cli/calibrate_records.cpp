@@ -134,19 +134,22 @@ int main(int argc, char** argv) {
     }
     settings.validate();
     const auto [reference, test] = bag.records(reference_paths, test_paths);
+    // calibrate_records() in two steps, so that --third uses the pair as prepared.
+    mic::PairCalibration result;
+    const mic::PreparedPair prepared = mic::prepare_pair(reference, test, settings.preprocess, &result.report);
     if (!third_paths.empty()) {
       std::vector<std::string> warnings;
       const mic::VectorRecord third = mic::read_records(third_paths, &warnings);
       for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
       const mic::IdentifiedNoise noise =
-          mic::identify_reference_noise(reference, test, third, settings.preprocess, settings.estimator.band_low_hz,
+          mic::identify_reference_noise(prepared, reference, third, settings.preprocess, settings.estimator.band_low_hz,
                                         settings.estimator.band_high_hz);
       std::cout << noise.text << "\n";
       settings.estimator.robust.reference_white_nT = noise.white_nT;
       settings.estimator.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
       settings.estimator.robust.reference_noise_source = "three-cornered hat with --third";
     }
-    const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
+    result.windows = mic::calibrate_prepared(prepared, settings);
     const mic::ReportInputs inputs = bag.inputs(reference_paths, test_paths);
     std::cout << mic::format_calibration_table(result, inputs);
     if (!json_path.empty()) {

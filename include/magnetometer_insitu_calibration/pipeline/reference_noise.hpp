@@ -43,12 +43,14 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, cons
                         const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,
                         Eigen::Vector3d& pink_nT_per_sqrt_hz);
 
-/// The three records (reference, test, a third instrument; any frames, nearly aligned) paired on
-/// the estimation grid by prepare_pair(reference, X, preprocess) and cut to the epochs all three
-/// share; the hat over [band_low_hz, band_high_hz] in `bins` log-spaced bins; the reference's PSD
-/// fitted by fit_white_and_pink. Throws InputError("--third", ...) when the three share fewer
-/// than 64 epochs; the hat's own errors name "three_cornered_hat".
-IdentifiedNoise identify_reference_noise(const VectorRecord& reference, const VectorRecord& test,
+/// The reference and test as already paired for calibration (prepare_pair(reference, test,
+/// preprocess), so they are prepared once) and a third instrument's record (any frame, nearly
+/// aligned), paired with the reference the same way and cut to the longest run of epochs all
+/// three share; the hat over [band_low_hz, band_high_hz] in `bins` log-spaced bins; the
+/// reference's PSD fitted by fit_white_and_pink. Throws InputError("--third", ...) when the third
+/// does not pair with the reference or the three share fewer than 64 consecutive epochs; the
+/// hat's own errors name "three_cornered_hat".
+IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const VectorRecord& reference,
                                          const VectorRecord& third, const PreprocessSettings& preprocess,
                                          double band_low_hz, double band_high_hz, int bins = 4);
 

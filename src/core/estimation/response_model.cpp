@@ -125,23 +125,18 @@ Fit fit(const std::vector<ResponseBand>& bands, double initial_delay_s,
 /// A delay and a corner share their low-frequency phase (a 1-pole lags by 1 / (2 pi fc) s), so
 /// only the gain tells a filter from a delay.
 double gain_rolloff_chi2(const std::vector<ResponseBand>& bands, int k, double q) {
-  double chi2[2];
-  for (int m = 0; m < 2; ++m) {
-    double swx = 0.0, sxx = 0.0;  // weighted LS of gain = g * shape
-    std::vector<double> shape, gain, weight;
-    for (const auto& b : bands) {
-      const double sd = std::max(1e-12, b.gain_ci95(k) / student_t95(2.0 * (static_cast<double>(b.harmonics) - 2.0)));
-      shape.push_back(m == 0 ? 1.0 : 1.0 / std::hypot(1.0, b.frequency_hz * q));
-      gain.push_back(b.gain(k));
-      weight.push_back(1.0 / (sd * sd));
-      swx += weight.back() * shape.back() * gain.back();
-      sxx += weight.back() * shape.back() * shape.back();
-    }
-    const double g = swx / sxx;
-    chi2[m] = 0.0;
-    for (std::size_t i = 0; i < gain.size(); ++i) chi2[m] += weight[i] * std::pow(gain[i] - g * shape[i], 2);
+  // With weights w, gains x and shape s, the best g leaves chi^2 = sum w x^2 - (sum w x s)^2 / sum w s^2;
+  // the sum w x^2 term is common to both models.
+  double swx = 0.0, sw = 0.0, swxs = 0.0, swss = 0.0;
+  for (const auto& b : bands) {
+    const double sd = std::max(1e-12, b.gain_ci95(k) / student_t95(2.0 * (static_cast<double>(b.harmonics) - 2.0)));
+    const double w = 1.0 / (sd * sd), x = b.gain(k), shape = 1.0 / std::hypot(1.0, b.frequency_hz * q);
+    swx += w * x;
+    sw += w;
+    swxs += w * x * shape;
+    swss += w * shape * shape;
   }
-  return chi2[0] - chi2[1];
+  return swxs * swxs / swss - swx * swx / sw;
 }
 
 }  // namespace

@@ -128,13 +128,13 @@ ThreeCorneredHatResult three_cornered_hat(const Readings& a, const Readings& b, 
     out.bin_high_hz.push_back(k + 1 == s.bins ? s.band_high_hz : s.band_low_hz * std::pow(ratio, k + 1));
   }
   detail::RealDft dft;
-  out.pair_psd_nT2_per_hz[0] = residual_psd(a, b, dt, out.bin_low_hz, out.bin_high_hz, dft);  // ab
-  out.pair_psd_nT2_per_hz[1] = residual_psd(a, c, dt, out.bin_low_hz, out.bin_high_hz, dft);  // ac
-  out.pair_psd_nT2_per_hz[2] = residual_psd(b, c, dt, out.bin_low_hz, out.bin_high_hz, dft);  // bc
   if (s.method == ThreeCorneredHatMethod::kCrossSpectral) {
     out.psd_nT2_per_hz = cross_spectral_psd({&a, &b, &c}, dt, out.bin_low_hz, out.bin_high_hz, dft);
     return out;
   }
+  out.pair_psd_nT2_per_hz[0] = residual_psd(a, b, dt, out.bin_low_hz, out.bin_high_hz, dft);  // ab
+  out.pair_psd_nT2_per_hz[1] = residual_psd(a, c, dt, out.bin_low_hz, out.bin_high_hz, dft);  // ac
+  out.pair_psd_nT2_per_hz[2] = residual_psd(b, c, dt, out.bin_low_hz, out.bin_high_hz, dft);  // bc
   for (std::size_t k = 0; k < out.bin_low_hz.size(); ++k) {
     const Eigen::Vector3d ab = out.pair_psd_nT2_per_hz[0][k], ac = out.pair_psd_nT2_per_hz[1][k],
                           bc = out.pair_psd_nT2_per_hz[2][k];

@@ -89,10 +89,9 @@ std::map<long long, Eigen::Index> epoch_rows(const PreparedPair& p) {
 
 }  // namespace
 
-IdentifiedNoise identify_reference_noise(const VectorRecord& reference, const VectorRecord& test,
+IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const VectorRecord& reference,
                                          const VectorRecord& third, const PreprocessSettings& preprocess,
                                          double band_low_hz, double band_high_hz, int bins) {
-  const PreparedPair with_test = prepare_pair(reference, test, preprocess);
   PreparedPair with_third;
   try {
     with_third = prepare_pair(reference, third, preprocess);

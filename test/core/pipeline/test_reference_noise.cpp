@@ -99,8 +99,9 @@ TEST(IdentifyReferenceNoise, RecoversTheReferenceNoiseOfThreeInstruments) {
   // MIC_HAT_SEED: another seed (seeds 91-110 checked when written).
   const char* seed = std::getenv("MIC_HAT_SEED");
   const ThreeInstruments t = three_instruments(seed != nullptr ? std::strtoull(seed, nullptr, 10) : 91);
-  const mic::IdentifiedNoise noise = mic::identify_reference_noise(t.pair.reference, t.pair.test, t.third,
-                                                                   mic::PreprocessSettings{}, 0.0002, 0.01);
+  const mic::PreparedPair pair = mic::prepare_pair(t.pair.reference, t.pair.test, mic::PreprocessSettings{});
+  const mic::IdentifiedNoise noise =
+      mic::identify_reference_noise(pair, t.pair.reference, t.third, mic::PreprocessSettings{}, 0.0002, 0.01);
   ASSERT_TRUE(noise.identified) << noise.text;
   EXPECT_EQ(noise.samples, t.third.time_s.size());  // the epochs all three share
   EXPECT_NE(noise.text.find("three-cornered hat"), std::string::npos) << noise.text;
@@ -122,7 +123,8 @@ TEST(IdentifyReferenceNoise, AThirdRecordOutsideThePairIsNamed) {
   ThreeInstruments t = three_instruments(92);
   for (double& time : t.third.time_s) time += 2.0 * 86400.0;  // two days later: no shared epoch
   try {
-    mic::identify_reference_noise(t.pair.reference, t.pair.test, t.third, mic::PreprocessSettings{}, 0.0002, 0.01);
+    mic::identify_reference_noise(mic::prepare_pair(t.pair.reference, t.pair.test, mic::PreprocessSettings{}),
+                                  t.pair.reference, t.third, mic::PreprocessSettings{}, 0.0002, 0.01);
     FAIL() << "no error";
   } catch (const mic::InputError& e) {
     EXPECT_EQ(e.where(), "--third") << e.what();
