@@ -24,6 +24,7 @@
 // issue 13), none (robust, no EIV correction), given (robust, EIV with the simulated reference
 // noise given as the maker's figure), nomodel (the default estimator without the response model,
 // --no-response-model: the default before issue 14).
+// MC_PRINT_MODEL=1 adds, after each "default" line, the window's response model ("#   ...").
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
