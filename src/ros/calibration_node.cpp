@@ -30,6 +30,7 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   updater_.setHardwareID("reference " + nh_.resolveName(settings_.reference_topic));
   updater_.add("reference", [this](DiagnosticStatusWrapper& status) { diagnose_reference(status); });
+  if (settings_.hat_active()) coincident_ = std::make_unique<CoincidentWindows>(settings_.tests.size());
   for (std::size_t i = 0; i < settings_.tests.size(); ++i) {
     const TestInstrumentSettings& t = settings_.tests[i];
     channels_.push_back(std::make_unique<Channel>(t, settings_));
@@ -63,6 +64,7 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
            settings_.decimating() ? "low-passed and decimated" : "input rate", settings_.estimator.band_low_hz,
            settings_.estimator.band_high_hz, settings_.estimator.robust.auto_band ? " (auto band)" : "",
            estimator_method_name(settings_.estimator.method));
+  ROS_INFO("%s: errors in variables: %s", node_name_.c_str(), settings_.hat_state().c_str());
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });
   worker_ = std::thread([this] { run_worker(); });
@@ -125,6 +127,9 @@ void CalibrationNode::reset_pipeline(Channel& ch) {
     ch.test_decimator->reset();
   }
   ch.windows.reset();
+  for (std::size_t i = 0; coincident_ && i < channels_.size(); ++i) {
+    if (channels_[i].get() == &ch) coincident_->reset(i);
+  }
   ch.temperature.reset();
   ch.any_pair = false;
   ++ch.pipeline_resets;
@@ -142,7 +147,7 @@ void CalibrationNode::drain_pairs(std::size_t index) {
         if (!ch.settings.temperature_topic.empty()) {
           w.temperature = ch.temperature.copy(w.start_s - w.period_s - margin, w.end_s() + w.period_s + margin);
         }
-        enqueue(index, std::move(w));
+        submit(index, std::move(w));
         completed = true;
       }
       if (completed) ch.temperature.drop_before(ch.windows.next_start_s() - ch.windows.period_s() - margin);

@@ -81,6 +81,8 @@ struct CalibrationNode::Channel {
   double last_delay_s = std::numeric_limits<double>::quiet_NaN(), last_delay_ci95_s = last_delay_s;
   std::string last_method, last_band, last_offset;
   std::string last_eiv;  ///< noise model of the last window's errors-in-variables step
+  std::string last_reference_noise;      ///< the three-cornered hat of the last window ("" when not active)
+  std::size_t hat_identified_windows = 0;  ///< windows corrected with the hat's reference noise
   ResponseSummary last_response;  ///< relative response over the band used (bands == 0: none yet)
   std::string last_temperature;   ///< temperature terms of the last window: fitted or why not
   std::string last_response_model;  ///< response model of the last window: fitted, applied, or why not

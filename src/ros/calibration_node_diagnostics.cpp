@@ -122,6 +122,12 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("calibration files written", ch.files_written);
     status.add("method", ch.last_method.empty() ? estimator_method_name(settings_.estimator.method) : ch.last_method);
     status.add("EIV (last window)", ch.last_eiv.empty() ? std::string("no window yet") : ch.last_eiv);
+    status.add("three-cornered hat", settings_.hat_state());
+    if (coincident_) {
+      status.add("reference noise (last window)",
+                 ch.last_reference_noise.empty() ? std::string("no window yet") : ch.last_reference_noise);
+      status.add("windows corrected with the hat's reference noise", ch.hat_identified_windows);
+    }
     status.add("last band used (Hz)", ch.last_band);
     status.add("last delay (s)", ch.last_delay_s);
     status.add("last delay ci95 (s)", ch.last_delay_ci95_s);

@@ -24,7 +24,7 @@ const std::vector<std::string> kKnownParameters = {
     "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
     "eiv_noise_ratio", "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
-    "temperature_min_range", "temperature_max_gap", "response_model"};
+    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -61,6 +61,15 @@ std::string optional_topic(XmlRpc::XmlRpcValue& entry, const std::string& key, c
 }  // namespace
 
 const std::vector<std::string>& CalibrationNodeSettings::known_parameters() { return kKnownParameters; }
+
+std::string CalibrationNodeSettings::hat_state() const {
+  if (hat_active()) return "on: the reference's noise from the reference and two tests, every window";
+  if (!three_cornered_hat) return "off (~three_cornered_hat false)";
+  if (tests.size() < 2) return "off (one test instrument: a third is needed)";
+  if (estimator.method != EstimatorMethod::kRobust) return "off (~method plain)";
+  if (estimator.robust.eiv != EivCorrection::kGiven) return "off (~eiv is not given)";
+  return "off (~reference_noise_pT given: the maker's figure is used)";
+}
 
 CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) {
   CalibrationNodeSettings s;
@@ -220,6 +229,9 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   if (s.estimator.robust.correct_delay && !s.estimator.robust.estimate_delay) {
     throw ParameterError("correct_delay", "is true but ~estimate_delay is false (nothing to correct)");
   }
+  // ~three_cornered_hat: with two or more test instruments, the reference's noise identified in
+  // every window from the reference and two tests (live_three_cornered_hat.hpp; hat_active()).
+  s.three_cornered_hat = param_bool(p, "three_cornered_hat", s.three_cornered_hat);
   // Calibration change check against the accepted calibration.
   s.change.false_alarm_probability =
       param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);

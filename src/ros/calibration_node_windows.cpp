@@ -12,10 +12,23 @@
 
 namespace magnetometer_insitu_calibration {
 
-void CalibrationNode::enqueue(std::size_t index, WindowData&& window) {
+void CalibrationNode::submit(std::size_t index, WindowData&& window) {
+  if (!coincident_) {
+    enqueue(index, std::move(window));
+    return;
+  }
+  for (CoincidentWindows::Released& r : coincident_->add(index, std::move(window))) {
+    enqueue(r.channel, std::move(r.window), std::move(r.mate), r.mate_channel);
+  }
+}
+
+void CalibrationNode::enqueue(std::size_t index, WindowData&& window, std::shared_ptr<const PairedRecord> mate,
+                              std::size_t mate_channel) {
   Job job;
   job.channel = index;
   job.window = std::move(window);
+  job.mate = std::move(mate);
+  job.mate_channel = mate_channel;
   job.reference_frame_id = reference_.frame_id;
   job.test_frame_id = channels_[index]->test.frame_id;
   {
@@ -52,8 +65,15 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   const std::string window_text = time_for_message(nominal_start) + " .. " + time_for_message(nominal_end);
   const auto started = std::chrono::steady_clock::now();
   WindowResult result;
+  IdentifiedNoise reference_noise;  // the hat's result, when active
   try {
-    result = estimate_window(std::move(job.window), estimator, settings_.gap_rule);
+    if (coincident_) {
+      result = estimate_window_with_hat(std::move(job.window), job.mate.get(),
+                                        "test '" + channels_[job.mate_channel]->settings.name + "'", estimator,
+                                        settings_.gap_rule, reference_noise);
+    } else {
+      result = estimate_window(std::move(job.window), estimator, settings_.gap_rule);
+    }
   } catch (const std::exception& e) {
     ROS_ERROR("%s: test '%s': window %s could not be prepared: %s", node_name_.c_str(), t.name.c_str(),
               window_text.c_str(), e.what());
@@ -114,6 +134,8 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   }
   ch.last_method = m.method;
   ch.last_eiv = e.eiv;
+  ch.last_reference_noise = reference_noise.text;
+  ch.hat_identified_windows += e.eiv.find("three-cornered hat") != std::string::npos ? 1 : 0;
   ch.last_response = result.response;
   ch.last_delay_s = m.delay_s;
   ch.last_delay_ci95_s = m.delay_ci95_s;

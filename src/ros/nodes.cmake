@@ -15,6 +15,7 @@
 add_library(${PROJECT_NAME}_ros
   src/ros/calibration_yaml.cpp
   src/ros/correction_model.cpp
+  src/ros/live_three_cornered_hat.cpp
   src/ros/live_window.cpp
   src/ros/parameters.cpp)
 target_include_directories(${PROJECT_NAME}_ros PUBLIC include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})

@@ -85,7 +85,13 @@ class Harness {
 
   /// Also publishes the test stream on `topic` with `frame_id` (a second test instrument).
   void add_test_copy(const std::string& topic, const std::string& frame_id) {
-    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id});
+    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id, {}});
+  }
+
+  /// Also publishes another test instrument on `topic` with `frame_id`: its readings `values_nT`
+  /// (N x 3, nT, one row per sample of the pair, its own frame), at the test's stamps.
+  void add_test_instrument(const std::string& topic, const std::string& frame_id, const mic::Readings& values_nT) {
+    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id, values_nT});
   }
 
   /// The test sees a hut's temperature (hut_temperature.hpp; the pair's test readings change), and
@@ -118,7 +124,7 @@ class Harness {
     test_pub_.publish(field_message(ros::Time().fromSec(stamp_s), frame_id, pair_.test.values_nT.row(k), test_noise_rms_nT_));
   }
 
-  std::size_t test_subscribers(std::size_t copy) const { return test_copies_.at(copy).first.getNumSubscribers(); }
+  std::size_t test_subscribers(std::size_t copy) const { return test_copies_.at(copy).publisher.getNumSubscribers(); }
 
   void subscribe_corrected(const std::string& topic) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -165,7 +171,8 @@ class Harness {
       if (test) {
         test_pub_.publish(field_message(stamp, "test_frame", pair_.test.values_nT.row(k), test_noise_rms_nT_));
         for (auto& copy : test_copies_) {
-          copy.first.publish(field_message(stamp, copy.second, pair_.test.values_nT.row(k), test_noise_rms_nT_));
+          const mic::Readings& values = copy.values_nT.rows() > 0 ? copy.values_nT : pair_.test.values_nT;
+          copy.publisher.publish(field_message(stamp, copy.frame_id, values.row(k), test_noise_rms_nT_));
         }
       }
       last_clock_s_ = clock_s;
@@ -322,7 +329,12 @@ class Harness {
   std::vector<double> temperature_C_;  ///< thermometer reading per sample, deg C (empty: none published)
   ros::Subscriber calibration_sub_, diagnostics_sub_;
   std::vector<ros::Subscriber> corrected_subs_, extra_calibration_subs_;
-  std::vector<std::pair<ros::Publisher, std::string>> test_copies_;
+  struct TestCopy {
+    ros::Publisher publisher;
+    std::string frame_id;
+    mic::Readings values_nT;  ///< empty: the pair's test readings
+  };
+  std::vector<TestCopy> test_copies_;
   Eigen::Vector3d test_noise_rms_nT_ = Eigen::Vector3d::Zero();
   std::atomic<double> last_clock_s_{0.0};
 

@@ -15,6 +15,7 @@
 //   Calibration.TimeJump       time_jump.test     stamps jump forward by an hour
 //   Calibration.Decimation10Hz decimation.test    10 Hz inputs decimated to 1 Hz in the node
 //   Calibration.TwoInstruments two_instruments.test  a ~tests list: two test instruments, one node
+//   Calibration.ThreeCorneredHat three_cornered_hat.test  two tests of different noise: the hat
 //   Calibration.CorrectionFileReload correction_reload.test  correction_node's calibration file
 //   Calibration.BadParameters  bad_parameters.test  impossible parameters: the node exits naming them
 //   Calibration.TemperatureTerms temperature.test  hut temperature on a Temperature topic: terms

@@ -54,4 +54,21 @@ IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const Ve
                                          const VectorRecord& third, const PreprocessSettings& preprocess,
                                          double band_low_hz, double band_high_hz, int bins = 4);
 
+/// The same from two records already paired with the reference on one estimation grid of period
+/// sample_period_s (time_s on the grid; NaN = missing, as calibration_node's live windows hold
+/// them): the epochs where the reference, the test and the third are all finite, cut to the
+/// longest run of consecutive ones; the reference's values are with_test's. `third_name` names
+/// the third in errors and in the text ("--third", "test 'b'"). Throws InputError(third_name,
+/// ...) when the three share fewer than 64 consecutive epochs; the hat's errors (a bin without
+/// harmonics) name "three_cornered_hat".
+///
+/// Shared noise: the hat assumes the three noises independent. Where two instruments share
+/// noise (a common disturbance, or the same record twice) their own estimates come out too
+/// small, possibly negative, and the third's too large. When the test's or the third's PSD is
+/// not positive in at least half the bins of an axis, the reference's noise is reported as not
+/// identified (no correction), and the text says which instrument and axis.
+IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
+                                         double sample_period_s, double band_low_hz, double band_high_hz,
+                                         int bins = 4, const std::string& third_name = "--third");
+
 }  // namespace magnetometer_insitu_calibration

@@ -42,6 +42,7 @@
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
+#include "magnetometer_insitu_calibration/ros/live_three_cornered_hat.hpp"
 #include "magnetometer_insitu_calibration/ros/live_window.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
 
@@ -93,12 +94,23 @@ struct CalibrationNodeSettings {
   int max_pending_windows = 8;          ///< windows waiting for the worker
   double diagnostic_period_s = 1.0;     ///< ROS time between diagnostics, s
   bool publish_tf = false;              ///< rotation part of accepted n on /tf_static (reference -> test frame)
+  /// Reference noise from the three-cornered hat of the reference and two tests, per window
+  /// (issue 13); in effect only where hat_active().
+  bool three_cornered_hat = true;
   std::string tf_child_frame_suffix;    ///< appended to the test frame_id for the transform's child frame
 
   /// True when the inputs are low-passed and decimated to decimation.output_period_s.
   bool decimating() const { return input_period_s < 0.99 * decimation.output_period_s; }
   /// Sample period of the windows, s.
   double estimation_period_s() const { return decimating() ? decimation.output_period_s : input_period_s; }
+  /// The hat is used: ~three_cornered_hat, two or more tests, the robust method with eiv given
+  /// and no ~reference_noise_pT (a maker's figure, when given, is used instead).
+  bool hat_active() const {
+    return three_cornered_hat && tests.size() >= 2 && estimator.method == EstimatorMethod::kRobust &&
+           estimator.robust.eiv == EivCorrection::kGiven && !estimator.robust.reference_noise_identified();
+  }
+  /// Why the hat is or is not used, for the diagnostics.
+  std::string hat_state() const;
 
   /// Reads every private parameter; throws ParameterError naming the first impossible one.
   static CalibrationNodeSettings load(const ros::NodeHandle& private_nh);  // calibration_node_settings.cpp
@@ -122,6 +134,9 @@ class CalibrationNode {
     std::size_t channel = 0;
     WindowData window;
     std::string reference_frame_id, test_frame_id;
+    /// With the hat (CoincidentWindows): another test's window of the same epochs, or null.
+    std::shared_ptr<const PairedRecord> mate;
+    std::size_t mate_channel = 0;
   };
 
   // Streams (calibration_node.cpp): callback thread.
@@ -131,7 +146,10 @@ class CalibrationNode {
   void drain_pairs(std::size_t channel);
   void reset_pipeline(Channel& channel);
   // Windows (calibration_node_windows.cpp): enqueue on the callback thread, the rest on the worker.
-  void enqueue(std::size_t channel, WindowData&& window);
+  /// A completed window: to the queue, or first to coincident_ when the hat is active.
+  void submit(std::size_t channel, WindowData&& window);
+  void enqueue(std::size_t channel, WindowData&& window, std::shared_ptr<const PairedRecord> mate = nullptr,
+               std::size_t mate_channel = 0);
   void run_worker();
   void process(Job& job, WindowEstimator& estimator);
   // Output (calibration_node_output.cpp).
@@ -153,6 +171,7 @@ class CalibrationNode {
   StreamMonitor reference_;
   ros::Subscriber reference_subscriber_;
   std::vector<std::unique_ptr<Channel>> channels_;
+  std::unique_ptr<CoincidentWindows> coincident_;  ///< hat_active() only; callback thread
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostic_timer_;
   /// Made only with ~publish_tf (it advertises /tf_static); used by the constructor (resume),

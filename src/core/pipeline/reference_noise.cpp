@@ -78,13 +78,35 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
 
 namespace {
 
-/// Row of each grid epoch (time rounded to the period) of a prepared pair.
-std::map<long long, Eigen::Index> epoch_rows(const PreparedPair& p) {
+/// Row of each grid epoch (time rounded to the period) whose reference and instrument values
+/// are all finite.
+std::map<long long, Eigen::Index> finite_epoch_rows(const PairedRecord& p, double period_s) {
   std::map<long long, Eigen::Index> rows;
-  for (std::size_t i = 0; i < p.paired.time_s.size(); ++i) {
-    rows[std::llround(p.paired.time_s[i] / p.sample_period_s)] = static_cast<Eigen::Index>(i);
+  for (std::size_t i = 0; i < p.time_s.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    if (!p.reference_nT.row(r).allFinite() || !p.test_nT.row(r).allFinite()) continue;
+    rows[std::llround(p.time_s[i] / period_s)] = r;
   }
   return rows;
+}
+
+/// "" when every instrument's PSD is positive in at least half the bins of each axis, else
+/// which one is not (the hat's independence assumption fails).
+std::string shared_noise(const ThreeCorneredHatResult& hat, const std::string& third_name) {
+  static const char* const kAxis = "xyz";
+  for (int instrument = 1; instrument < 3; ++instrument) {
+    const std::vector<Eigen::Vector3d>& psd = hat.psd_nT2_per_hz[static_cast<std::size_t>(instrument)];
+    for (int c = 0; c < 3; ++c) {
+      std::size_t positive = 0;
+      for (const Eigen::Vector3d& bin : psd) positive += bin(c) > 0.0 ? 1 : 0;
+      if (2 * positive < psd.size() || positive == 0) {
+        return std::string(instrument == 1 ? "the test" : third_name) + "'s noise on " + kAxis[c] + " is not positive in " +
+               std::to_string(psd.size() - positive) + " of " + std::to_string(psd.size()) +
+               " bins: noise shared between instruments (or one record twice)";
+      }
+    }
+  }
+  return "";
 }
 
 }  // namespace
@@ -101,19 +123,26 @@ IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const Ve
   if (std::abs(with_test.sample_period_s - with_third.sample_period_s) > 1e-9 * with_test.sample_period_s) {
     throw InputError("--third", "its pair with the reference has another estimation period than the test's");
   }
+  return identify_reference_noise(with_test.paired, with_third.paired, with_test.sample_period_s, band_low_hz,
+                                  band_high_hz, bins, "--third");
+}
+
+IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
+                                         double sample_period_s, double band_low_hz, double band_high_hz, int bins,
+                                         const std::string& third_name) {
   IdentifiedNoise out;
-  out.sample_period_s = with_test.sample_period_s;
-  const std::map<long long, Eigen::Index> third_rows = epoch_rows(with_third);
-  std::vector<std::pair<Eigen::Index, Eigen::Index>> common;
-  for (std::size_t i = 0; i < with_test.paired.time_s.size(); ++i) {
-    const auto it = third_rows.find(std::llround(with_test.paired.time_s[i] / out.sample_period_s));
-    if (it != third_rows.end()) common.emplace_back(static_cast<Eigen::Index>(i), it->second);
+  out.sample_period_s = sample_period_s;
+  const std::map<long long, Eigen::Index> test_rows = finite_epoch_rows(with_test, sample_period_s);
+  const std::map<long long, Eigen::Index> third_rows = finite_epoch_rows(with_third, sample_period_s);
+  std::vector<std::pair<long long, std::pair<Eigen::Index, Eigen::Index>>> common;  // epoch, (test row, third row)
+  for (const auto& [epoch, row] : test_rows) {
+    const auto it = third_rows.find(epoch);
+    if (it != third_rows.end()) common.push_back({epoch, {row, it->second}});
   }
   // The hat needs one regular record: the longest run of consecutive shared epochs.
   std::size_t best_first = 0, best_count = 0;
   for (std::size_t i = 0, first = 0; i <= common.size(); ++i) {
-    const bool breaks = i == common.size() || (i > first && (common[i].first != common[i - 1].first + 1 ||
-                                                              common[i].second != common[i - 1].second + 1));
+    const bool breaks = i == common.size() || (i > first && common[i].first != common[i - 1].first + 1);
     if (!breaks) continue;
     if (i - first > best_count) {
       best_first = first;
@@ -122,38 +151,46 @@ IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const Ve
     first = i;
   }
   if (best_count < 64) {
-    throw InputError("--third", "the reference, the test and the third record share " + std::to_string(best_count) +
-                                    " consecutive epochs on the estimation grid (at least 64 needed)");
+    throw InputError(third_name, "the reference, the test and " + third_name + " share " + std::to_string(best_count) +
+                                     " consecutive epochs on the estimation grid (at least 64 needed)");
   }
   out.samples = best_count;
   const auto n = static_cast<Eigen::Index>(best_count);
   Readings r(n, 3), t(n, 3), c(n, 3);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const auto& rows = common[best_first + static_cast<std::size_t>(i)];
-    r.row(i) = with_test.paired.reference_nT.row(rows.first);
-    t.row(i) = with_test.paired.test_nT.row(rows.first);
-    c.row(i) = with_third.paired.test_nT.row(rows.second);
+    const auto& rows = common[best_first + static_cast<std::size_t>(i)].second;
+    r.row(i) = with_test.reference_nT.row(rows.first);
+    t.row(i) = with_test.test_nT.row(rows.first);
+    c.row(i) = with_third.test_nT.row(rows.second);
   }
   ThreeCorneredHatSettings hs;
   hs.band_low_hz = band_low_hz;
   hs.band_high_hz = band_high_hz;
   hs.bins = bins;
   out.hat = three_cornered_hat(r, t, c, out.sample_period_s, hs);
+  char text[320];
+  const std::string shared = shared_noise(out.hat, third_name);
+  if (!shared.empty()) {
+    std::snprintf(text, sizeof text, "reference noise not identified by the three-cornered hat with %s (%zu epochs): %s",
+                  third_name.c_str(), out.samples, shared.c_str());
+    out.text = text;
+    return out;
+  }
   fit_white_and_pink(out.hat.psd_nT2_per_hz[0], out.hat.bin_low_hz, out.hat.bin_high_hz, out.sample_period_s,
                      out.white_nT, out.pink_nT_per_sqrt_hz);
   out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();
-  char text[256];
   if (out.identified) {
     std::snprintf(text, sizeof text,
-                  "reference noise from the three-cornered hat (%zu epochs, %d bins): white %.3g/%.3g/%.3g pT rms, "
-                  "1/f %.3g/%.3g/%.3g pT/sqrt(Hz) at 1 Hz (x/y/z)",
-                  out.samples, bins, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1), 1e3 * out.white_nT(2),
-                  1e3 * out.pink_nT_per_sqrt_hz(0), 1e3 * out.pink_nT_per_sqrt_hz(1), 1e3 * out.pink_nT_per_sqrt_hz(2));
+                  "reference noise from the three-cornered hat with %s (%zu epochs, %d bins): white %.3g/%.3g/%.3g pT "
+                  "rms, 1/f %.3g/%.3g/%.3g pT/sqrt(Hz) at 1 Hz (x/y/z)",
+                  third_name.c_str(), out.samples, bins, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1),
+                  1e3 * out.white_nT(2), 1e3 * out.pink_nT_per_sqrt_hz(0), 1e3 * out.pink_nT_per_sqrt_hz(1),
+                  1e3 * out.pink_nT_per_sqrt_hz(2));
   } else {
     std::snprintf(text, sizeof text,
-                  "reference noise not identified by the three-cornered hat (%zu epochs): no bin with a positive "
-                  "estimate (noise shared between instruments?)",
-                  out.samples);
+                  "reference noise not identified by the three-cornered hat with %s (%zu epochs): no bin with a "
+                  "positive estimate (noise shared between instruments?)",
+                  third_name.c_str(), out.samples);
   }
   out.text = text;
   return out;

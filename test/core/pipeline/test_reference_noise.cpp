@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <random>
 
 namespace mic = magnetometer_insitu_calibration;
@@ -129,5 +130,73 @@ TEST(IdentifyReferenceNoise, AThirdRecordOutsideThePairIsNamed) {
   } catch (const mic::InputError& e) {
     EXPECT_EQ(e.where(), "--third") << e.what();
     EXPECT_NE(std::string(e.what()).find("overlap"), std::string::npos) << e.what();
+  }
+}
+
+namespace {
+
+/// The pair (reference, test) and (reference, third) as calibration_node's windows hold them:
+/// on the 1 Hz grid, the reference's epochs, NaN where an instrument has no sample.
+struct GridPairs {
+  mic::PairedRecord with_test, with_third;
+};
+
+GridPairs grid_pairs(const ThreeInstruments& t) {
+  GridPairs g;
+  const Eigen::Index rows = t.pair.reference.values_nT.rows();
+  const Eigen::Index skip = rows - t.third.values_nT.rows();
+  g.with_test.time_s = t.pair.reference.time_s;
+  g.with_test.reference_nT = t.pair.reference.values_nT;
+  g.with_test.test_nT = t.pair.test.values_nT;
+  g.with_third = g.with_test;
+  g.with_third.test_nT.topRows(skip).setConstant(std::numeric_limits<double>::quiet_NaN());
+  g.with_third.test_nT.bottomRows(rows - skip) = t.third.values_nT;
+  return g;
+}
+
+}  // namespace
+
+TEST(IdentifyReferenceNoise, OnLiveWindowsWithMissingSamplesUsesTheLongestRunAllThreeShare) {
+  // The form calibration_node uses: two paired records on one grid, NaN = missing. A missing
+  // test sample 3 h after the third starts splits the shared epochs; the longer run is used.
+  const ThreeInstruments t = three_instruments(93);
+  GridPairs g = grid_pairs(t);
+  const Eigen::Index skip = g.with_test.reference_nT.rows() - t.third.values_nT.rows();
+  g.with_test.test_nT(skip + 3 * 3600, 1) = std::numeric_limits<double>::quiet_NaN();
+  const mic::IdentifiedNoise noise = mic::identify_reference_noise(g.with_test, g.with_third, 1.0, 0.0002, 0.01, 4, "test 'b'");
+  ASSERT_TRUE(noise.identified) << noise.text;
+  EXPECT_EQ(noise.samples, static_cast<std::size_t>(g.with_test.reference_nT.rows() - skip - 3 * 3600 - 1));
+  EXPECT_NE(noise.text.find("with test 'b'"), std::string::npos) << noise.text;
+  // The same simulated reference noise as above (white 0.1 nT, 1/f 0.02 nT/sqrt(Hz)): its ASD at
+  // the band's middle bin within 20 %.
+  const Bins b;
+  const double truth = b.psd(Eigen::Vector3d::Constant(0.1), Eigen::Vector3d::Constant(0.02), 1.0)[2](0);
+  const std::vector<Eigen::Vector3d> fitted = b.psd(noise.white_nT, noise.pink_nT_per_sqrt_hz, 1.0);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(std::sqrt(fitted[2](c) / truth), 1.0, 0.2) << c << ": " << noise.text;
+}
+
+TEST(IdentifyReferenceNoise, TheSameTestRecordTwiceIsSharedNoiseAndIdentifiesNothing) {
+  // Two "tests" that are one record (a copied topic): the hat gives them no noise of their own
+  // and would put all of it on the reference; nothing is identified, and the text says why.
+  const ThreeInstruments t = three_instruments(94);
+  GridPairs g = grid_pairs(t);
+  g.with_third = g.with_test;
+  const mic::IdentifiedNoise noise = mic::identify_reference_noise(g.with_test, g.with_third, 1.0, 0.0002, 0.01, 4, "test 'b'");
+  EXPECT_FALSE(noise.identified) << noise.text;
+  EXPECT_EQ(noise.white_nT, Eigen::Vector3d::Zero());
+  EXPECT_EQ(noise.pink_nT_per_sqrt_hz, Eigen::Vector3d::Zero());
+  EXPECT_NE(noise.text.find("shared"), std::string::npos) << noise.text;
+}
+
+TEST(IdentifyReferenceNoise, TooFewSharedEpochsNameTheThird) {
+  const ThreeInstruments t = three_instruments(95);
+  GridPairs g = grid_pairs(t);
+  for (Eigen::Index i = 0; i < g.with_third.test_nT.rows(); i += 50) g.with_third.test_nT(i, 0) = std::nan("");
+  try {
+    mic::identify_reference_noise(g.with_test, g.with_third, 1.0, 0.0002, 0.01, 4, "test 'b'");
+    FAIL() << "no error";
+  } catch (const mic::InputError& e) {
+    EXPECT_EQ(e.where(), "test 'b'") << e.what();
+    EXPECT_NE(std::string(e.what()).find("49 consecutive epochs"), std::string::npos) << e.what();
   }
 }

@@ -1,0 +1,95 @@
+// calibration_node's three-cornered hat without ROS: see live_three_cornered_hat.hpp.
+#include "magnetometer_insitu_calibration/ros/live_three_cornered_hat.hpp"
+
+#include <cmath>
+#include <exception>
+#include <limits>
+
+namespace magnetometer_insitu_calibration {
+
+CoincidentWindows::CoincidentWindows(std::size_t channels)
+    : channels_(channels), newest_start_(channels, -std::numeric_limits<double>::infinity()) {}
+
+std::size_t CoincidentWindows::pending() const {
+  std::size_t count = 0;
+  for (const auto& [start, slots] : pending_)
+    for (const auto& slot : slots) count += slot.has_value() ? 1 : 0;
+  return count;
+}
+
+void CoincidentWindows::reset(std::size_t channel) {
+  newest_start_.at(channel) = -std::numeric_limits<double>::infinity();
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    it->second[channel].reset();
+    bool empty = true;
+    for (const auto& slot : it->second) empty = empty && !slot.has_value();
+    it = empty ? pending_.erase(it) : std::next(it);
+  }
+}
+
+std::vector<CoincidentWindows::Released> CoincidentWindows::add(std::size_t channel, WindowData&& window) {
+  const double start = window.start_s;
+  auto& slots = pending_[start];
+  slots.resize(channels_);
+  slots.at(channel) = std::move(window);
+  newest_start_[channel] = std::max(newest_start_[channel], start);
+  double newest_any = -std::numeric_limits<double>::infinity();
+  for (const double s : newest_start_) newest_any = std::max(newest_any, s);
+
+  std::vector<Released> out;
+  while (!pending_.empty()) {
+    auto group = pending_.begin();
+    bool complete = true;
+    for (std::size_t c = 0; c < channels_; ++c) complete = complete && group->second[c].has_value();
+    if (!complete && !(newest_any > group->first)) break;  // wait for the missing ones
+    // Each window's record, shared by the mates that use it.
+    std::vector<std::shared_ptr<const PairedRecord>> records(channels_);
+    for (std::size_t c = 0; c < channels_; ++c) {
+      if (group->second[c]) records[c] = std::make_shared<const PairedRecord>(group->second[c]->paired);
+    }
+    for (std::size_t c = 0; c < channels_; ++c) {
+      if (!group->second[c]) continue;
+      Released r;
+      r.channel = c;
+      r.window = std::move(*group->second[c]);
+      for (std::size_t k = 1; k < channels_; ++k) {  // the next channel in order with a window
+        const std::size_t m = (c + k) % channels_;
+        if (records[m]) {
+          r.mate = records[m];
+          r.mate_channel = m;
+          break;
+        }
+      }
+      out.push_back(std::move(r));
+    }
+    pending_.erase(group);
+  }
+  return out;
+}
+
+WindowResult estimate_window_with_hat(WindowData window, const PairedRecord* mate, const std::string& mate_name,
+                                      WindowEstimator& estimator, const WindowGapRule& rule, IdentifiedNoise& noise) {
+  const EstimatorSettings& settings = estimator.settings();
+  noise = IdentifiedNoise{};
+  if (mate == nullptr) {
+    noise.text = "reference noise not identified: no window of another test instrument for these epochs";
+  } else {
+    try {
+      noise = identify_reference_noise(window.paired, *mate, window.period_s, settings.band_low_hz,
+                                       settings.band_high_hz, 4, mate_name);
+    } catch (const std::exception& e) {
+      noise = IdentifiedNoise{};
+      noise.text = std::string("reference noise not identified by the three-cornered hat with ") + mate_name +
+                        ": " + e.what();
+    }
+  }
+  if (!noise.identified) return estimate_window(std::move(window), estimator, rule);
+  EstimatorSettings with_noise = settings;
+  with_noise.robust.reference_white_nT = noise.white_nT;
+  with_noise.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
+  with_noise.robust.reference_noise_source = "three-cornered hat with " + mate_name;
+  WindowEstimator identified(with_noise);  // FFTW_ESTIMATE plans: microseconds per window
+  return estimate_window(std::move(window), identified, rule);
+}
+
+}  // namespace magnetometer_insitu_calibration
