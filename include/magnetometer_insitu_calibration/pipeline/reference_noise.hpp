@@ -62,11 +62,12 @@ IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const Ve
 /// ...) when the three share fewer than 64 consecutive epochs; the hat's errors (a bin without
 /// harmonics) name "three_cornered_hat".
 ///
-/// Shared noise: the hat assumes the three noises independent. Where two instruments share
-/// noise (a common disturbance, or the same record twice) their own estimates come out too
-/// small, possibly negative, and the third's too large. When the test's or the third's PSD is
-/// not positive in at least half the bins of an axis, the reference's noise is reported as not
-/// identified (no correction), and the text says which instrument and axis.
+/// Shared noise: the hat assumes the three noises independent. Noise shared by the test and the
+/// third makes their estimates too small and the reference's too large; the hat cannot see it
+/// from three records, except in the extreme: the test and the third one record (a topic
+/// remapped twice), whose noises then come out zero to rounding. That case is reported as not
+/// identified (no correction), and the text says so. A quiet test's own estimate scatters about
+/// zero (of either sign) and is not refused: the reference's estimate is not affected.
 IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
                                          double sample_period_s, double band_low_hz, double band_high_hz,
                                          int bins = 4, const std::string& third_name = "--third");

@@ -185,7 +185,7 @@ TEST(IdentifyReferenceNoise, TheSameTestRecordTwiceIsSharedNoiseAndIdentifiesNot
   EXPECT_FALSE(noise.identified) << noise.text;
   EXPECT_EQ(noise.white_nT, Eigen::Vector3d::Zero());
   EXPECT_EQ(noise.pink_nT_per_sqrt_hz, Eigen::Vector3d::Zero());
-  EXPECT_NE(noise.text.find("shared"), std::string::npos) << noise.text;
+  EXPECT_NE(noise.text.find("one record twice"), std::string::npos) << noise.text;
 }
 
 TEST(IdentifyReferenceNoise, TooFewSharedEpochsNameTheThird) {
