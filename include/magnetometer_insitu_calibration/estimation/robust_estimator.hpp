@@ -54,9 +54,13 @@
 //        the K weighted sections, which sees what the sandwich cannot: transients left by the
 //        screen that are coherent over a section's harmonics, steps, tilt, the data-chosen
 //        weights and the uncertainty of the EIV correction;
+//        When fewer than 6 sections carry weight (windows under 18 h at the default band), the
+//        groups are instead 8 interleaved frequency groups (cells in frequency order, every 8th
+//        in one group): n refitted without each group, which corrects the sandwich for the
+//        leverage of the few strong low harmonics (section_jackknife.cpp says why interleaved);
 //     c. reported: Cov = D S D, D_kk = sqrt(max(1, J_kk / S_kk)) (the sandwich raised to the
-//        jackknife entry by entry, its correlations kept); the sandwich alone when fewer than 6
-//        sections carry weight (windows under 18 h at the default band).
+//        jackknife entry by entry, its correlations kept); the sandwich alone when the jackknife
+//        cannot be formed (a group held the whole signal of a direction).
 //     Measured coverage and the reasoning: section_jackknife.cpp (combine_covariances) and
 //     docs/robust_estimation.md.
 //
@@ -87,7 +91,8 @@ struct RobustDiagnostics {
   bool delay_corrected = false;
   Matrix9d covariance_sandwich = Matrix9d::Zero();   ///< step 6a, row-major vec(n)
   Matrix9d covariance_jackknife = Matrix9d::Zero();  ///< step 6b (NaN with fewer than 2 sections)
-  std::size_t jackknife_sections = 0;    ///< sections with weight: the jackknife's groups
+  std::size_t jackknife_sections = 0;    ///< the jackknife's groups with weight (sections or frequency groups)
+  bool jackknife_frequency_groups = false;  ///< groups are 8 interleaved frequency groups (< 6 sections)
   BandSelection band;                    ///< when auto_band
   DelayEstimate delay;
 };

@@ -335,10 +335,15 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   }
 
   // Step 6b: delete-one-section jackknife of vec(n) with the same final weights.
-  const JackknifeResult jack = section_jackknife(cells, fit, k_sections, rs, sample_period_s);
+  // Too few sections for their own jackknife: interleaved frequency groups instead.
+  JackknifeResult jack = section_jackknife(cells, fit, k_sections, rs, sample_period_s);
+  if (jack.sections < kMinJackknifeSections) {
+    jack = frequency_group_jackknife(cells, fit, kFrequencyGroups, rs, sample_period_s);
+  }
   diagnostics_.covariance_sandwich = sandwich;
   diagnostics_.covariance_jackknife = jack.covariance;
   diagnostics_.jackknife_sections = jack.sections;
+  diagnostics_.jackknife_frequency_groups = jack.frequency_groups;
   result.n = fit.n;
   result.n_covariance = combine_covariances(sandwich, jack);
   result.parameters = decompose(result.n, result.n_covariance);

@@ -26,8 +26,10 @@ constexpr double kLevelCap = 25.0;      // cap of a cell's d^2 in its section's 
 // cell whose mean is r times the bin's scale keeps 1 - e^{-c/r} of it under the cap (r = 1.5:
 // 93 % for c = 4, 99.75 % for c = 9), so a low cap under-estimates N (measured 1-2 % low).
 constexpr double kNoiseCap = 9.0;
-// Fewest weighted sections for which the jackknife enters the covariance (step 6c).
+// Fewest weighted sections for which the section jackknife enters the covariance (step 6c);
+// below, the jackknife is over kFrequencyGroups interleaved frequency groups instead.
 constexpr std::size_t kMinJackknifeSections = 6;
+constexpr std::size_t kFrequencyGroups = 8;
 
 /// One harmonic of one section.
 struct Cell {
@@ -72,10 +74,12 @@ struct NormalEquations {
   Eigen::Matrix3d given_noise = Eigen::Matrix3d::Zero();
 };
 
-/// Delete-one-section jackknife of row-major vec(n) (step 6b).
+/// Delete-one-group jackknife of row-major vec(n) (step 6b): groups are sections, or interleaved
+/// frequency groups in windows with too few sections.
 struct JackknifeResult {
   Matrix9d covariance = Matrix9d::Constant(kNaN);
-  std::size_t sections = 0;  ///< sections that carried weight (the jackknife's groups)
+  std::size_t sections = 0;  ///< groups that carried weight (sections or frequency groups)
+  bool frequency_groups = false;  ///< the groups are interleaved frequency groups
 };
 
 // weighted_eiv_solve.cpp
@@ -94,6 +98,11 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
 // section_jackknife.cpp: step 6b and 6c.
 JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
                                   const RobustSettings& rs, double sample_period_s);
+/// Delete-one-group jackknife over `groups` interleaved frequency groups (the cells in frequency
+/// order, every groups-th in one group), n refitted without each group with the same weights
+/// (step 6b for windows of fewer than kMinJackknifeSections weighted sections).
+JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t groups,
+                                          const RobustSettings& rs, double sample_period_s);
 Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& jack);
 
 }  // namespace magnetometer_insitu_calibration::detail::robust

@@ -193,9 +193,10 @@ TEST(RobustEstimator, DisturbedStationIntervalsCoverTheTruth) {
   EXPECT_GT(coverage, coverage_sandwich);
 }
 
-TEST(RobustEstimator, ShortWindowKeepsTheSandwich) {
-  // A 6-hour window holds two 3-hour sections: a jackknife of one degree of freedom is a single
-  // squared difference; below 6 sections the sandwich alone is reported.
+TEST(RobustEstimator, ShortWindowTakesTheJackknifeOverInterleavedFrequencyGroups) {
+  // A 6-hour window holds two 3-hour sections: too few for their own jackknife. The jackknife is
+  // then over 8 interleaved frequency groups, combined with the sandwich as for sections:
+  // per entry of vec(n) the larger variance, the sandwich's correlations kept.
   const mic::SimulatedPair pair = mic::simulate_pair(station(12));
   mic::EstimatorSettings es;
   mic::WindowEstimator estimator(es);
@@ -204,9 +205,67 @@ TEST(RobustEstimator, ShortWindowKeepsTheSandwich) {
   const mic::RobustDiagnostics* diag = estimator.robust_diagnostics();
   ASSERT_NE(diag, nullptr);
   ASSERT_EQ(diag->sections, 2u);
-  EXPECT_EQ(diag->jackknife_sections, 2u);
-  EXPECT_TRUE(e.n_covariance.allFinite());
-  EXPECT_TRUE((e.n_covariance.array() == diag->covariance_sandwich.array()).all());
+  EXPECT_TRUE(diag->jackknife_frequency_groups);
+  EXPECT_EQ(diag->jackknife_sections, 8u);
+  ASSERT_TRUE(e.n_covariance.allFinite());
+  const mic::Matrix9d& s = diag->covariance_sandwich;
+  const mic::Matrix9d& j = diag->covariance_jackknife;
+  bool raised = false;
+  for (int q = 0; q < 9; ++q) {
+    EXPECT_NEAR(e.n_covariance(q, q), std::max(s(q, q), j(q, q)), 1e-12 * s(q, q)) << q;
+    raised = raised || j(q, q) > s(q, q);
+    for (int r = 0; r < 9; ++r) {  // correlations of the sandwich
+      const double corr_s = s(q, r) / std::sqrt(s(q, q) * s(r, r));
+      const double corr = e.n_covariance(q, r) / std::sqrt(e.n_covariance(q, q) * e.n_covariance(r, r));
+      EXPECT_NEAR(corr, corr_s, 1e-9) << q << "," << r;
+    }
+  }
+  EXPECT_TRUE(raised) << "the jackknife raised no variance of this window";
+}
+
+TEST(RobustEstimator, ShortWindowIntervalsCoverTheTruth) {
+  // 6-hour windows of disturbed stations (traffic, spikes, tilt, drift as above), 4 per day:
+  // 24 windows x 9 parameters. The sandwich alone covered 84 % of such windows' six parameters
+  // (monte_carlo_unmodelled, 100 seeds); with the frequency-group jackknife the intervals must
+  // cover more than the sandwich's, and 82-99 % (seeds 400-405, 500-505, 600-605, 700-705,
+  // 800-805 gave 0.889, 0.907, 0.870, 0.889, 0.833 against 0.856, 0.856, 0.838, 0.852, 0.792 for
+  // the sandwich: 216 intervals, 9 correlated ones per window).
+  int covered = 0, covered_sandwich = 0, checked = 0;
+  for (int k = 0; k < 6; ++k) {
+    mic::SimulationSettings s = station(400 + static_cast<std::uint64_t>(k));
+    s.tilt_rate_deg_per_day = 0.004;
+    s.drift_nT_per_day = Eigen::Vector3d(1.0, -1.5, 0.5);
+    mic::SimulatedPair pair = mic::simulate_pair(s);
+    mic::StationDisturbanceSettings d;
+    d.seed = 400 + static_cast<std::uint64_t>(k);
+    d.vehicles_per_day = 150;
+    d.small_spikes_per_day = 100;
+    mic::add_station_disturbances(pair, d);
+    const Flat truth = flat(mic::decompose(pair.n_true));
+    mic::WindowEstimator estimator{mic::EstimatorSettings{}};
+    for (Eigen::Index first = 0; first + 21600 <= pair.reference.values_nT.rows(); first += 21600) {
+      const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT.middleRows(first, 21600),
+                                                       pair.test.values_nT.middleRows(first, 21600), 1.0);
+      ASSERT_TRUE(e.n.allFinite()) << e.quality_text;
+      const mic::RobustDiagnostics* diag = estimator.robust_diagnostics();
+      ASSERT_TRUE(diag->jackknife_frequency_groups);
+      const Flat reported = flat(e.parameters);
+      const Flat sandwich = flat(mic::decompose(e.n, diag->covariance_sandwich));
+      for (int q = 0; q < 9; ++q) {
+        const double err = std::abs(reported.value(q) - truth.value(q));
+        covered += err <= reported.ci95(q);
+        covered_sandwich += err <= sandwich.ci95(q);
+        ++checked;
+      }
+    }
+  }
+  const double coverage = static_cast<double>(covered) / checked;
+  const double coverage_sandwich = static_cast<double>(covered_sandwich) / checked;
+  std::printf("6-hour windows: coverage %.3f (sandwich alone %.3f) over %d intervals\n", coverage, coverage_sandwich,
+              checked);
+  EXPECT_GE(coverage, 0.82);
+  EXPECT_LE(coverage, 0.99);
+  EXPECT_GT(coverage, coverage_sandwich);
 }
 
 // Issue 13: without an identified reference noise the default applies no errors-in-variables
