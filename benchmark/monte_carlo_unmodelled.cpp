@@ -23,7 +23,8 @@
 // (the package's defaults), plain (Eq. 2), ratio1 (robust, EIV ratio 1: the default before
 // issue 13), none (robust, no EIV correction), given (robust, EIV with the simulated reference
 // noise given as the maker's figure), nomodel (the default estimator without the response model,
-// --no-response-model: the default before issue 14).
+// --no-response-model: the default before issue 14), givenmodel (the default pipeline with the
+// simulated reference noise given).
 // MC_PRINT_MODEL=1 adds, after each "default" line, the window's response model ("#   ...").
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
@@ -145,7 +146,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     for (std::size_t at = 0; at <= list.size(); ++at) {
       if (at == list.size() || list[at] == ',') {
         if (item != "default" && item != "plain" && item != "ratio1" && item != "none" && item != "given" &&
-            item != "nomodel")
+            item != "nomodel" && item != "givenmodel")
           throw std::runtime_error("MC_METHODS: unknown estimator '" + item + "'");
         names.push_back(item);
         item.clear();
@@ -189,8 +190,13 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       mic::WindowEstimator estimator(es);
       mic::WindowEstimate e;
       std::string model_text;
-      if (name == "default") {  // the default pipeline: robust estimator and response model
-        const mic::CalibrationWindow w = mic::calibrate_prepared(prepared, base).back();
+      if (name == "default" || name == "givenmodel") {  // the default pipeline: robust estimator and response model
+        mic::CalibrationSettings cs = base;
+        if (name == "givenmodel") {  // with the simulated reference noise given, as a maker's figure
+          cs.estimator.robust.reference_white_nT.setConstant(s.reference_white_nT);
+          cs.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(s.reference_pink_nT_per_sqrt_hz);
+        }
+        const mic::CalibrationWindow w = mic::calibrate_prepared(prepared, cs).back();
         e = w.estimate;
         model_text = w.response_model.text;
       } else {
