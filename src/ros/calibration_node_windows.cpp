@@ -135,6 +135,8 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   ch.last_method = m.method;
   ch.last_eiv = e.eiv;
   ch.last_reference_noise = reference_noise.text;
+  ch.last_weights = e.weights;
+  ch.last_intervals = e.intervals;
   ch.hat_identified_windows += e.eiv.find("three-cornered hat") != std::string::npos ? 1 : 0;
   ch.last_response = result.response;
   ch.last_delay_s = m.delay_s;

@@ -139,6 +139,10 @@ struct WindowEstimate {
   std::string eiv = "none (plain Eq. 2)";
   /// Weights of the sums: "lambda^gamma" (plain) or "lambda^gamma x Huber cell x section" (robust).
   std::string weights = "lambda^gamma";
+  /// How the 95 % intervals were formed: "sandwich" (plain), or the robust estimator's
+  /// "sandwich raised to the jackknife over K sections" / "... over 8 interleaved frequency
+  /// groups" (windows of fewer than 6 sections) / "sandwich (no jackknife: ...)".
+  std::string intervals = "sandwich";
 
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
   Eigen::Matrix3d n_stderr() const;

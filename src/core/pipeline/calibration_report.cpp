@@ -102,6 +102,7 @@ json window_to_json(const CalibrationWindow& w) {
       {"downweighted_fraction", e.downweighted_fraction},
       {"eiv", e.eiv},
       {"weights", e.weights},
+      {"intervals", e.intervals},
       {"relative_response", response_to_json(w.relative_response)},
       {"response_model", model_to_json(w.response_model)},
       // Temperature terms (temperature_regression.hpp): null when not fitted, text says why.
@@ -192,6 +193,14 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     if (std::find(models.begin(), models.end(), w.estimate.eiv) == models.end()) models.push_back(w.estimate.eiv);
   out << "EIV:";
   for (std::size_t k = 0; k < models.size(); ++k) out << (k ? "; " : " ") << models[k];
+  // Weights and intervals of each window (usually one or two kinds).
+  std::vector<std::string> kinds;
+  for (const auto& w : c.windows) {
+    const std::string kind = w.estimate.weights + "; intervals: " + w.estimate.intervals;
+    if (std::find(kinds.begin(), kinds.end(), kind) == kinds.end()) kinds.push_back(kind);
+  }
+  out << "\nweights:";
+  for (std::size_t k = 0; k < kinds.size(); ++k) out << (k ? " | " : " ") << kinds[k];
   out << "\n\n";
 
   const char* axes[3] = {"x", "y", "z"};
