@@ -16,6 +16,7 @@
 // the simulator (SIGINT/SIGTERM) closes the master: a connected driver sees a hang-up.
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -120,6 +121,14 @@ int main(int argc, char** argv) {
   app.add_option("--delay-s", s.delay_s, "delay of the test instrument, s")->capture_default_str();
   app.add_option("--corrupt-every", corrupt_every, "flip one byte in every N-th packet (0: never)")
       ->capture_default_str();
+  // The test in a field hut (hut_temperature.hpp, seed = --seed, its default coefficients): its
+  // readings carry the temperature effect and its packets the hut thermometer's reading.
+  double hut_daily_C = 0.0, hut_heater_C = 0.0, hut_heater_period_s = 1800.0;
+  app.add_option("--hut-daily-C", hut_daily_C, "test in a hut: amplitude of the daily temperature cycle, degC (0: no hut)")
+      ->capture_default_str();
+  app.add_option("--hut-heater-C", hut_heater_C, "test in a hut: heater cycle amplitude, degC")->capture_default_str();
+  app.add_option("--hut-heater-period-s", hut_heater_period_s, "test in a hut: heater cycle period, s")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -150,8 +159,20 @@ int main(int argc, char** argv) {
     s.sample_period_s = mic::kLemi025SamplePeriod_s;
     s.variation_rms_nT = variation_rms;
     s.keep_clean_field = false;
-    const mic::SimulatedPair pair = mic::simulate_pair(s);
+    mic::SimulatedPair pair = mic::simulate_pair(s);
+    const bool hut = hut_daily_C > 0.0 || hut_heater_C > 0.0;
+    if (hut) {
+      mic::HutTemperatureSettings h;
+      h.seed = s.seed;
+      h.daily_amplitude_C = hut_daily_C;
+      h.heater_amplitude_C = hut_heater_C;
+      h.heater_period_s = hut_heater_period_s;
+      h.validate();
+      mic::add_hut_temperature(pair, h);
+    }
     const mic::VectorRecord& record = role == "reference" ? pair.reference : pair.test;
+    // The test's hut thermometer (deg C per 10 Hz reading), else none (a smooth 20 +- 0.5 degC).
+    const std::vector<double>* thermometer = role == "test" && hut ? &pair.test.auxiliary.back().values : nullptr;
     const Eigen::Vector3d bias = bias_of(record.values_nT);
     const std::size_t packets = record.size() / mic::kLemi025ReadingsPerPacket;
 
@@ -178,6 +199,10 @@ int main(int argc, char** argv) {
       p.station = static_cast<std::uint8_t>(station);
       p.gps_time_s = start_s + static_cast<double>(index) + cycle * static_cast<double>(packets);
       p.sensor_temperature_C = 20.0 + 0.5 * std::sin(2 * M_PI * p.gps_time_s / 86400.0);
+      if (thermometer != nullptr) {  // the reading of the packet's first sample
+        const double t = (*thermometer)[index * mic::kLemi025ReadingsPerPacket];
+        if (std::isfinite(t)) p.sensor_temperature_C = t;
+      }
       p.electronics_temperature_C = p.sensor_temperature_C + 3.0;
       p.bias_nT = bias;
       p.mode = 2;

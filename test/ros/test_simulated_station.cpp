@@ -13,6 +13,12 @@
 //    window's mean field: a few hundredths of a nT here), and its
 //    scatter within 1.5 times the scatter of the simulated noise alone (the two instruments'
 //    noise, recomputed here with the core simulator from the same seed and settings).
+// SimulatedStation.HutTemperatureThroughTheDrivers (test/ros/test_simulated_station_hut.test):
+// the test simulator in a field hut (--hut-daily-C, --hut-heater-C: its readings carry the
+// temperature effect, its packets the hut thermometer): the driver's temperature/sensor reaches
+// calibration_node, whose accepted window's apparent coefficients a = c + s F match the simulated
+// ones within 1.5 of their 95 % half-widths, and correction_node, whose corrected stream matches
+// the reference within the instruments' noise (the temperature effect removed live).
 // SimulatedNetwork.EveryPairRecoversTruthAndCorrects (test/ros/test_simulated_network.test,
 // launch/simulated_network.launch: two stations on one master through launch/network.launch,
 // station a with one reference and two test instruments, station b with one of each) asserts
@@ -22,6 +28,7 @@
 // the topics and frame ids; for SimulatedNetwork `network`, the pairs as STATION/TEST:SEED
 // separated by spaces (topics /STATION/reference/magnetic_field, /STATION/TEST/calibration,
 // /STATION/TEST/corrected; frame ids STATION_reference, STATION_TEST as network.launch sets).
+#include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -259,7 +266,7 @@ void check_pairs_live(const std::vector<PairUnderTest>& pairs) {
   }
 }
 
-TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
+PairUnderTest station_pair() {
   PairUnderTest pair;
   pair.label = "simulated station";
   pair.reference_topic = station_param("reference_topic", "/reference/magnetic_field");
@@ -268,7 +275,64 @@ TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
   pair.reference_frame_id = station_param("reference_frame_id", "lemi025_sim_reference");
   pair.test_frame_id = station_param("test_frame_id", "lemi025_sim_test");
   pair.seed = std::stoull(station_param("seed", "1"));
-  check_pairs_live({pair});
+  return pair;
+}
+
+TEST(SimulatedStation, CalibrationRecoversTruthAndCorrectionMatchesReference) {
+  check_pairs_live({station_pair()});
+}
+
+TEST(SimulatedStation, HutTemperatureThroughTheDrivers) {
+  const PairUnderTest pair = station_pair();
+  mic::HutTemperatureSettings hut;  // as lemi025_simulator --hut-* sets it: seed = --seed, default coefficients
+  hut.seed = pair.seed;
+  hut.daily_amplitude_C = std::stod(station_param("hut_daily", "0"));
+  hut.heater_amplitude_C = std::stod(station_param("hut_heater", "0"));
+  ASSERT_GT(hut.daily_amplitude_C + hut.heater_amplitude_C, 0.0) << "~hut_daily / ~hut_heater not set";
+  const std::size_t wanted_pairs = std::stoul(station_param("pairs", "3000"));
+  const double timeout_s = std::stod(station_param("timeout", "80"));
+  StationRecorder recorder(pair);
+  const ros::WallTime started = ros::WallTime::now();
+  auto fitted = [&](mic::MagnetometerCalibration& out) {
+    for (const auto& c : recorder.calibrations()) {
+      if (c.accepted && c.temperature_fitted) {
+        out = c;
+        return true;
+      }
+    }
+    return false;
+  };
+  mic::MagnetometerCalibration calibration;
+  while (ros::ok() && (ros::WallTime::now() - started).toSec() < timeout_s &&
+         !(fitted(calibration) && recorder.pairs().size() >= wanted_pairs)) {
+    ros::WallDuration(0.05).sleep();
+  }
+  ASSERT_TRUE(fitted(calibration)) << recorder.calibrations().size() << " calibrations, none accepted with temperature terms";
+  std::fprintf(stderr, "hut: window %s .. %s: %s\n", mic::format_iso8601(calibration.window_start.toSec(), 0).c_str(),
+               mic::format_iso8601(calibration.window_end.toSec(), 0).c_str(), calibration.temperature_text.c_str());
+
+  // The truth: the simulators' record before and after the hut.
+  const mic::SimulationSettings settings = simulator_settings(pair.seed);
+  const mic::SimulatedPair clean = mic::simulate_pair(settings);
+  mic::SimulatedPair in_hut = clean;
+  mic::add_hut_temperature(in_hut, hut);
+  // a_l = c_l + s_l F_l, F the window's mean test field without the hut (test frame, nT).
+  const auto first = static_cast<Eigen::Index>(std::llround((calibration.window_start.toSec() - settings.start_time_s) / 0.1));
+  const auto last = static_cast<Eigen::Index>(std::llround((calibration.window_end.toSec() - settings.start_time_s) / 0.1));
+  ASSERT_GE(first, 0);
+  ASSERT_LT(last, clean.test.values_nT.rows());
+  const Eigen::Vector3d field = clean.test.values_nT.middleRows(first, last - first + 1).colwise().mean().transpose();
+  for (int l = 0; l < 3; ++l) {
+    const double truth = hut.offset_nT_per_C(l) + 1e-6 * hut.scale_ppm_per_C(l) * field(l);
+    const double a = calibration.temperature_apparent_nT_per_C[static_cast<std::size_t>(l)];
+    const double ci95 = calibration.temperature_apparent_ci95_nT_per_C[static_cast<std::size_t>(l)];
+    std::fprintf(stderr, "hut: a_%d = %.4f +- %.4f nT/degC, simulated %.4f\n", l, a, ci95, truth);
+    EXPECT_LE(std::abs(a - truth), 1.5 * ci95) << "component " << l << ": a " << a << ", simulated " << truth;
+  }
+  // Corrected live with the terms: matches the reference within the instruments' noise alone
+  // (the clean record's noise; without the terms the hut's 0.2-1 nT/degC over the heater's
+  // 0.6 degC would show).
+  expect_corrected_matches_reference(recorder.pairs(), clean, settings, pair, wanted_pairs);
 }
 
 TEST(SimulatedNetwork, EveryPairRecoversTruthAndCorrects) {

@@ -55,6 +55,8 @@ add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros
 target_link_libraries(test_lemi025_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 add_dependencies(test_lemi025_driver lemi025_driver lemi025_simulator calibration_node correction_node)
 add_rostest(test/ros/test_simulated_station.test DEPENDENCIES test_lemi025_driver)
+# The same station with the test in a field hut: temperature from the packets to both nodes.
+add_rostest(test/ros/test_simulated_station_hut.test DEPENDENCIES test_lemi025_driver)
 # The same station with its four nodes as nodelets in one manager (launch/station.launch nodelet_manager:=).
 add_dependencies(test_lemi025_driver ${PROJECT_NAME}_nodelets)
 add_rostest(test/ros/test_simulated_station_nodelets.test DEPENDENCIES test_lemi025_driver)
