@@ -54,6 +54,9 @@ IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const Ve
                                          const VectorRecord& third, const PreprocessSettings& preprocess,
                                          double band_low_hz, double band_high_hz, int bins = 4);
 
+/// `bins` is the most bins used: fewer when the shared run is too short for 16 harmonics in the
+/// lowest one (a 6-hour run over the default band: 2 bins; 1 hour: 1 bin, a white level only).
+///
 /// The same from two records already paired with the reference on one estimation grid of period
 /// sample_period_s (time_s on the grid; NaN = missing, as calibration_node's live windows hold
 /// them): the epochs where the reference, the test and the third are all finite, cut to the

@@ -112,6 +112,22 @@ std::string one_record_twice(const ThreeCorneredHatResult& hat, const std::strin
   return "";
 }
 
+/// Fewest harmonics in the hat's lowest bin: its PSD then has at least 13 degrees of freedom
+/// (count - 3), a level scattering by about 14 %.
+constexpr long kMinHarmonicsPerBin = 16;
+
+/// The most log-spaced bins, up to `most`, whose lowest one over [low, high] holds
+/// kMinHarmonicsPerBin harmonics j / duration; 1 when even one bin holds fewer.
+int bins_for(double duration_s, double low_hz, double high_hz, int most) {
+  for (int b = most; b > 1; --b) {
+    const double top = low_hz * std::pow(high_hz / low_hz, 1.0 / b);
+    const long first = static_cast<long>(std::ceil(low_hz * duration_s - 1e-9));
+    const long last = static_cast<long>(std::ceil(top * duration_s - 1e-9)) - 1;
+    if (last - first + 1 >= kMinHarmonicsPerBin) return b;
+  }
+  return 1;
+}
+
 }  // namespace
 
 IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const VectorRecord& reference,
@@ -169,7 +185,7 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
   ThreeCorneredHatSettings hs;
   hs.band_low_hz = band_low_hz;
   hs.band_high_hz = band_high_hz;
-  hs.bins = bins;
+  hs.bins = bins_for(static_cast<double>(n) * sample_period_s, band_low_hz, band_high_hz, bins);
   out.hat = three_cornered_hat(r, t, c, out.sample_period_s, hs);
   char text[320];
   const std::string shared = one_record_twice(out.hat, third_name);
@@ -186,7 +202,7 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
     std::snprintf(text, sizeof text,
                   "reference noise from the three-cornered hat with %s (%zu epochs, %d bins): white %.3g/%.3g/%.3g pT "
                   "rms, 1/f %.3g/%.3g/%.3g pT/sqrt(Hz) at 1 Hz (x/y/z)",
-                  third_name.c_str(), out.samples, bins, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1),
+                  third_name.c_str(), out.samples, hs.bins, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1),
                   1e3 * out.white_nT(2), 1e3 * out.pink_nT_per_sqrt_hz(0), 1e3 * out.pink_nT_per_sqrt_hz(1),
                   1e3 * out.pink_nT_per_sqrt_hz(2));
   } else {
