@@ -24,7 +24,9 @@
 // issue 13), none (robust, no EIV correction), given (robust, EIV with the simulated reference
 // noise given as the maker's figure), nomodel (the default estimator without the response model,
 // --no-response-model: the default before issue 14), givenmodel (the default pipeline with the
-// simulated reference noise given).
+// simulated reference noise given), hat (the default pipeline with the reference's noise from a
+// third instrument, as calibrate_records --third: a quiet third sensor of the test's noise class
+// with its own misalignment, on a pier without the test's tilt, heater and traffic view).
 // MC_PRINT_MODEL=1 adds, after each "default" line, the window's response model ("#   ...").
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
@@ -32,6 +34,7 @@
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
@@ -146,7 +149,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     for (std::size_t at = 0; at <= list.size(); ++at) {
       if (at == list.size() || list[at] == ',') {
         if (item != "default" && item != "plain" && item != "ratio1" && item != "none" && item != "given" &&
-            item != "nomodel" && item != "givenmodel")
+            item != "nomodel" && item != "givenmodel" && item != "hat")
           throw std::runtime_error("MC_METHODS: unknown estimator '" + item + "'");
         names.push_back(item);
         item.clear();
@@ -168,10 +171,32 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     mic::StationDisturbanceSettings d;
     mic::UnmodelledDisturbanceSettings u;
     scenario(kind, seed, days, s, d, u);
+    s.keep_clean_field = std::find(names.begin(), names.end(), "hat") != names.end();  // the third's field
     mic::SimulatedPair pair = mic::simulate_pair(s);
     if (kind == "disturbed") mic::add_station_disturbances(pair, d);
     if (kind != "quiet") mic::add_unmodelled_disturbances(pair, u);
     const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, base.preprocess);
+    mic::IdentifiedNoise third_noise;
+    if (std::find(names.begin(), names.end(), "hat") != names.end()) {
+      // The third: B n_c + white + 1/f noise of the simulator's defaults, its own random streams.
+      const Eigen::Matrix3d n_c = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
+                                                          Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
+      const std::size_t n = static_cast<std::size_t>(pair.field_nT.rows());
+      mic::VectorRecord third;
+      third.time_s = pair.reference.time_s;
+      third.values_nT = pair.field_nT * n_c;
+      mic::SimulationRng rng(seed, 9001);
+      mic::SpectralSynthesizer synth(n);
+      const mic::SimulationSettings defaults;
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::VectorXcd pink = mic::power_law_spectrum(n, s.sample_period_s, 1.0, 0.0,
+            defaults.test_pink_nT_per_sqrt_hz * defaults.test_pink_nT_per_sqrt_hz, rng);
+        third.values_nT.col(c) += synth.synthesize(pink, s.sample_period_s) / static_cast<double>(n);
+        for (std::size_t i = 0; i < n; ++i) third.values_nT(static_cast<Eigen::Index>(i), c) += defaults.test_white_nT * rng.normal();
+      }
+      third_noise = mic::identify_reference_noise(prepared, pair.reference, third, base.preprocess,
+                                                  base.estimator.band_low_hz, base.estimator.band_high_hz);
+    }
     for (int m = 0; m < methods; ++m) {
       mic::EstimatorSettings es = base.estimator;
       const std::string& name = names[static_cast<std::size_t>(m)];
@@ -190,8 +215,13 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       mic::WindowEstimator estimator(es);
       mic::WindowEstimate e;
       std::string model_text;
-      if (name == "default" || name == "givenmodel") {  // the default pipeline: robust estimator and response model
+      if (name == "default" || name == "givenmodel" || name == "hat") {  // the default pipeline: robust estimator and response model
         mic::CalibrationSettings cs = base;
+        if (name == "hat") {
+          cs.estimator.robust.reference_white_nT = third_noise.white_nT;
+          cs.estimator.robust.reference_pink_nT_per_sqrt_hz = third_noise.pink_nT_per_sqrt_hz;
+          cs.estimator.robust.reference_noise_source = "three-cornered hat";
+        }
         if (name == "givenmodel") {  // with the simulated reference noise given, as a maker's figure
           cs.estimator.robust.reference_white_nT.setConstant(s.reference_white_nT);
           cs.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(s.reference_pink_nT_per_sqrt_hz);
