@@ -5,6 +5,8 @@
 //
 //   monte_carlo_node_hat [seeds=200] [days=1] [first_seed=9000]
 //   MC_REF_WHITE, MC_A_WHITE, MC_B_WHITE: the three white noise levels (nT; 0.1, 0.01, 0.05)
+//   MC_SPIKES: 50 nT one-sample spikes per day in the reference and test a (simulator.hpp; 0),
+//   MC_GAPS: gaps of 600 s in them (0); the live windows hold them as recorded (NaN in gaps)
 //
 // Per seed: one window of `days` at 1 Hz; by default reference white 0.1 nT (10x test a's
 // 0.01 nT), test b white 0.05 nT with its own misalignment; default node settings (robust, eiv given, band
@@ -63,6 +65,9 @@ int main(int argc, char** argv) {
     s.test_white_nT = truth_level[1];
     s.reference_pink_nT_per_sqrt_hz = s.test_pink_nT_per_sqrt_hz = 0.0;
     s.keep_clean_field = true;
+    s.spikes_per_day = env("MC_SPIKES", 0.0);
+    s.gap_count = static_cast<int>(env("MC_GAPS", 0.0));
+    s.gap_length_s = 600.0;
     const mic::SimulatedPair pair = mic::simulate_pair(s);
     const Eigen::Matrix3d n_b = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
                                                         Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));

@@ -81,6 +81,7 @@ struct CalibrationNode::Channel {
   double last_delay_s = std::numeric_limits<double>::quiet_NaN(), last_delay_ci95_s = last_delay_s;
   std::string last_method, last_band, last_offset;
   std::string last_eiv;  ///< noise model of the last window's errors-in-variables step
+  std::size_t spikes_removed = 0;  ///< values despiked, all windows
   std::string last_weights, last_intervals;  ///< of the last window (WindowEstimate::weights, ::intervals)
   std::string last_reference_noise;      ///< the three-cornered hat of the last window ("" when not active)
   std::size_t hat_identified_windows = 0;  ///< windows corrected with the hat's reference noise

@@ -122,6 +122,7 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("calibration files written", ch.files_written);
     status.add("method", ch.last_method.empty() ? estimator_method_name(settings_.estimator.method) : ch.last_method);
     status.add("EIV (last window)", ch.last_eiv.empty() ? std::string("no window yet") : ch.last_eiv);
+    status.add("spikes removed (all windows)", ch.spikes_removed);
     status.add("weights (last window)", ch.last_weights.empty() ? std::string("no window yet") : ch.last_weights);
     status.add("intervals (last window)", ch.last_intervals.empty() ? std::string("no window yet") : ch.last_intervals);
     status.add("three-cornered hat", settings_.hat_state());

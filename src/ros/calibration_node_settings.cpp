@@ -24,7 +24,7 @@ const std::vector<std::string> kKnownParameters = {
     "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
     "eiv_noise_ratio", "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
-    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat"};
+    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "despike"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -268,6 +268,8 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
       param_double(p, "temperature_max_gap", std::max(s.gap_rule.gaps.max_fill_s, 2.0 * period));
   require_positive("temperature_max_gap", s.gap_rule.temperature_max_gap_s, "s");
 
+  // Spikes removed from each window before its gaps are filled, as offline.
+  s.gap_rule.despike = param_bool(p, "despike", s.gap_rule.despike);
   // Response model: n estimated through a significant 1-pole corner of a test component.
   s.gap_rule.response_model = param_bool(p, "response_model", s.gap_rule.response_model);
 

@@ -136,6 +136,7 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   ch.last_eiv = e.eiv;
   ch.last_reference_noise = reference_noise.text;
   ch.last_weights = e.weights;
+  ch.spikes_removed += result.spikes;
   ch.last_intervals = e.intervals;
   ch.hat_identified_windows += e.eiv.find("three-cornered hat") != std::string::npos ? 1 : 0;
   ch.last_response = result.response;

@@ -1,6 +1,8 @@
 // calibration_node's three-cornered hat without ROS: see live_three_cornered_hat.hpp.
 #include "magnetometer_insitu_calibration/ros/live_three_cornered_hat.hpp"
 
+#include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
+
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -67,6 +69,48 @@ std::vector<CoincidentWindows::Released> CoincidentWindows::add(std::size_t chan
   return out;
 }
 
+namespace {
+
+/// Runs of at most this many epochs with a NaN (spikes removed) are bridged for the hat.
+constexpr Eigen::Index kLongestBridgedRun = 5;
+
+/// A window's pair as the offline pipeline prepares it before the hat sees it: spikes removed
+/// from both records (despike, the offline settings), an epoch with a NaN in any of the six
+/// values NaN in all six, and runs of up to kLongestBridgedRun such epochs replaced by the
+/// straight line between their neighbours in every column (as regularize_and_fill does; longer
+/// gaps stay NaN and end the hat's run of shared epochs). Without this, one 50 nT spike a
+/// hour makes the hat's reference noise 3x the truth (monte_carlo_node_hat, MC_SPIKES=20).
+PairedRecord despiked(PairedRecord p) {
+  const DespikeSettings settings;
+  despike(p.reference_nT, settings);
+  despike(p.test_nT, settings);
+  const Eigen::Index n = p.reference_nT.rows();
+  std::vector<char> bad(static_cast<std::size_t>(n), 0);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    bad[static_cast<std::size_t>(i)] = !(p.reference_nT.row(i).allFinite() && p.test_nT.row(i).allFinite());
+  }
+  for (Eigen::Index i = 0; i < n;) {
+    if (!bad[static_cast<std::size_t>(i)]) {
+      ++i;
+      continue;
+    }
+    Eigen::Index j = i;
+    while (j < n && bad[static_cast<std::size_t>(j)]) ++j;  // [i, j) bad
+    const bool bridged = i > 0 && j < n && j - i <= kLongestBridgedRun;
+    for (Eigen::Index k = i; k < j; ++k) {
+      const double w = bridged ? static_cast<double>(k - i + 1) / static_cast<double>(j - i + 1) : 0.0;
+      for (Readings* m : {&p.reference_nT, &p.test_nT}) {
+        (*m).row(k) = bridged ? Eigen::RowVector3d((1.0 - w) * (*m).row(i - 1) + w * (*m).row(j))
+                              : Eigen::RowVector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+      }
+    }
+    i = j;
+  }
+  return p;
+}
+
+}  // namespace
+
 WindowResult estimate_window_with_hat(WindowData window, const PairedRecord* mate, const std::string& mate_name,
                                       WindowEstimator& estimator, const WindowGapRule& rule, IdentifiedNoise& noise) {
   const EstimatorSettings& settings = estimator.settings();
@@ -75,7 +119,7 @@ WindowResult estimate_window_with_hat(WindowData window, const PairedRecord* mat
     noise.text = "reference noise not identified: no window of another test instrument for these epochs";
   } else {
     try {
-      noise = identify_reference_noise(window.paired, *mate, window.period_s, settings.band_low_hz,
+      noise = identify_reference_noise(despiked(window.paired), despiked(*mate), window.period_s, settings.band_low_hz,
                                        settings.band_high_hz, 4, mate_name);
     } catch (const std::exception& e) {
       noise = IdentifiedNoise{};

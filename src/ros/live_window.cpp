@@ -233,6 +233,10 @@ WindowResult estimate_window_with(WindowData window, const EstimateFunction& est
   r.start_s = window.start_s;
   r.end_s = window.end_s();
   r.expected_samples = window.expected_samples;
+  if (rule.despike) {  // as offline: spikes become NaN, then filled with the gaps at the same epochs
+    r.spikes = despike(window.paired.reference_nT, rule.despike_settings) +
+               despike(window.paired.test_nT, rule.despike_settings);
+  }
   const GapReport gaps = regularize_and_fill(window.paired, window.period_s, rule.gaps);
   const double period = window.period_s;
   const auto epoch = [&](double t) { return std::llround((t - window.start_s) / period); };

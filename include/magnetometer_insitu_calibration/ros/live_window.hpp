@@ -3,6 +3,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
@@ -141,6 +142,10 @@ class SlidingWindowBuffer {
 
 /// Gap rule of a window (as calibrate_prepared applies it offline, extended to the edges).
 struct WindowGapRule {
+  /// Spikes removed from both records of the window before the gaps are filled, as offline
+  /// (despike.hpp, its default settings on the estimation grid; ~despike).
+  bool despike = true;
+  DespikeSettings despike_settings;
   GapSettings gaps;                   ///< max_fill_s: longest gap filled without flagging, s
   double max_filled_fraction = 0.05;  ///< of the window's expected samples, [0, 1]
   /// Temperature terms (only min_range_C is used; band, gamma and trend are the estimator's).
@@ -159,6 +164,7 @@ struct WindowResult {
   std::size_t leading_missing = 0;    ///< epochs of the window before the first complete one
   std::size_t trailing_missing = 0;   ///< epochs after the last complete one
   std::size_t interpolated = 0;       ///< epochs filled inside (regularize_and_fill)
+  std::size_t spikes = 0;             ///< values set to NaN by despike (both records), then filled
   bool long_gap = false;              ///< a gap (inside or at an edge) longer than max_fill_s
   WindowEstimate estimate;            ///< quality kGaps when the gap rule fails
   /// Relative response of the test against R n (relative_response.hpp) and its summary over the
