@@ -156,8 +156,15 @@ inline double median(std::vector<double> v) {
 }
 
 /// Replaces every run of masked samples, in every column of both R and T, by the straight line
-/// between the unmasked samples on either side (flat at the ends). The same weights at the
-/// same epochs in both instruments keep T = R n + d (as regularize_and_fill does for gaps).
+/// between the means of the unmasked samples on either side, each taken over as many samples as
+/// the run is long (fewer where the next run or the record's end comes first) and placed at their
+/// mean epoch; flat at the record's ends. The same weights at the same epochs in both instruments
+/// keep T = R n + d (as regularize_and_fill does for gaps), and a linear signal is reproduced
+/// exactly. Why means, not the two neighbours: a line through two noisy samples puts their noise
+/// into the band as a slow ramp (a 61 s run: about 30x the in-band PSD of white noise over its
+/// span), an error in the regressor that attenuates n. With the reference's white noise 0.1 nT
+/// and 20 masked spikes (2.8 % of a 12 h window) the neighbours' lines moved n by 1.3 standard
+/// errors; means over the run's length put back about the noise the run held.
 inline void fill_masked(Readings& reference, Readings& test, const std::vector<char>& mask) {
   const std::size_t n = mask.size();
   std::size_t i = 0;
@@ -168,15 +175,32 @@ inline void fill_masked(Readings& reference, Readings& test, const std::vector<c
     }
     std::size_t j = i;
     while (j < n && mask[j]) ++j;  // run [i, j)
-    const bool has_left = i > 0, has_right = j < n;
+    const std::size_t length = j - i;
+    // Unmasked samples on each side, up to `length` of them: [left_first, i) and [j, right_end).
+    std::size_t left_first = i;
+    while (left_first > 0 && i - left_first < length && !mask[left_first - 1]) --left_first;
+    std::size_t right_end = j;
+    while (right_end < n && right_end - j < length && !mask[right_end]) ++right_end;
+    const bool has_left = left_first < i, has_right = right_end > j;
+    const double left_t = 0.5 * (static_cast<double>(left_first) + static_cast<double>(i - 1));
+    const double right_t = 0.5 * (static_cast<double>(j) + static_cast<double>(right_end - 1));
     for (Readings* r : {&reference, &test}) {
       for (int c = 0; c < 3; ++c) {
-        const double left = has_left ? (*r)(static_cast<Eigen::Index>(i - 1), c) : std::nan("");
-        const double right = has_right ? (*r)(static_cast<Eigen::Index>(j), c) : std::nan("");
+        double left = std::nan(""), right = std::nan("");
+        if (has_left) {
+          left = 0.0;
+          for (std::size_t k = left_first; k < i; ++k) left += (*r)(static_cast<Eigen::Index>(k), c);
+          left /= static_cast<double>(i - left_first);
+        }
+        if (has_right) {
+          right = 0.0;
+          for (std::size_t k = j; k < right_end; ++k) right += (*r)(static_cast<Eigen::Index>(k), c);
+          right /= static_cast<double>(right_end - j);
+        }
         for (std::size_t k = i; k < j; ++k) {
           double v;
           if (has_left && has_right) {
-            const double a = static_cast<double>(k - i + 1) / static_cast<double>(j - i + 1);
+            const double a = (static_cast<double>(k) - left_t) / (right_t - left_t);
             v = left + a * (right - left);
           } else {
             v = has_left ? left : right;
