@@ -6,7 +6,8 @@
 //   monte_carlo_node_hat [seeds=200] [days=1] [first_seed=9000]
 //   MC_REF_WHITE, MC_A_WHITE, MC_B_WHITE: the three white noise levels (nT; 0.1, 0.01, 0.05)
 //   MC_SPIKES: 50 nT one-sample spikes per day in the reference and test a (simulator.hpp; 0),
-//   MC_GAPS: gaps of 600 s in them (0); the live windows hold them as recorded (NaN in gaps)
+//   MC_GAPS: gaps of 600 s in them (0); the live windows hold them as recorded (NaN in gaps);
+//   MC_DESPIKE: the windows despiked (~despike true; the node's default is false)
 //
 // Per seed: one window of `days` at 1 Hz; by default reference white 0.1 nT (10x test a's
 // 0.01 nT), test b white 0.05 nT with its own misalignment; default node settings (robust, eiv given, band
@@ -96,7 +97,8 @@ int main(int argc, char** argv) {
     }
     const mic::EstimatorSettings defaults;
     mic::WindowEstimator estimator(defaults);
-    const mic::WindowGapRule rule;
+    mic::WindowGapRule rule;
+    if (std::getenv("MC_DESPIKE") != nullptr) rule.despike = true;  // MC_DESPIKE: ~despike true
     mic::IdentifiedNoise noise;
     const auto t0 = std::chrono::steady_clock::now();
     const mic::WindowResult with_hat =

@@ -1,7 +1,6 @@
 // calibration_node's three-cornered hat without ROS: see live_three_cornered_hat.hpp.
 #include "magnetometer_insitu_calibration/ros/live_three_cornered_hat.hpp"
 
-#include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 
 #include <cmath>
 #include <exception>
@@ -82,8 +81,8 @@ constexpr Eigen::Index kLongestBridgedRun = 5;
 /// hour makes the hat's reference noise 3x the truth (monte_carlo_node_hat, MC_SPIKES=20).
 PairedRecord despiked(PairedRecord p) {
   const DespikeSettings settings;
-  despike(p.reference_nT, settings);
-  despike(p.test_nT, settings);
+  despike_window(p.reference_nT, settings);
+  despike_window(p.test_nT, settings);
   const Eigen::Index n = p.reference_nT.rows();
   std::vector<char> bad(static_cast<std::size_t>(n), 0);
   for (Eigen::Index i = 0; i < n; ++i) {

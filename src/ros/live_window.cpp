@@ -234,8 +234,8 @@ WindowResult estimate_window_with(WindowData window, const EstimateFunction& est
   r.end_s = window.end_s();
   r.expected_samples = window.expected_samples;
   if (rule.despike) {  // as offline: spikes become NaN, then filled with the gaps at the same epochs
-    r.spikes = despike(window.paired.reference_nT, rule.despike_settings) +
-               despike(window.paired.test_nT, rule.despike_settings);
+    r.spikes = despike_window(window.paired.reference_nT, rule.despike_settings) +
+               despike_window(window.paired.test_nT, rule.despike_settings);
   }
   const GapReport gaps = regularize_and_fill(window.paired, window.period_s, rule.gaps);
   const double period = window.period_s;
@@ -302,6 +302,26 @@ WindowResult estimate_window(WindowData window, WindowEstimator& estimator, cons
         return estimator.estimate(r, t, p);
       },
       &estimator.settings(), rule);
+}
+
+std::size_t despike_window(Readings& values, const DespikeSettings& settings) {
+  const Readings original = values;
+  despike(values, settings);
+  const Eigen::Index n = values.rows();
+  const Eigen::Index edge = std::min<Eigen::Index>(n, 2 * static_cast<Eigen::Index>(settings.half_window));
+  std::size_t flagged = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      if (std::isnan(values(i, c)) && !std::isnan(original(i, c))) {
+        if (i < edge || i >= n - edge) {
+          values(i, c) = original(i, c);  // no context at the window's edge: not judged here
+        } else {
+          ++flagged;
+        }
+      }
+    }
+  }
+  return flagged;
 }
 
 }  // namespace magnetometer_insitu_calibration

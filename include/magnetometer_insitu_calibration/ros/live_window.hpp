@@ -142,9 +142,12 @@ class SlidingWindowBuffer {
 
 /// Gap rule of a window (as calibrate_prepared applies it offline, extended to the edges).
 struct WindowGapRule {
-  /// Spikes removed from both records of the window before the gaps are filled, as offline
-  /// (despike.hpp, its default settings on the estimation grid; ~despike).
-  bool despike = true;
+  /// Spikes removed from both records of the window before the gaps are filled (despike.hpp,
+  /// its default settings on the estimation grid, not within 2 half-windows of the window's
+  /// ends; ~despike). Off by default: offline despikes the records at their own rate before
+  /// decimation, so a despiked window would no longer be the offline window (replay_agreement);
+  /// spikes are left to the robust screen, whose fill by local means keeps them from moving n.
+  bool despike = false;
   DespikeSettings despike_settings;
   GapSettings gaps;                   ///< max_fill_s: longest gap filled without flagging, s
   double max_filled_fraction = 0.05;  ///< of the window's expected samples, [0, 1]
@@ -198,6 +201,12 @@ struct WindowResult {
   /// Epochs without data: interpolated inside or missing at the edges.
   std::size_t missing() const { return leading_missing + trailing_missing + interpolated; }
 };
+
+/// Despikes one record of a window (despike.hpp) as the offline pipeline despikes the whole
+/// record: a flag within 2 half-windows of either end of the window, where the running medians
+/// lack the context the whole record gives them, is not applied (the value is kept). Inside,
+/// the flags are those of the whole record. Returns the values set to NaN.
+std::size_t despike_window(Readings& values, const DespikeSettings& settings);
 
 /// Puts the window copy on its regular grid and fills gaps (regularize_and_fill: the same rule
 /// as offline, on both instruments at the same epochs), estimates n with `estimator`, and flags
