@@ -74,7 +74,7 @@ namespace {
 constexpr Eigen::Index kLongestBridgedRun = 5;
 
 /// A window's pair as the offline pipeline prepares it before the hat sees it: spikes removed
-/// from both records (despike, the offline settings), an epoch with a NaN in any of the six
+/// from both records (despike_window: the offline settings, not at the window's edges), an epoch with a NaN in any of the six
 /// values NaN in all six, and runs of up to kLongestBridgedRun such epochs replaced by the
 /// straight line between their neighbours in every column (as regularize_and_fill does; longer
 /// gaps stay NaN and end the hat's run of shared epochs). Without this, one 50 nT spike a
