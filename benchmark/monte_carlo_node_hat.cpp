@@ -18,16 +18,16 @@
 //  - test a's scale-ratio bias / scatter over the seeds, with the hat (the node's default with two
 //    tests) and without (one test: no identified noise, no correction).
 // Build: make -C build monte_carlo_node_hat (links the ROS layer's library, no master needed).
-#include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "bias_scatter.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/ros/live_three_cornered_hat.hpp"
+#include "magnetometer_insitu_calibration/simulation/co_located_instrument.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <random>
 #include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
@@ -70,10 +70,6 @@ int main(int argc, char** argv) {
     s.gap_count = static_cast<int>(env("MC_GAPS", 0.0));
     s.gap_length_s = 600.0;
     const mic::SimulatedPair pair = mic::simulate_pair(s);
-    const Eigen::Matrix3d n_b = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
-                                                        Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
-    std::mt19937_64 rng(s.seed * 31 + 7);
-    std::normal_distribution<double> normal;
     // The node's two channels: the reference paired with each test, on the 1 Hz grid.
     mic::WindowData a;
     a.start_s = pair.reference.time_s.front();
@@ -83,9 +79,8 @@ int main(int argc, char** argv) {
     a.paired.reference_nT = pair.reference.values_nT;
     a.paired.test_nT = pair.test.values_nT;
     mic::WindowData b = a;
-    b.paired.test_nT = pair.field_nT * n_b;
-    for (Eigen::Index i = 0; i < b.paired.test_nT.rows(); ++i)
-      for (int c = 0; c < 3; ++c) b.paired.test_nT(i, c) += truth_level[2] * normal(rng);
+    b.paired.test_nT = mic::co_located_instrument(pair.field_nT, mic::co_located_instrument_matrix(), truth_level[2],
+                                                  s.seed * 31 + 7);
     const mic::WindowData a_alone = a;
 
     mic::CoincidentWindows groups(2);
@@ -140,14 +135,9 @@ int main(int argc, char** argv) {
   }
   std::printf("| test a's estimate | scale-ratio bias / scatter x, y, z |\n|---|---|\n");
   for (int m = 0; m < 2; ++m) {
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero(), sq = Eigen::Vector3d::Zero();
-    for (const auto& e : err[m]) {
-      mean += e / static_cast<double>(seeds);
-      sq += e.cwiseAbs2() / static_cast<double>(seeds);
-    }
-    const Eigen::Vector3d scatter = (sq - mean.cwiseAbs2()).cwiseSqrt();
+    const Eigen::Vector3d z = monte_carlo::bias_over_scatter(err[m]);
     std::printf("| %s | %.2f, %.2f, %.2f |\n", m == 0 ? "one test on the node (no noise identified)" : "two tests: the hat (node default)",
-                mean(0) / scatter(0), mean(1) / scatter(1), mean(2) / scatter(2));
+                z(0), z(1), z(2));
   }
   std::printf("# bias / scatter; its own standard error about 1 / sqrt(%d) = %.2f\n", seeds, 1.0 / std::sqrt(seeds));
   std::printf("# window estimate (estimate_window, relative response, response model), mean wall time: %.1f ms with "

@@ -28,12 +28,14 @@
 // third instrument, as calibrate_records --third: a quiet third sensor of the test's noise class
 // with its own misalignment, on a pier without the test's tilt, heater and traffic view).
 // MC_PRINT_MODEL=1 adds, after each "default" line, the window's response model ("#   ...").
+#include "bias_scatter.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/simulation/co_located_instrument.hpp"
 #include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
@@ -179,8 +181,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     mic::IdentifiedNoise third_noise;
     if (std::find(names.begin(), names.end(), "hat") != names.end()) {
       // The third: B n_c + white + 1/f noise of the simulator's defaults, its own random streams.
-      const Eigen::Matrix3d n_c = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
-                                                          Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
+      const Eigen::Matrix3d n_c = mic::co_located_instrument_matrix();
       const std::size_t n = static_cast<std::size_t>(pair.field_nT.rows());
       mic::VectorRecord third;
       third.time_s = pair.reference.time_s;
@@ -315,13 +316,8 @@ int run_hat(int seeds, double days, std::uint64_t first_seed) {
     s.reference_pink_nT_per_sqrt_hz = s.test_pink_nT_per_sqrt_hz = 0.0;
     s.keep_clean_field = true;
     const mic::SimulatedPair pair = mic::simulate_pair(s);
-    const Eigen::Matrix3d n_c = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
-                                                        Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
-    std::mt19937_64 rng(s.seed * 31 + 7);
-    std::normal_distribution<double> normal;
-    mic::Readings third = pair.field_nT * n_c;
-    for (Eigen::Index i = 0; i < third.rows(); ++i)
-      for (int c = 0; c < 3; ++c) third(i, c) += 0.05 * normal(rng);
+    const mic::Readings third =
+        mic::co_located_instrument(pair.field_nT, mic::co_located_instrument_matrix(), 0.05, s.seed * 31 + 7);
     // As calibrate_records --third does it (reference_noise.hpp): the hat in 4 bins over the
     // band, the reference's bins fitted by white + 1/f noise.
     const mic::ThreeCorneredHatResult hat =
@@ -352,14 +348,9 @@ int run_hat(int seeds, double days, std::uint64_t first_seed) {
   for (const auto& l : level) mean_level += l / static_cast<double>(seeds);
   std::printf("# identified / true reference noise level x, y, z: %.3f %.3f %.3f\n", mean_level(0), mean_level(1), mean_level(2));
   for (int m = 0; m < 2; ++m) {
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero(), sq = Eigen::Vector3d::Zero();
-    for (const auto& e : err[m]) {
-      mean += e / static_cast<double>(seeds);
-      sq += e.cwiseAbs2() / static_cast<double>(seeds);
-    }
-    const Eigen::Vector3d scatter = (sq - mean.cwiseAbs2()).cwiseSqrt();
+    const Eigen::Vector3d z = monte_carlo::bias_over_scatter(err[m]);
     std::printf("| %s | %.2f, %.2f, %.2f |\n", m == 0 ? "default, noise not identified" : "default, reference noise from the hat",
-                mean(0) / scatter(0), mean(1) / scatter(1), mean(2) / scatter(2));
+                z(0), z(1), z(2));
   }
   std::printf("# bias / scatter of the scale ratios x, y, z; its own standard error 1 / sqrt(%d)\n", seeds);
   return 0;

@@ -7,13 +7,12 @@
 //   Calibration.ThreeCorneredHat three_cornered_hat.test  two tests of different noise: the
 //                                                     reference's noise identified per window
 #include "calibration_harness.hpp"
-#include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/simulation/co_located_instrument.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
 #include <cmath>
 #include <cstdio>
-#include <random>
 
 using namespace calibration_rostest;
 
@@ -270,14 +269,8 @@ TEST(Calibration, ThreeCorneredHat) {
   s.reference_pink_nT_per_sqrt_hz = s.test_pink_nT_per_sqrt_hz = 0.0;
   s.keep_clean_field = true;
   Harness h(s);
-  const Eigen::Matrix3d n_b = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
-                                                      Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
-  mic::Readings b = h.pair().field_nT * n_b;
-  std::mt19937_64 rng(23);
-  std::normal_distribution<double> normal;
-  for (Eigen::Index i = 0; i < b.rows(); ++i)
-    for (int c = 0; c < 3; ++c) b(i, c) += 0.05 * normal(rng);
-  h.add_test_instrument("/sim/test_b/magnetic_field", "test_b_frame", b);
+  h.add_test_instrument("/sim/test_b/magnetic_field", "test_b_frame",
+                        mic::co_located_instrument(h.pair().field_nT, mic::co_located_instrument_matrix(), 0.05, 23));
   h.subscribe_calibration("/sim/b/calibration");
   ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
   ASSERT_TRUE(h.wait([&] { return h.test_subscribers(0) >= 1; }, 20.0));

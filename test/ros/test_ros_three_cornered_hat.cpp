@@ -2,7 +2,7 @@
 // test instruments' windows by start (CoincidentWindows) and the window estimate with the
 // reference's noise identified from the reference and two tests (estimate_window_with_hat), on
 // three simulated instruments of known, different noise.
-#include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/simulation/co_located_instrument.hpp"
 #include "magnetometer_insitu_calibration/ros/live_three_cornered_hat.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
@@ -10,7 +10,6 @@
 
 #include <cmath>
 #include <limits>
-#include <random>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -98,10 +97,6 @@ ThreeChannels three_channels(std::uint64_t seed) {
   s.reference_pink_nT_per_sqrt_hz = s.test_pink_nT_per_sqrt_hz = 0.0;
   s.keep_clean_field = true;
   t.pair = mic::simulate_pair(s);
-  const Eigen::Matrix3d n_c = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
-                                                      Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
-  std::mt19937_64 rng(seed * 31 + 7);
-  std::normal_distribution<double> normal;
   t.with_test.start_s = t.pair.reference.time_s.front();
   t.with_test.period_s = 1.0;
   t.with_test.expected_samples = t.pair.reference.time_s.size();
@@ -109,9 +104,8 @@ ThreeChannels three_channels(std::uint64_t seed) {
   t.with_test.paired.reference_nT = t.pair.reference.values_nT;
   t.with_test.paired.test_nT = t.pair.test.values_nT;
   t.with_second = t.with_test;
-  t.with_second.paired.test_nT = t.pair.field_nT * n_c;
-  for (Eigen::Index i = 0; i < t.with_second.paired.test_nT.rows(); ++i)
-    for (int c = 0; c < 3; ++c) t.with_second.paired.test_nT(i, c) += 0.05 * normal(rng);
+  t.with_second.paired.test_nT =
+      mic::co_located_instrument(t.pair.field_nT, mic::co_located_instrument_matrix(), 0.05, seed * 31 + 7);
   return t;
 }
 

@@ -141,7 +141,7 @@ struct WindowEstimate {
   std::string weights = "lambda^gamma";
   /// How the 95 % intervals were formed: "sandwich" (plain), or the robust estimator's
   /// "sandwich raised to the jackknife over K sections" / "... over 8 interleaved frequency
-  /// groups" (windows of fewer than 6 sections) / "sandwich (no jackknife: ...)".
+  /// groups" (windows of fewer than 6 sections) / "sandwich (no jackknife: ...)" when it cannot be formed.
   std::string intervals = "sandwich";
 
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.

@@ -346,10 +346,10 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   diagnostics_.jackknife_frequency_groups = jack.frequency_groups;
   result.n = fit.n;
   result.n_covariance = combine_covariances(sandwich, jack);
-  result.intervals = jack.sections >= kMinJackknifeSections && jack.covariance.allFinite()
-                         ? "sandwich raised to the jackknife over " + std::to_string(jack.sections) +
-                               (jack.frequency_groups ? " interleaved frequency groups" : " sections")
-                         : std::string("sandwich (no jackknife: a group held the whole signal of a direction)");
+  result.intervals = jack.usable() ? "sandwich raised to the jackknife over " + std::to_string(jack.sections) +
+                                         (jack.frequency_groups ? " interleaved frequency groups" : " sections")
+                                   : std::string("sandwich (no jackknife: too few groups with weight, or one held the "
+                                                 "whole signal of a direction)");
   result.parameters = decompose(result.n, result.n_covariance);
   result.downweighted_fraction = 1.0 - weight_sum / std::max(weight_max_sum, 1.0);
 

@@ -80,6 +80,8 @@ struct JackknifeResult {
   Matrix9d covariance = Matrix9d::Constant(kNaN);
   std::size_t sections = 0;  ///< groups that carried weight (sections or frequency groups)
   bool frequency_groups = false;  ///< the groups are interleaved frequency groups
+  /// Enough groups with weight (kMinJackknifeSections) and a finite J: it enters the covariance.
+  bool usable() const { return sections >= kMinJackknifeSections && covariance.allFinite(); }
 };
 
 // weighted_eiv_solve.cpp

@@ -120,7 +120,7 @@ JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const 
 /// (t/1.96)^2 J 93.3 %, this max(S, J) 93.6 %, max(S, (t/1.96)^2 J) 94.2 %; the same records
 /// without traffic, spikes and steps: 91.3 / 94.2 / 95.3 / 94.4 / 95.8 %.
 Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& jack) {
-  if (jack.sections < kMinJackknifeSections || !jack.covariance.allFinite()) return sandwich;
+  if (!jack.usable()) return sandwich;
   Eigen::Matrix<double, 9, 1> inflate;
   for (int k = 0; k < 9; ++k) {
     const double ratio = sandwich(k, k) > 0.0 ? jack.covariance(k, k) / sandwich(k, k) : 1.0;

@@ -3,8 +3,8 @@
 // 2 sigma^2 dt for white noise of rms sigma per sample, must come back from the pairwise
 // residuals alone.
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
+#include "magnetometer_insitu_calibration/simulation/co_located_instrument.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <gtest/gtest.h>
@@ -24,9 +24,7 @@ TEST(ThreeCorneredHat, RecoversEachInstrumentsNoiseLevel) {
   const mic::SimulatedPair pair = mic::simulate_pair(s);
   const mic::Readings& field = pair.field_nT;
   const Eigen::Matrix3d n_b = pair.n_true;
-  const Eigen::Matrix3d n_c =
-      mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002), Eigen::Vector3d(0.02, -0.01, 0.0),
-                              Eigen::Vector3d(-0.1, 0.2, 0.05));
+  const Eigen::Matrix3d n_c = mic::co_located_instrument_matrix();
   const double sigma[3] = {0.03, 0.05, 0.08};  // nT rms per sample, white
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> normal;

@@ -3,7 +3,7 @@
 // instruments of known, different noise.
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/simulation/co_located_instrument.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <gtest/gtest.h>
@@ -11,7 +11,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
-#include <random>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -80,16 +79,10 @@ ThreeInstruments three_instruments(std::uint64_t seed) {
   s.test_pink_nT_per_sqrt_hz = 0.0;
   s.keep_clean_field = true;
   t.pair = mic::simulate_pair(s);
-  const Eigen::Matrix3d n_c = mic::matrix_from_angles(Eigen::Vector3d(1.0003, 0.9995, 1.0002),
-                                                      Eigen::Vector3d(0.02, -0.01, 0.0), Eigen::Vector3d(-0.1, 0.2, 0.05));
-  std::mt19937_64 rng(seed * 31 + 7);
-  std::normal_distribution<double> normal;
   const Eigen::Index skip = 7200;
   const Eigen::Index rows = t.pair.field_nT.rows() - skip;
-  t.third.values_nT = t.pair.field_nT.bottomRows(rows) * n_c;
-  for (Eigen::Index i = 0; i < rows; ++i) {
-    for (int c = 0; c < 3; ++c) t.third.values_nT(i, c) += 0.05 * normal(rng);
-  }
+  t.third.values_nT = mic::co_located_instrument(t.pair.field_nT.bottomRows(rows), mic::co_located_instrument_matrix(),
+                                                 0.05, seed * 31 + 7);
   t.third.time_s.assign(t.pair.reference.time_s.begin() + skip, t.pair.reference.time_s.end());
   return t;
 }
