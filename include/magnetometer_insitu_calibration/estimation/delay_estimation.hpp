@@ -56,4 +56,13 @@ DelayEstimate estimate_delay(const Eigen::Ref<const Readings>& reference_nT,
                              const Eigen::Ref<const Readings>& test_nT, const Eigen::Matrix3d& n,
                              double sample_period_s, const DelaySettings& settings = {});
 
+/// The record advanced by advance_s (x(t + advance_s), s; may be a fraction of a sample): each
+/// column's line through its first and last samples is taken out (no wrap-around step), the rest
+/// is shifted by the phase e^{+2 pi i f advance_s} over the whole window's DFT, and the line is
+/// put back at t + advance_s. Used to remove a test instrument's delay BEFORE a record is cut
+/// into sections: a phase shift of each section's own DFT treats the section as periodic and
+/// takes the |advance| / dt samples at its ends for their wrap-around, an error in every section
+/// (record_shift.cpp). Only the first or last |advance_s| of the window wrap around here.
+Readings advance_record(const Eigen::Ref<const Readings>& x, double sample_period_s, double advance_s);
+
 }  // namespace magnetometer_insitu_calibration

@@ -3,6 +3,7 @@
 // section_jackknife.cpp (6b, 6c). The per-window dispatcher is in window_estimator.cpp.
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 
+#include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
 #include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "delay_spectra.hpp"
@@ -151,9 +152,11 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   const double section_s = std::max(rs.section_s, 2.0 / band_low);  // s
   const std::size_t k_sections =
       std::max<std::size_t>(1, static_cast<std::size_t>(std::floor(duration_s / section_s + 1e-9)));
-  std::vector<Cell> cells;
   std::vector<std::size_t> section_first(k_sections + 1);
   for (std::size_t s = 0; s <= k_sections; ++s) section_first[s] = length * s / k_sections;
+  // The cells of the records, section by section (again after a delay is removed, step 4).
+  const auto section_cells = [&](const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test) {
+  std::vector<Cell> cells;
   std::vector<Eigen::VectorXcd> spectra(6);
   for (std::size_t s = 0; s < k_sections; ++s) {
     const std::size_t first = section_first[s], count = section_first[s + 1] - first;
@@ -187,6 +190,9 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
       cells.push_back(cell);
     }
   }
+  return cells;
+  };
+  std::vector<Cell> cells = section_cells(reference, test);
   diagnostics_.sections = k_sections;
   diagnostics_.section_samples = length / k_sections;
   diagnostics_.cells = cells.size();
@@ -255,7 +261,14 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
       result.delay_s = d.delay_s;
       result.delay_ci95_s = d.ci95_s;
       if (rs.correct_delay && std::abs(d.delay_s) > 2.0 * d.stderr_s) {
-        for (Cell& cell : cells) cell.y *= std::polar(1.0, 2.0 * M_PI * cell.frequency_hz * d.delay_s);
+        // The test advanced by the delay over the whole window, then cut into the same sections
+        // (same cells, same bins): a phase shift of each section's own DFT would take its ends'
+        // wrap-around for data (advance_record).
+        {
+          const Readings aligned = advance_record(test, sample_period_s, d.delay_s);
+          std::vector<Cell> shifted = section_cells(reference, aligned);
+          for (std::size_t i = 0; i < cells.size(); ++i) cells[i].y = shifted[i].y;
+        }
         IrlsResult again = irls(cells, k_sections, bins, rs, sample_period_s);
         if (again.ok) {
           fit = std::move(again);
