@@ -250,13 +250,16 @@ WindowResult estimate_window_with(WindowData window, const EstimateFunction& est
   r.long_gap = !gaps.long_gaps.empty() || edge_gap_s > rule.gaps.max_fill_s;
   r.estimate = estimate(window.paired.reference_nT, window.paired.test_nT, period);
   Readings recorded, before_temperature;  // kept only when a modelled filter is removed
+  // As offline: the bands' gains corrected for an identified reference noise (a figure, the hat).
+  const RelativeResponseSettings response =
+      settings != nullptr ? with_identified_reference_noise({}, *settings) : RelativeResponseSettings{};
   if (!rule.response_model) {
     r.response_model.text = "response model off (~response_model false)";
   } else if (settings == nullptr) {
     r.response_model.text = "response model needs the window estimator (not the plain FdWlseEstimator)";
   } else {
     recorded = window.paired.test_nT;
-    r.response_model = with_response_model(estimate, window.paired.reference_nT, window.paired.test_nT, period, {},
+    r.response_model = with_response_model(estimate, window.paired.reference_nT, window.paired.test_nT, period, response,
                                            rule.model, r.estimate);
     if (r.response_model.applied) before_temperature = window.paired.test_nT;
   }
@@ -265,7 +268,7 @@ WindowResult estimate_window_with(WindowData window, const EstimateFunction& est
   const Readings shown = r.response_model.applied
                              ? Readings(recorded - (before_temperature - window.paired.test_nT))
                              : window.paired.test_nT;
-  r.relative_response = relative_response(window.paired.reference_nT, shown, r.estimate.n, period);
+  r.relative_response = relative_response(window.paired.reference_nT, shown, r.estimate.n, period, response);
   const double band_low = std::isfinite(r.estimate.band_low_hz) ? r.estimate.band_low_hz : 0.0;
   const double band_high = std::isfinite(r.estimate.band_high_hz) ? r.estimate.band_high_hz : 0.5 / period;
   r.response = summarise_response(r.relative_response, band_low, band_high);

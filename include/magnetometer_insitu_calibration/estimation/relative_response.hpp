@@ -8,6 +8,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
 
 #include <Eigen/Core>
 
@@ -21,6 +22,12 @@ struct RelativeResponseSettings {
   double high_hz = 0.1;          ///< highest band edge, Hz (clipped to 0.9 x Nyquist)
   int bands_per_decade = 10;     ///< log-spaced band edges
   std::size_t min_harmonics = 6; ///< a band with fewer DFT harmonics is not reported
+  /// The reference's noise when it is identified (a maker's figure, a three-cornered hat; zero:
+  /// not identified). Its expected share of each band's |P|^2 (P = R n: sum_i n_ik^2 S_r,i) is
+  /// then subtracted before the gain is solved, as errors_in_variables.hpp does for n: at the top
+  /// of the range, where the geomagnetic signal is weak, the reference's noise otherwise
+  /// attenuates the gain and a fitted corner comes out low (response_model.hpp).
+  NoiseSpectrum reference_noise;
 
   /// Throws InputError naming the field when a value is impossible.
   void validate() const;
@@ -31,7 +38,9 @@ struct RelativeResponseSettings {
 /// negative when the test record lags (a delay tau gives -360 f tau). Intervals: 95 % half-widths
 /// from the band's own residual T - H P (Student t with 2 (M - 1) degrees of freedom, M harmonics),
 /// linearised; n's own uncertainty is not included (it is fitted over the calibration band, where
-/// H is 1 by construction).
+/// H is 1 by construction). With settings.reference_noise, H is corrected for the reference's
+/// noise (errors in variables); a band where that noise would be as large as |P|^2 keeps the
+/// uncorrected H.
 struct ResponseBand {
   double frequency_hz = 0.0;     ///< |P|^2-weighted mean frequency of the band's harmonics, Hz
   double low_hz = 0.0, high_hz = 0.0;  ///< band edges, Hz

@@ -79,6 +79,16 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
     dft.transform(t.data(), length, padded, t_dft[k]);
   }
   const double df = 1.0 / (static_cast<double>(padded) * period_s);  // harmonic spacing, Hz
+  // Errors in variables: E|P_noise,k(j)|^2 of the differenced, tapered DFT of L samples is
+  // L / (2 dt) * sum_i n_ik^2 S_r,i(f) * 4 sin^2(pi f dt) * mean(taper^2); the 10 % split-cosine
+  // bell has mean(taper^2) = 0.9 + 0.1 * 3/8.
+  const bool eiv = (settings.reference_noise.white_nT.array() != 0.0).any() ||
+                   (settings.reference_noise.pink_nT_per_sqrt_hz.array() != 0.0).any();
+  const Eigen::Matrix3d n2 = n.cwiseAbs2();
+  const auto noise_power = [&](double f, int k) {
+    const double s = std::sin(kPi * f * period_s);
+    return n2.col(k).dot(settings.reference_noise.expected_periodogram(f, period_s, length)) * 4.0 * s * s * 0.9375;
+  };
   const double top = std::min(settings.high_hz, 0.9 * 0.5 / period_s);
   const double step = 1.0 / settings.bands_per_decade;
   for (double lg = std::log10(settings.low_hz); lg < std::log10(top) - 1e-12; lg += step) {
@@ -107,12 +117,20 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
       // harmonics (complex least squares, 2 parameters) and H0 is the response at f_band.
       Eigen::Matrix2cd xhx = Eigen::Matrix2cd::Zero();
       Eigen::Vector2cd xht = Eigen::Vector2cd::Zero();
+      Eigen::Matrix2d noise = Eigen::Matrix2d::Zero();  // E of the reference noise's share of X^H X
       for (std::size_t j = j0; j < j1; ++j) {
         const auto jj = static_cast<Eigen::Index>(j);
         const std::complex<double> p = p_dft[k](jj);
-        const Eigen::Vector2cd x(p, p * ((static_cast<double>(j) * df - band.frequency_hz) / df));
+        const double u = (static_cast<double>(j) * df - band.frequency_hz) / df;
+        const Eigen::Vector2cd x(p, p * u);
         xhx += x.conjugate() * x.transpose();
         xht += x.conjugate() * t_dft[k](jj);
+        if (eiv) noise += noise_power(static_cast<double>(j) * df, k) * Eigen::Vector2d(1.0, u) * Eigen::RowVector2d(1.0, u);
+      }
+      if (eiv) {
+        const Eigen::Matrix2cd corrected = xhx - noise.cast<std::complex<double>>();
+        // Positive definite (the noise below the signal in both directions), else uncorrected.
+        if (corrected(0, 0).real() > 0.0 && corrected.determinant().real() > 0.0) xhx = corrected;
       }
       const Eigen::Matrix2cd inverse = xhx.inverse();
       const Eigen::Vector2cd h = inverse * xht;

@@ -175,9 +175,10 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
       return estimator.estimate(r, t, period);
     };
     w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
+    const RelativeResponseSettings response = with_identified_reference_noise(settings.response, settings.estimator);
     if (settings.response_model) {
       w.response_model = with_response_model(estimate_again, reference, test, prepared.sample_period_s,
-                                             settings.response, settings.model, w.estimate);
+                                             response, settings.model, w.estimate);
     }
     const Readings before_temperature = w.response_model.applied ? test : Readings();
     if (prepared.test_temperature_C.size() > 0) {
@@ -188,8 +189,7 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
     if (settings.relative_response) {
       // Of the test as recorded (a modelled filter shows), without the temperature terms.
       const Readings shown = w.response_model.applied ? Readings(recorded - (before_temperature - test)) : test;
-      w.relative_response = relative_response(reference, shown, w.estimate.n, prepared.sample_period_s,
-                                              settings.response);
+      w.relative_response = relative_response(reference, shown, w.estimate.n, prepared.sample_period_s, response);
     }
     const double filled_fraction = static_cast<double>(w.filled_samples) / static_cast<double>(span.count);
     if (w.estimate.quality == Quality::kOk &&
