@@ -72,6 +72,9 @@ double percentile(std::vector<double> v, double p) {
 struct Tally {
   std::vector<double> scale_pct, angle_deg;
   int covered = 0, checked = 0;
+  // Per parameter (scale x, y, z; non-orthogonality xy, xz, yz): inside its interval, and the
+  // error in standard errors (ci95 / 1.96), to tell a biased parameter from a wide scatter.
+  Eigen::Matrix<double, 6, 1> inside = Eigen::Matrix<double, 6, 1>::Zero(), z_sum = inside, z2_sum = inside;
   void add(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth, int (&cov)[6]) {
     const mic::CalibrationParameters t = mic::decompose(truth);
     const mic::CalibrationParameters& q = e.parameters;
@@ -83,6 +86,12 @@ struct Tally {
       worst_angle = std::max(worst_angle, std::abs(da));
       cov[l] = std::abs(ds) <= q.scale_ratio_ci95(l);
       cov[3 + l] = std::abs(da) <= q.nonorthogonality_ci95_deg(l);
+      const double z[2] = {ds / (q.scale_ratio_ci95(l) / 1.96), da / (q.nonorthogonality_ci95_deg(l) / 1.96)};
+      for (int k = 0; k < 2; ++k) {
+        inside(3 * k + l) += cov[3 * k + l];
+        z_sum(3 * k + l) += z[k];
+        z2_sum(3 * k + l) += z[k] * z[k];
+      }
       covered += cov[l] + cov[3 + l];
       checked += 2;
     }
@@ -252,6 +261,17 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     std::printf("| %s | %.3f / %.3f %% | %.3f / %.3f deg | %.1f %% |\n", names[static_cast<std::size_t>(m)].c_str(), percentile(t.scale_pct, 0.5),
                 percentile(t.scale_pct, 0.95), percentile(t.angle_deg, 0.5), percentile(t.angle_deg, 0.95),
                 100.0 * t.covered / std::max(1, t.checked));
+  }
+  for (int m = 0; m < methods; ++m) {
+    const Tally& t = tally[static_cast<std::size_t>(m)];
+    const double count = static_cast<double>(t.scale_pct.size());
+    std::printf("# %s per parameter (scale x y z, non-orth xy xz yz): inside %%", names[static_cast<std::size_t>(m)].c_str());
+    for (int k = 0; k < 6; ++k) std::printf(" %.0f", 100.0 * t.inside(k) / count);
+    std::printf("; mean z");
+    for (int k = 0; k < 6; ++k) std::printf(" %+.2f", t.z_sum(k) / count);
+    std::printf("; rms z");
+    for (int k = 0; k < 6; ++k) std::printf(" %.2f", std::sqrt(t.z2_sum(k) / count));
+    std::printf("\n");
   }
   std::printf("# %.0f s for %d seeds\n", elapsed, seeds);
   return 0;
