@@ -215,6 +215,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       es.robust.section_s = knob("MC_SECTION_S", es.robust.section_s);
       es.robust.section_rejection = knob("MC_SECTION_REJECTION", es.robust.section_rejection);
       es.robust.correct_delay = knob("MC_CORRECT_DELAY", 1.0) != 0.0;
+      es.band_low_hz = knob("MC_BAND_LOW", es.band_low_hz);
       const std::string& name = names[static_cast<std::size_t>(m)];
       if (name == "plain") es.method = mic::EstimatorMethod::kPlain;
       if (name == "ratio1" || name == "none" || name == "given") es.method = mic::EstimatorMethod::kRobust;
@@ -234,6 +235,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       if (name == "default" || name == "givenmodel" || name == "hat") {  // the default pipeline: robust estimator and response model
         mic::CalibrationSettings cs = base;
         cs.estimator.robust = es.robust;  // the knobs above
+        cs.estimator.band_low_hz = es.band_low_hz;
         if (name == "hat") {
           cs.estimator.robust.reference_white_nT = third_noise.white_nT;
           cs.estimator.robust.reference_pink_nT_per_sqrt_hz = third_noise.pink_nT_per_sqrt_hz;
