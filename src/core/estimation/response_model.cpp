@@ -1,10 +1,10 @@
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "column_response.hpp"
 #include "spectral_tools.hpp"
 
 #include <Eigen/Dense>
-#include <fftw3.h>
 
 #include <algorithm>
 #include <cmath>
@@ -245,46 +245,15 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
 
 Readings remove_modelled_filter(const Readings& test, double period_s, const ResponseModel& model) {
   if (!model.applied || test.rows() < 4) return test;
-  const auto n = static_cast<std::size_t>(test.rows());
   Readings out = test;
-  std::vector<double> buffer(n);
-  std::vector<fftw_complex> spectrum(n / 2 + 1);
-  fftw_plan forward, backward;
-  {
-    std::lock_guard<std::mutex> lock(fftw_planner_lock());
-    forward = fftw_plan_dft_r2c_1d(static_cast<int>(n), buffer.data(), spectrum.data(), FFTW_ESTIMATE);
-    backward = fftw_plan_dft_c2r_1d(static_cast<int>(n), spectrum.data(), buffer.data(), FFTW_ESTIMATE);
-  }
-  const double df = 1.0 / (static_cast<double>(n) * period_s);
+  detail::ColumnResponse filter(static_cast<std::size_t>(test.rows()));
   for (int k = 0; k < 3; ++k) {
     const double q = model.inverse_corner_s(k);
     if (!(q > 0.0)) continue;
-    // The line through the end samples (no wrap-around step). 1 + i f q is 1 + (q / 2 pi) d/dt in
-    // time: it maps the line a + b t to a + b t + b q / (2 pi).
-    const double first = test(0, k), last = test(static_cast<Eigen::Index>(n - 1), k);
-    const double slope = (last - first) / (static_cast<double>(n - 1) * period_s);  // nT/s
-    for (std::size_t i = 0; i < n; ++i) {
-      buffer[i] = test(static_cast<Eigen::Index>(i), k) - (first + slope * static_cast<double>(i) * period_s);
-    }
-    fftw_execute(forward);
-    for (std::size_t j = 0; j < n / 2 + 1; ++j) {
-      const double f = std::min(static_cast<double>(j) * df, model.fit_max_hz);
-      const std::complex<double> x(spectrum[j][0], spectrum[j][1]);
-      const std::complex<double> y = x * std::complex<double>(1.0, f * q) / static_cast<double>(n);
-      spectrum[j][0] = y.real();
-      spectrum[j][1] = y.imag();
-    }
-    if (n % 2 == 0) spectrum[n / 2][1] = 0.0;  // the Nyquist term of a real series is real
-    fftw_execute(backward);
-    for (std::size_t i = 0; i < n; ++i) {
-      out(static_cast<Eigen::Index>(i), k) =
-          buffer[i] + first + slope * (static_cast<double>(i) * period_s + q / (2.0 * kPi));
-    }
-  }
-  {
-    std::lock_guard<std::mutex> lock(fftw_planner_lock());
-    fftw_destroy_plan(forward);
-    fftw_destroy_plan(backward);
+    // 1 + i f q up to the fitted range, held above. In time it is 1 + (q / 2 pi) d/dt: it maps
+    // the line a + b t to a + b t + b q / (2 pi).
+    const auto inverse_filter = [&](double f) { return std::complex<double>(1.0, std::min(f, model.fit_max_hz) * q); };
+    filter.apply(test.col(k), period_s, inverse_filter, q / (2.0 * kPi), out.col(k));
   }
   return out;
 }
