@@ -156,41 +156,41 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   for (std::size_t s = 0; s <= k_sections; ++s) section_first[s] = length * s / k_sections;
   // The cells of the records, section by section (again after a delay is removed, step 4).
   const auto section_cells = [&](const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test) {
-  std::vector<Cell> cells;
-  std::vector<Eigen::VectorXcd> spectra(6);
-  for (std::size_t s = 0; s < k_sections; ++s) {
-    const std::size_t first = section_first[s], count = section_first[s + 1] - first;
-    const double section_duration = static_cast<double>(count) * sample_period_s;
-    const long j0 = std::max(1L, static_cast<long>(std::ceil(band_low * section_duration - 1e-9)));
-    const long j1 = std::min(static_cast<long>(std::floor(band_high * section_duration + 1e-9)),
-                             static_cast<long>((count - 1) / 2));
-    double* columns[6];
-    for (int c = 0; c < 6; ++c) {
-      std::vector<double>& column = impl_->section_columns[static_cast<std::size_t>(c)];
-      column.resize(count);
-      const double* from = (c < 3 ? reference : test).col(c % 3).data() + first;
-      std::copy(from, from + count, column.begin());
-      columns[c] = column.data();
-    }
-    detail::detrend_columns<6>(columns, count);
-    for (int c = 0; c < 6; ++c) {  // only the bins up to j1 are copied out
-      std::copy(columns[c], columns[c] + count, impl_->dft.input(count));
-      impl_->dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
-    }
-    for (long j = j0; j <= j1; ++j) {
-      Cell cell;
-      cell.section = static_cast<int>(s);
-      cell.frequency_hz = static_cast<double>(j) / section_duration;
-      cell.g = std::pow(2.0 * M_PI * static_cast<double>(j) / static_cast<double>(count), settings_.gamma);
-      cell.length = count;
-      for (int k = 0; k < 3; ++k) {
-        cell.x(k) = spectra[static_cast<std::size_t>(k)](j);
-        cell.y(k) = spectra[static_cast<std::size_t>(k + 3)](j);
+    std::vector<Cell> cells;
+    std::vector<Eigen::VectorXcd> spectra(6);
+    for (std::size_t s = 0; s < k_sections; ++s) {
+      const std::size_t first = section_first[s], count = section_first[s + 1] - first;
+      const double section_duration = static_cast<double>(count) * sample_period_s;
+      const long j0 = std::max(1L, static_cast<long>(std::ceil(band_low * section_duration - 1e-9)));
+      const long j1 = std::min(static_cast<long>(std::floor(band_high * section_duration + 1e-9)),
+                               static_cast<long>((count - 1) / 2));
+      double* columns[6];
+      for (int c = 0; c < 6; ++c) {
+        std::vector<double>& column = impl_->section_columns[static_cast<std::size_t>(c)];
+        column.resize(count);
+        const double* from = (c < 3 ? reference : test).col(c % 3).data() + first;
+        std::copy(from, from + count, column.begin());
+        columns[c] = column.data();
       }
-      cells.push_back(cell);
+      detail::detrend_columns<6>(columns, count);
+      for (int c = 0; c < 6; ++c) {  // only the bins up to j1 are copied out
+        std::copy(columns[c], columns[c] + count, impl_->dft.input(count));
+        impl_->dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
+      }
+      for (long j = j0; j <= j1; ++j) {
+        Cell cell;
+        cell.section = static_cast<int>(s);
+        cell.frequency_hz = static_cast<double>(j) / section_duration;
+        cell.g = std::pow(2.0 * M_PI * static_cast<double>(j) / static_cast<double>(count), settings_.gamma);
+        cell.length = count;
+        for (int k = 0; k < 3; ++k) {
+          cell.x(k) = spectra[static_cast<std::size_t>(k)](j);
+          cell.y(k) = spectra[static_cast<std::size_t>(k + 3)](j);
+        }
+        cells.push_back(cell);
+      }
     }
-  }
-  return cells;
+    return cells;
   };
   std::vector<Cell> cells = section_cells(reference, test);
   diagnostics_.sections = k_sections;
@@ -264,14 +264,15 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
         // The test advanced by the delay over the whole window, then cut into the same sections
         // (same cells, same bins): a phase shift of each section's own DFT would take its ends'
         // wrap-around for data (advance_record).
+        std::vector<Cell> aligned = cells;
         {
-          const Readings aligned = advance_record(test, sample_period_s, d.delay_s);
-          std::vector<Cell> shifted = section_cells(reference, aligned);
-          for (std::size_t i = 0; i < cells.size(); ++i) cells[i].y = shifted[i].y;
+          const std::vector<Cell> shifted = section_cells(reference, advance_record(test, sample_period_s, d.delay_s));
+          for (std::size_t i = 0; i < aligned.size(); ++i) aligned[i].y = shifted[i].y;
         }
-        IrlsResult again = irls(cells, k_sections, bins, rs, sample_period_s);
-        if (again.ok) {
+        IrlsResult again = irls(aligned, k_sections, bins, rs, sample_period_s);
+        if (again.ok) {  // else the cells and fit without the correction stay
           fit = std::move(again);
+          cells = std::move(aligned);
           diagnostics_.delay_corrected = true;
         }
       }
