@@ -154,8 +154,11 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
       std::max<std::size_t>(1, static_cast<std::size_t>(std::floor(duration_s / section_s + 1e-9)));
   std::vector<std::size_t> section_first(k_sections + 1);
   for (std::size_t s = 0; s <= k_sections; ++s) section_first[s] = length * s / k_sections;
-  // The cells of the records, section by section (again after a delay is removed, step 4).
-  const auto section_cells = [&](const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test) {
+  // The cells of the records, section by section. After a delay is removed (step 4) only the
+  // test's spectra are new: with_reference false leaves x zero and transforms the test alone.
+  const auto section_cells = [&](const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test,
+                                 bool with_reference) {
+    const int first_column = with_reference ? 0 : 3;
     std::vector<Cell> cells;
     std::vector<Eigen::VectorXcd> spectra(6);
     for (std::size_t s = 0; s < k_sections; ++s) {
@@ -164,16 +167,20 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
       const long j0 = std::max(1L, static_cast<long>(std::ceil(band_low * section_duration - 1e-9)));
       const long j1 = std::min(static_cast<long>(std::floor(band_high * section_duration + 1e-9)),
                                static_cast<long>((count - 1) / 2));
-      double* columns[6];
-      for (int c = 0; c < 6; ++c) {
+      double* columns[6] = {};
+      for (int c = first_column; c < 6; ++c) {
         std::vector<double>& column = impl_->section_columns[static_cast<std::size_t>(c)];
         column.resize(count);
         const double* from = (c < 3 ? reference : test).col(c % 3).data() + first;
         std::copy(from, from + count, column.begin());
         columns[c] = column.data();
       }
-      detail::detrend_columns<6>(columns, count);
-      for (int c = 0; c < 6; ++c) {  // only the bins up to j1 are copied out
+      if (with_reference) {
+        detail::detrend_columns<6>(columns, count);
+      } else {
+        detail::detrend_columns<3>(columns + 3, count);  // column by column: the same as in the 6
+      }
+      for (int c = first_column; c < 6; ++c) {  // only the bins up to j1 are copied out
         std::copy(columns[c], columns[c] + count, impl_->dft.input(count));
         impl_->dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
       }
@@ -184,7 +191,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
         cell.g = std::pow(2.0 * M_PI * static_cast<double>(j) / static_cast<double>(count), settings_.gamma);
         cell.length = count;
         for (int k = 0; k < 3; ++k) {
-          cell.x(k) = spectra[static_cast<std::size_t>(k)](j);
+          cell.x(k) = with_reference ? spectra[static_cast<std::size_t>(k)](j) : std::complex<double>(0.0, 0.0);
           cell.y(k) = spectra[static_cast<std::size_t>(k + 3)](j);
         }
         cells.push_back(cell);
@@ -192,7 +199,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     }
     return cells;
   };
-  std::vector<Cell> cells = section_cells(reference, test);
+  std::vector<Cell> cells = section_cells(reference, test, true);
   diagnostics_.sections = k_sections;
   diagnostics_.section_samples = length / k_sections;
   diagnostics_.cells = cells.size();
@@ -266,7 +273,8 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
         // wrap-around for data (advance_record).
         std::vector<Cell> aligned = cells;
         {
-          const std::vector<Cell> shifted = section_cells(reference, advance_record(test, sample_period_s, d.delay_s));
+          const std::vector<Cell> shifted =
+              section_cells(reference, advance_record(test, sample_period_s, d.delay_s), false);
           for (std::size_t i = 0; i < aligned.size(); ++i) aligned[i].y = shifted[i].y;
         }
         IrlsResult again = irls(aligned, k_sections, bins, rs, sample_period_s);
