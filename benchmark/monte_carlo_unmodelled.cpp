@@ -160,7 +160,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     for (std::size_t at = 0; at <= list.size(); ++at) {
       if (at == list.size() || list[at] == ',') {
         if (item != "default" && item != "plain" && item != "ratio1" && item != "none" && item != "given" &&
-            item != "nomodel" && item != "givenmodel" && item != "hat")
+            item != "nomodel" && item != "givenmodel" && item != "hat" && item != "nopair")
           throw std::runtime_error("MC_METHODS: unknown estimator '" + item + "'");
         names.push_back(item);
         item.clear();
@@ -231,8 +231,8 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       }
       mic::WindowEstimator estimator(es);
       mic::WindowEstimate e;
-      std::string model_text;
-      if (name == "default" || name == "givenmodel" || name == "hat") {  // the default pipeline: robust estimator and response model
+      std::string model_text, noise_text;
+      if (name == "default" || name == "nopair" || name == "givenmodel" || name == "hat") {  // the default pipeline: robust estimator and response model
         mic::CalibrationSettings cs = base;
         cs.estimator.robust = es.robust;  // the knobs above
         cs.estimator.band_low_hz = es.band_low_hz;
@@ -241,6 +241,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
           cs.estimator.robust.reference_pink_nT_per_sqrt_hz = third_noise.pink_nT_per_sqrt_hz;
           cs.estimator.robust.reference_noise_source = "three-cornered hat";
         }
+        if (name == "nopair") cs.pair_noise = false;  // the default before session 9: no EIV without a figure
         if (name == "givenmodel") {  // with the simulated reference noise given, as a maker's figure
           cs.estimator.robust.reference_white_nT.setConstant(s.reference_white_nT);
           cs.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(s.reference_pink_nT_per_sqrt_hz);
@@ -248,6 +249,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
         const mic::CalibrationWindow w = mic::calibrate_prepared(prepared, cs).back();
         e = w.estimate;
         model_text = w.response_model.text;
+        noise_text = w.reference_noise;
       } else {
         e = estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
       }
@@ -260,6 +262,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
                   ds(1), ds(2), da(0), da(1), da(2), cov[0] + cov[1] + cov[2] + cov[3] + cov[4] + cov[5],
                   name == "plain" ? "-" : (e.eiv.rfind("none", 0) == 0 ? "none" : "applied"));
       if (!model_text.empty() && std::getenv("MC_PRINT_MODEL") != nullptr) std::printf("#   %s\n", model_text.c_str());
+      if (!noise_text.empty() && std::getenv("MC_PRINT_MODEL") != nullptr) std::printf("#   %s\n", noise_text.c_str());
     }
     std::fflush(stdout);
   }
@@ -292,8 +295,9 @@ int run_wic(const std::string& dir) {
   const mic::VectorRecord reference = mic::read_record(dir + "/wic20250514_lemi036.sec.gz");
   const mic::VectorRecord test = mic::read_record(dir + "/wic20250514_fge.sec.gz");
   std::printf("| estimator | sqrt(chi2/dof) of the quarters: scale H, E, Z; non-orth HE, HZ, EZ | whole day scale H, E, Z (95 %%) | EIV |\n|---|---|---|---|\n");
-  for (int m = 0; m < 3; ++m) {
+  for (int m = 0; m < 4; ++m) {
     mic::CalibrationSettings settings;
+    if (m == 3) settings.pair_noise = false;  // the default of sessions 5-8: no EIV without a figure
     if (m == 2) {  // the default before issue 13
       settings.estimator.robust.eiv = mic::EivCorrection::kNoiseRatio;
       settings.estimator.robust.eiv_noise_ratio = 1.0;
@@ -322,9 +326,11 @@ int run_wic(const std::string& dir) {
     const auto& day = result.windows.back().estimate;
     const auto& q = day.parameters;
     std::printf("| %s | %.2f, %.2f, %.2f; %.2f, %.2f, %.2f | %.5f+-%.5f, %.5f+-%.5f, %.5f+-%.5f | %s |\n",
-                m == 0 ? "default" : (m == 1 ? "plain Eq. 2" : "robust, EIV ratio 1 (old default)"), chi[0], chi[1], chi[2], chi[3], chi[4], chi[5], q.scale_ratio(0),
+                m == 0 ? "default" : (m == 1 ? "plain Eq. 2" : (m == 2 ? "robust, EIV ratio 1 (old default)" : "default without the pair's noise")), chi[0], chi[1], chi[2], chi[3], chi[4], chi[5], q.scale_ratio(0),
                 q.scale_ratio_ci95(0), q.scale_ratio(1), q.scale_ratio_ci95(1), q.scale_ratio(2), q.scale_ratio_ci95(2),
                 day.eiv.c_str());
+    for (const auto& w : result.windows)
+      if (!w.reference_noise.empty()) std::printf("#   %s: %s\n", w.label.c_str(), w.reference_noise.c_str());
   }
   return 0;
 }

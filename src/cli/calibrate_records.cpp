@@ -98,6 +98,9 @@ int main(int argc, char** argv) {
       "--response-model,!--no-response-model", settings.response_model,
       "fit a delay + 1-pole low-pass per component to the relative response and estimate n through a "
       "significant corner (default with --method robust; off with --method plain unless given)");
+  app.add_flag("--pair-noise,!--no-pair-noise", settings.pair_noise,
+               "robust, --eiv given, no figure and no --third: identify the reference's noise from the pair above "
+               "the band (0.03-0.25 Hz at 1 s) and correct n for it (default); off: no correction");
   app.add_option("--temperature-channel", settings.preprocess.temperature_channel,
                  "the test record's sensor temperature: auto (sensor_temperature, a T_sensor channel, "
                  "temperature), none, or a channel name; fits nT/degC and ppm/degC terms when it varies")

@@ -85,6 +85,7 @@ struct CalibrationNode::Channel {
   std::string last_weights, last_intervals;  ///< of the last window (WindowEstimate::weights, ::intervals)
   std::string last_reference_noise;      ///< the three-cornered hat of the last window ("" when not active)
   std::size_t hat_identified_windows = 0;  ///< windows corrected with the hat's reference noise
+  std::size_t pair_identified_windows = 0;  ///< windows corrected with the pair's reference noise
   ResponseSummary last_response;  ///< relative response over the band used (bands == 0: none yet)
   std::string last_temperature;   ///< temperature terms of the last window: fitted or why not
   std::string last_response_model;  ///< response model of the last window: fitted, applied, or why not

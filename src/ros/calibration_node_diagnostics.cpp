@@ -131,6 +131,13 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
                  ch.last_reference_noise.empty() ? std::string("no window yet") : ch.last_reference_noise);
       status.add("windows corrected with the hat's reference noise", ch.hat_identified_windows);
     }
+    status.add("reference noise from the pair", settings_.pair_noise_active() ? "on: where no figure and no hat"
+                                                : (settings_.pair_noise ? "off (a figure, the hat or ~eiv/~method)" : "off (~pair_noise false)"));
+    if (settings_.pair_noise_active()) {
+      status.add("reference noise (last window)",
+                 ch.last_reference_noise.empty() ? std::string("no window yet") : ch.last_reference_noise);
+      status.add("windows corrected with the pair's reference noise", ch.pair_identified_windows);
+    }
     status.add("last band used (Hz)", ch.last_band);
     status.add("last delay (s)", ch.last_delay_s);
     status.add("last delay ci95 (s)", ch.last_delay_ci95_s);

@@ -24,7 +24,7 @@ const std::vector<std::string> kKnownParameters = {
     "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
     "eiv_noise_ratio", "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
-    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "despike"};
+    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -232,6 +232,9 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   // ~three_cornered_hat: with two or more test instruments, the reference's noise identified in
   // every window from the reference and two tests (live_three_cornered_hat.hpp; hat_active()).
   s.three_cornered_hat = param_bool(p, "three_cornered_hat", s.three_cornered_hat);
+  // ~pair_noise: where the hat is not used, the reference's noise from each window's pair above
+  // the band (reference_noise.hpp, identify_reference_noise_from_pair; pair_noise_active()).
+  s.pair_noise = param_bool(p, "pair_noise", s.pair_noise);
   // Calibration change check against the accepted calibration.
   s.change.false_alarm_probability =
       param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);

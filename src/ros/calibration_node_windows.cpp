@@ -65,12 +65,14 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   const std::string window_text = time_for_message(nominal_start) + " .. " + time_for_message(nominal_end);
   const auto started = std::chrono::steady_clock::now();
   WindowResult result;
-  IdentifiedNoise reference_noise;  // the hat's result, when active
+  IdentifiedNoise reference_noise;  // the hat's or the pair's result, when active
   try {
     if (coincident_) {
       result = estimate_window_with_hat(std::move(job.window), job.mate.get(),
                                         "test '" + channels_[job.mate_channel]->settings.name + "'", estimator,
                                         settings_.gap_rule, reference_noise);
+    } else if (settings_.pair_noise_active()) {
+      result = estimate_window_with_pair_noise(std::move(job.window), estimator, settings_.gap_rule, reference_noise);
     } else {
       result = estimate_window(std::move(job.window), estimator, settings_.gap_rule);
     }
@@ -139,6 +141,7 @@ void CalibrationNode::process(Job& job, WindowEstimator& estimator) {
   ch.spikes_removed += result.spikes;
   ch.last_intervals = e.intervals;
   ch.hat_identified_windows += e.eiv.find("three-cornered hat") != std::string::npos ? 1 : 0;
+  ch.pair_identified_windows += e.eiv.find("from the pair above the band") != std::string::npos ? 1 : 0;
   ch.last_response = result.response;
   ch.last_delay_s = m.delay_s;
   ch.last_delay_ci95_s = m.delay_ci95_s;

@@ -135,4 +135,25 @@ WindowResult estimate_window_with_hat(WindowData window, const PairedRecord* mat
   return estimate_window(std::move(window), identified, rule);
 }
 
+WindowResult estimate_window_with_pair_noise(WindowData window, WindowEstimator& estimator, const WindowGapRule& rule,
+                                             IdentifiedNoise& noise) {
+  const EstimatorSettings& settings = estimator.settings();
+  const PairedRecord paired = despiked(window.paired);
+  const double period = window.period_s;
+  WindowResult first = estimate_window(window, estimator, rule);
+  try {
+    noise = identify_reference_noise_from_pair(paired, period, first.estimate, first.response_model, settings.band_high_hz);
+  } catch (const std::exception& e) {
+    noise = IdentifiedNoise{};
+    noise.text = std::string("reference noise not identified from the pair: ") + e.what();
+  }
+  if (!noise.identified) return first;
+  EstimatorSettings with_noise = settings;
+  with_noise.robust.reference_white_nT = noise.white_nT;
+  with_noise.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
+  with_noise.robust.reference_noise_source = "from the pair above the band";
+  WindowEstimator identified(with_noise);
+  return estimate_window(std::move(window), identified, rule);
+}
+
 }  // namespace magnetometer_insitu_calibration

@@ -66,9 +66,18 @@ struct CalibrationSettings {
   /// Temperature terms when the test record has a temperature (temperature_regression.hpp); the
   /// band, gamma and trend follow each window's estimate, min_range_C is used as given.
   TemperatureBand temperature;
+  /// With the robust method, EIV "given" and no reference noise given (no maker's figure, no
+  /// third instrument): identify the reference's noise from the pair itself above the band and
+  /// estimate each window again with it (identify_reference_noise_from_pair, reference_noise.hpp;
+  /// issue 13). Off: no EIV correction then, as before session 9.
+  bool pair_noise = true;
 
   void validate() const;
 };
+
+/// True when calibrate_prepared identifies the reference's noise from the pair (pair_noise on,
+/// robust method, EIV given, no noise given).
+bool pair_noise_applies(const CalibrationSettings& settings);
 
 /// What pre-processing did, for the report and the diagnostics.
 struct PreprocessReport {
@@ -107,6 +116,9 @@ struct CalibrationWindow {
   /// when fitted, estimate.n is at temperature.reference_C and its covariance includes the
   /// coefficients' uncertainty.
   TemperatureFit temperature;
+  /// One line on the reference noise identified from the pair (CalibrationSettings::pair_noise),
+  /// or why none was; empty when that step does not apply. estimate.eiv says what was applied.
+  std::string reference_noise;
 };
 
 struct PairCalibration {

@@ -12,7 +12,9 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
+#include "magnetometer_insitu_calibration/estimation/two_instrument_noise.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 
 #include <Eigen/Core>
@@ -29,6 +31,7 @@ struct IdentifiedNoise {
   Eigen::Vector3d white_nT = Eigen::Vector3d::Zero();
   Eigen::Vector3d pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
   ThreeCorneredHatResult hat;   ///< every instrument's PSD per bin, and the pairwise residual PSDs
+  TwoInstrumentNoise pair;      ///< from the pair alone: the reference's PSD per bin above the band
   std::size_t samples = 0;      ///< epochs all three records share on the estimation grid
   double sample_period_s = 0.0; ///< of that grid, s
   std::string text;             ///< one line: levels, or why not identified
@@ -74,5 +77,29 @@ IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const Ve
 IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
                                          double sample_period_s, double band_low_hz, double band_high_hz,
                                          int bins = 4, const std::string& third_name = "--third");
+
+/// The reference's noise from the pair alone, without a third instrument or a maker's figure
+/// (two_instrument_noise.hpp): over [max(band_high_hz, 0.03 / sample_period_s), 0.25 /
+/// sample_period_s) in kPairNoiseBins log-spaced bins, the part of the reference's PSD not coherent with the test through the
+/// window's first estimate (estimate.n, and model's delay), fitted by fit_white_and_pink and so
+/// extrapolated into the band. Uses the longest run of epochs where all six values are finite.
+/// Not identified (the text says why, no correction follows) when:
+///  - the response model applied a corner (a modelled filter above the band: the field's part of
+///    the reference's PSD, many times its noise there, would carry the corner's error),
+///  - the estimate is not finite, the band's top is at or above 0.25 / dt, or a bin holds fewer
+///    than 8 harmonics (a run shorter than about an hour at 1 s),
+///  - no bin comes out positive.
+IdentifiedNoise identify_reference_noise_from_pair(const PairedRecord& paired, double sample_period_s,
+                                                   const WindowEstimate& estimate, const ResponseModel& model,
+                                                   double band_high_hz);
+
+/// The pair's noise is measured over kPairNoiseBins log-spaced bins from kPairNoiseLowOfNyquist
+/// (0.03 Hz at 1 s, 3x the default band's top: there the field's part of the reference's PSD is
+/// tens of times its noise on the simulated stations, not hundreds, so that the first estimate's
+/// attenuation leaves a few per cent of it) to kPairNoiseTopOfNyquist (0.25 Hz at 1 s: below the
+/// anti-alias and decimation filters' roll-off of 1 s observatory data) of the Nyquist frequency.
+constexpr int kPairNoiseBins = 6;
+constexpr double kPairNoiseLowOfNyquist = 0.06;
+constexpr double kPairNoiseTopOfNyquist = 0.5;
 
 }  // namespace magnetometer_insitu_calibration

@@ -97,6 +97,9 @@ struct CalibrationNodeSettings {
   /// Reference noise from the three-cornered hat of the reference and two tests, per window
   /// (issue 13); in effect only where hat_active().
   bool three_cornered_hat = true;
+  /// Reference noise identified from each window's pair above the band (issue 13, session 9;
+  /// pipeline/reference_noise.hpp); in effect only where pair_noise_active().
+  bool pair_noise = true;
   std::string tf_child_frame_suffix;    ///< appended to the test frame_id for the transform's child frame
 
   /// True when the inputs are low-passed and decimated to decimation.output_period_s.
@@ -107,6 +110,12 @@ struct CalibrationNodeSettings {
   /// and no ~reference_noise_pT (a maker's figure, when given, is used instead).
   bool hat_active() const {
     return three_cornered_hat && tests.size() >= 2 && estimator.method == EstimatorMethod::kRobust &&
+           estimator.robust.eiv == EivCorrection::kGiven && !estimator.robust.reference_noise_identified();
+  }
+  /// The pair's noise is used where the hat is not: ~pair_noise, the robust method with eiv
+  /// given and no ~reference_noise_pT.
+  bool pair_noise_active() const {
+    return pair_noise && !hat_active() && estimator.method == EstimatorMethod::kRobust &&
            estimator.robust.eiv == EivCorrection::kGiven && !estimator.robust.reference_noise_identified();
   }
   /// Why the hat is or is not used, for the diagnostics.

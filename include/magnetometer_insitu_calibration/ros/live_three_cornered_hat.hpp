@@ -66,4 +66,14 @@ class CoincidentWindows {
 WindowResult estimate_window_with_hat(WindowData window, const PairedRecord* mate, const std::string& mate_name,
                                       WindowEstimator& estimator, const WindowGapRule& rule, IdentifiedNoise& noise);
 
+/// The worker's estimate of one window with the reference's noise from the pair itself (no third
+/// instrument, no figure; ~pair_noise): the window estimated with `estimator` as it is, then the
+/// noise identified from the window's despiked, bridged pair (as for the hat) above the band
+/// through that first estimate and its response model (identify_reference_noise_from_pair); when
+/// identified, the window estimated again with it as the given reference noise (its eiv text says
+/// "from the pair above the band"), else the first estimate is the result. `noise` gets the
+/// identification's result and text. `estimator`'s settings as for the hat.
+WindowResult estimate_window_with_pair_noise(WindowData window, WindowEstimator& estimator, const WindowGapRule& rule,
+                                             IdentifiedNoise& noise);
+
 }  // namespace magnetometer_insitu_calibration

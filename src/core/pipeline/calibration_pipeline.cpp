@@ -1,5 +1,6 @@
 // Offline calibration of a record pair: pre-processing, windows, estimates.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
@@ -152,10 +153,54 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
   return spans;
 }
 
+namespace {
+
+/// One window's estimate, response model, temperature terms and relative response with
+/// `estimator` (settings.estimator, or it with an identified reference noise).
+void estimate_span(CalibrationWindow& w, const PreparedPair& prepared, const WindowSpan& span,
+                   const CalibrationSettings& settings, const EstimatorSettings& estimator_settings) {
+  const auto& p = prepared.paired;
+  WindowEstimator estimator(estimator_settings);  // plain Eq. 2 or robust, from its method
+  const auto reference = p.reference_nT.middleRows(span.first, span.count);
+  const Readings recorded = p.test_nT.middleRows(span.first, span.count);
+  Readings test = recorded;  // loses a modelled filter, then the temperature terms
+  const WindowEstimateFunction estimate_again = [&](const Eigen::Ref<const Readings>& r,
+                                                    const Eigen::Ref<const Readings>& t, double period) {
+    return estimator.estimate(r, t, period);
+  };
+  w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
+  const RelativeResponseSettings response = with_identified_reference_noise(settings.response, estimator_settings);
+  w.response_model = ResponseModel{};
+  if (settings.response_model) {
+    w.response_model = with_response_model(estimate_again, reference, test, prepared.sample_period_s, response,
+                                           settings.model, w.estimate);
+  }
+  const Readings before_temperature = w.response_model.applied ? test : Readings();
+  w.temperature = TemperatureFit{};
+  if (prepared.test_temperature_C.size() > 0) {
+    w.temperature = with_temperature_terms(estimate_again, estimator_settings, settings.temperature, reference, test,
+                                           prepared.test_temperature_C.segment(span.first, span.count),
+                                           prepared.sample_period_s, w.estimate);
+  }
+  w.relative_response.clear();
+  if (settings.relative_response) {
+    // Of the test as recorded (a modelled filter shows), without the temperature terms.
+    const Readings shown = w.response_model.applied ? Readings(recorded - (before_temperature - test)) : test;
+    w.relative_response = relative_response(reference, shown, w.estimate.n, prepared.sample_period_s, response);
+  }
+}
+
+}  // namespace
+
+bool pair_noise_applies(const CalibrationSettings& settings) {
+  const EstimatorSettings& e = settings.estimator;
+  return settings.pair_noise && e.method == EstimatorMethod::kRobust && e.robust.eiv == EivCorrection::kGiven &&
+         !e.robust.reference_noise_identified();
+}
+
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings) {
   settings.validate();
   const auto& p = prepared.paired;
-  WindowEstimator estimator(settings.estimator);  // plain Eq. 2 or robust, from settings.estimator.method
   std::vector<CalibrationWindow> out;
   for (const WindowSpan& span : plan_windows(p.size(), prepared.sample_period_s, settings.windows)) {
     CalibrationWindow w;
@@ -167,29 +212,25 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
     for (const auto& gap : prepared.gaps.long_gaps) {
       w.overlaps_long_gap |= gap.first < span.first + span.count && gap.second >= span.first;
     }
-    const auto reference = p.reference_nT.middleRows(span.first, span.count);
-    const Readings recorded = p.test_nT.middleRows(span.first, span.count);
-    Readings test = recorded;  // loses a modelled filter, then the temperature terms
-    const WindowEstimateFunction estimate_again = [&](const Eigen::Ref<const Readings>& r,
-                                                      const Eigen::Ref<const Readings>& t, double period) {
-      return estimator.estimate(r, t, period);
-    };
-    w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
-    const RelativeResponseSettings response = with_identified_reference_noise(settings.response, settings.estimator);
-    if (settings.response_model) {
-      w.response_model = with_response_model(estimate_again, reference, test, prepared.sample_period_s,
-                                             response, settings.model, w.estimate);
-    }
-    const Readings before_temperature = w.response_model.applied ? test : Readings();
-    if (prepared.test_temperature_C.size() > 0) {
-      w.temperature = with_temperature_terms(estimate_again, settings.estimator, settings.temperature, reference, test,
-                                             prepared.test_temperature_C.segment(span.first, span.count),
-                                             prepared.sample_period_s, w.estimate);
-    }
-    if (settings.relative_response) {
-      // Of the test as recorded (a modelled filter shows), without the temperature terms.
-      const Readings shown = w.response_model.applied ? Readings(recorded - (before_temperature - test)) : test;
-      w.relative_response = relative_response(reference, shown, w.estimate.n, prepared.sample_period_s, response);
+    estimate_span(w, prepared, span, settings, settings.estimator);
+    if (pair_noise_applies(settings)) {
+      // No figure and no third instrument: the reference's noise from the pair above the band,
+      // then the window again with it (reference_noise.hpp).
+      PairedRecord window;
+      window.time_s.assign(p.time_s.begin() + static_cast<std::ptrdiff_t>(span.first),
+                           p.time_s.begin() + static_cast<std::ptrdiff_t>(span.first + span.count));
+      window.reference_nT = p.reference_nT.middleRows(span.first, span.count);
+      window.test_nT = p.test_nT.middleRows(span.first, span.count);
+      const IdentifiedNoise noise = identify_reference_noise_from_pair(window, prepared.sample_period_s, w.estimate,
+                                                                       w.response_model, settings.estimator.band_high_hz);
+      w.reference_noise = noise.text;
+      if (noise.identified) {
+        EstimatorSettings with_noise = settings.estimator;
+        with_noise.robust.reference_white_nT = noise.white_nT;
+        with_noise.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
+        with_noise.robust.reference_noise_source = "from the pair above the band";
+        estimate_span(w, prepared, span, settings, with_noise);
+      }
     }
     const double filled_fraction = static_cast<double>(w.filled_samples) / static_cast<double>(span.count);
     if (w.estimate.quality == Quality::kOk &&

@@ -105,6 +105,7 @@ json window_to_json(const CalibrationWindow& w) {
       {"intervals", e.intervals},
       {"relative_response", response_to_json(w.relative_response)},
       {"response_model", model_to_json(w.response_model)},
+      {"reference_noise_from_pair", w.reference_noise.empty() ? nlohmann::json() : nlohmann::json(w.reference_noise)},
       // Temperature terms (temperature_regression.hpp): null when not fitted, text says why.
       {"temperature_text", w.temperature.text},
       {"temperature_reference_C", fitted_or_null(w.temperature, w.temperature.reference_C)},
@@ -311,6 +312,7 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     row("quality", [](const CalibrationWindow& w) { return std::string(quality_name(w.estimate.quality)); });
     for (const auto& w : c.windows) {
       if (w.response_model.fitted || !w.response_model.text.empty()) out << w.label << ": " << w.response_model.text << "\n";
+      if (!w.reference_noise.empty()) out << w.label << ": " << w.reference_noise << "\n";
     }
     for (const auto& w : c.windows) {
       if (!w.temperature.text.empty()) out << w.label << ": " << w.temperature.text << "\n";

@@ -215,4 +215,56 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
   return out;
 }
 
+IdentifiedNoise identify_reference_noise_from_pair(const PairedRecord& paired, double sample_period_s,
+                                                   const WindowEstimate& estimate, const ResponseModel& model,
+                                                   double band_high_hz) {
+  IdentifiedNoise out;
+  out.sample_period_s = sample_period_s;
+  const double nyquist = 0.5 / sample_period_s;  // Hz
+  const double low = std::max(band_high_hz, kPairNoiseLowOfNyquist * nyquist), top = kPairNoiseTopOfNyquist * nyquist;
+  char text[320];
+  const auto refuse = [&](const std::string& why) {
+    out.text = "reference noise not identified from the pair: " + why;
+    return out;
+  };
+  if (model.applied) return refuse("the test's filter is modelled above the band (" + model.text + ")");
+  if (!estimate.n.allFinite() || estimate.quality != Quality::kOk) return refuse("the window's first estimate failed");
+  if (!(low < top)) return refuse("the band reaches the top of the bins above it");
+  // The longest run of epochs with all six values finite.
+  std::size_t best_first = 0, best_count = 0;
+  const std::size_t rows = paired.size();
+  for (std::size_t i = 0, first = 0; i <= rows; ++i) {
+    const bool bad = i == rows || !paired.reference_nT.row(static_cast<Eigen::Index>(i)).allFinite() ||
+                     !paired.test_nT.row(static_cast<Eigen::Index>(i)).allFinite();
+    if (!bad) continue;
+    if (i - first > best_count) {
+      best_first = first;
+      best_count = i - first;
+    }
+    first = i + 1;
+  }
+  out.samples = best_count;
+  const auto first = static_cast<Eigen::Index>(best_first), count = static_cast<Eigen::Index>(best_count);
+  RelativeTransfer transfer;
+  if (model.fitted) transfer.delay_s = model.delay_s;
+  try {
+    out.pair = two_instrument_noise(paired.reference_nT.middleRows(first, count), paired.test_nT.middleRows(first, count),
+                                    sample_period_s, estimate.n, transfer, low, top, kPairNoiseBins);
+  } catch (const InputError& e) {
+    return refuse(e.problem());
+  }
+  fit_white_and_pink(out.pair.reference_psd, out.pair.bin_low_hz, out.pair.bin_high_hz, sample_period_s, out.white_nT,
+                     out.pink_nT_per_sqrt_hz);
+  out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();
+  if (!out.identified) return refuse("no bin above the band with a positive estimate");
+  std::snprintf(text, sizeof text,
+                "reference noise from the pair above the band (%.3g-%.3g Hz, %zu epochs): white %.3g/%.3g/%.3g pT rms, "
+                "1/f %.3g/%.3g/%.3g pT/sqrt(Hz) at 1 Hz (x/y/z)",
+                low, top, out.samples, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1), 1e3 * out.white_nT(2),
+                1e3 * out.pink_nT_per_sqrt_hz(0), 1e3 * out.pink_nT_per_sqrt_hz(1), 1e3 * out.pink_nT_per_sqrt_hz(2));
+  out.text = text;
+  return out;
+}
+
 }  // namespace magnetometer_insitu_calibration
+

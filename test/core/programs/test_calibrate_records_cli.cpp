@@ -112,15 +112,16 @@ TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
 }
 
 // Issue 13: the default errors-in-variables correction uses identified noise only. Without a
-// noise figure it applies none and every report says so; --reference-noise-pT gives the
-// reference's figure; --eiv-ratio alone keeps asking for the ratio mode.
+// noise figure or a third instrument the reference's noise is identified from the pair above the
+// band (session 9); with --no-pair-noise none is applied and every report says so;
+// --reference-noise-pT gives the reference's figure; --eiv-ratio alone keeps asking for the ratio mode.
 TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
   const std::string io = "--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --json " + dir_;
   struct Case {
     std::string options, json, expected;
   };
   const std::vector<Case> cases = {
-      {"", "/eiv_default.json", "none (noise not identified)"},
+      {"--no-pair-noise", "/eiv_default.json", "none (noise not identified)"},
       {"--eiv none", "/eiv_none.json", "none (off)"},
       {"--reference-noise-pT 5", "/eiv_given.json", "given reference noise: white 0 pT rms, 1/f 5 pT/sqrt(Hz) at 1 Hz"},
       {"--eiv-ratio 0.03", "/eiv_ratio.json", "ratio 0.03 (share of the residual, as asked)"},
@@ -133,6 +134,18 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
     std::ifstream in(dir_ + c.json);
     const nlohmann::json j = nlohmann::json::parse(in);
     EXPECT_EQ(j["windows"][0]["eiv"], c.expected) << c.options;
+  }
+  // The default: the pair's noise, said in the EIV line, the JSON and the window's own line.
+  const ProgramRun pair = run(io + "/eiv_pair.json");
+  ASSERT_EQ(pair.status, 0) << pair.output;
+  EXPECT_NE(pair.output.find("(from the pair above the band)\n"), std::string::npos) << pair.output;
+  EXPECT_NE(pair.output.find("whole record: reference noise from the pair above the band (0.03-0.25 Hz"), std::string::npos)
+      << pair.output;
+  {
+    std::ifstream in(dir_ + "/eiv_pair.json");
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_NE(j["windows"][0]["eiv"].get<std::string>().find("from the pair above the band"), std::string::npos);
+    EXPECT_NE(j["windows"][0]["reference_noise_from_pair"].get<std::string>().find("1/f"), std::string::npos);
   }
   const ProgramRun bad = run(io + "/x.json --eiv none --reference-noise-pT 5");
   EXPECT_NE(bad.status, 0);

@@ -1,0 +1,50 @@
+// The reference's noise from the pair itself, above the calibration band (issue 13): the part of
+// the reference's auto-spectrum that is not coherent with the test through the calibration.
+//
+// With row spectra R_j, T_j (1 x 3) of harmonic j and a test that records the reference's field
+// through n and a diagonal response H(f) (T = (R_field n) diag(H) + noise), the cross-spectral
+// sums over a bin are S_RT = P n diag(H) and S_RR = P + N_r, P the field's part. So
+//   N_r = diag(S_RR - S_RT diag(H)^-1 n^-1)
+// (Holcomb's two-instrument method with a known relative transfer function). An error dn in n or
+// dH in H leaves P (dn, dH) in the estimate: usable only where the field is not much stronger
+// than the noise, i.e. above the band, not inside it, where n is estimated. The estimate per bin
+// is then extrapolated into the band by a white + 1/f fit (reference_noise.hpp). What the
+// estimate assumes: the two noises are independent, the field is the same at both sensors, and
+// n, H hold above the band; a disturbance seen by the reference only counts as its noise.
+#pragma once
+
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
+
+#include <Eigen/Core>
+
+#include <limits>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+/// The test's response relative to the reference, per component k (0 = x): a delay (s, test
+/// late) and a one-pole low-pass of corner corner_hz(k) (infinity: none), H_k(f) =
+/// e^{-2 pi i f delay} / (1 + i f / fc_k).
+struct RelativeTransfer {
+  double delay_s = 0.0;
+  Eigen::Vector3d corner_hz = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+};
+
+struct TwoInstrumentNoise {
+  std::vector<double> bin_low_hz, bin_high_hz;   ///< Hz
+  std::vector<Eigen::Vector3d> reference_psd;    ///< one-sided PSD per axis, nT^2/Hz
+  std::vector<Eigen::Vector3d> coherent_psd;     ///< the field's part of the reference's PSD, nT^2/Hz
+  std::vector<int> harmonics;                    ///< per bin
+};
+
+/// reference, test: N x 3 (nT, regular period dt s, no NaN, same epochs); n the calibration
+/// (T = R n), transfer the test's relative response. `bins` log-spaced bins over [low, high) Hz.
+/// Each column is detrended and Hann-tapered before its DFT (the field's leakage is coherent and
+/// cancels; the taper keeps the reference's own low-frequency noise out of the bins). Throws
+/// InputError("two_instrument_noise", ...) for unequal lengths, a bad band or a bin with fewer
+/// than 8 harmonics.
+TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
+                                        const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
+                                        double high_hz, int bins);
+
+}  // namespace magnetometer_insitu_calibration

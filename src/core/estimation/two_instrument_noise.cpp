@@ -1,0 +1,72 @@
+// The reference's noise from the pair above the band: see two_instrument_noise.hpp.
+#include "magnetometer_insitu_calibration/estimation/two_instrument_noise.hpp"
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "spectral_tools.hpp"
+
+#include <Eigen/LU>
+
+#include <cmath>
+#include <array>
+#include <complex>
+
+namespace magnetometer_insitu_calibration {
+
+TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
+                                        const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
+                                        double high_hz, int bins) {
+  if (reference.rows() != test.rows()) throw InputError("two_instrument_noise", "records of unequal length");
+  if (!(dt > 0.0)) throw InputError("two_instrument_noise", "sample period must be > 0 s");
+  if (!(low_hz > 0.0) || !(high_hz > low_hz) || !(high_hz <= 0.5 / dt) || bins < 1)
+    throw InputError("two_instrument_noise", "needs 0 < low < high <= Nyquist and bins >= 1");
+  if (!n.allFinite() || std::abs(n.determinant()) < 1e-6) throw InputError("two_instrument_noise", "n is singular");
+  const std::size_t length = static_cast<std::size_t>(reference.rows());
+  const double duration = static_cast<double>(length) * dt;
+  // Hann taper after the detrend: mean(w^2) = 3/8 enters the PSD's scale.
+  std::vector<double> taper(length), column(length);
+  for (std::size_t i = 0; i < length; ++i) taper[i] = 0.5 - 0.5 * std::cos(2.0 * M_PI * (static_cast<double>(i) + 0.5) / static_cast<double>(length));
+  std::array<Eigen::VectorXcd, 6> spectra;
+  detail::RealDft& dft = detail::thread_real_dft();
+  for (int c = 0; c < 6; ++c) {
+    const Readings& from = c < 3 ? reference : test;
+    for (std::size_t i = 0; i < length; ++i) column[i] = from(static_cast<Eigen::Index>(i), c % 3);
+    detail::detrend(column.data(), length);
+    for (std::size_t i = 0; i < length; ++i) column[i] *= taper[i];
+    dft.transform(column.data(), length, spectra[static_cast<std::size_t>(c)]);
+  }
+  const Eigen::Matrix3d n_inverse = n.inverse();
+  TwoInstrumentNoise out;
+  const double ratio = std::pow(high_hz / low_hz, 1.0 / bins);
+  const Eigen::Index harmonics = spectra[0].size();
+  for (int k = 0; k < bins; ++k) {
+    const double lo = low_hz * std::pow(ratio, k), hi = k + 1 == bins ? high_hz : low_hz * std::pow(ratio, k + 1);
+    Eigen::Matrix3cd s_rr = Eigen::Matrix3cd::Zero(), field = Eigen::Matrix3cd::Zero();
+    int count = 0;
+    for (Eigen::Index j = 1; j < harmonics - 1; ++j) {
+      const double f = static_cast<double>(j) / duration;
+      if (f < lo || f >= hi) continue;
+      ++count;
+      Eigen::RowVector3cd r, t;
+      for (int c = 0; c < 3; ++c) {
+        r(c) = spectra[static_cast<std::size_t>(c)](j);
+        // The test's spectrum with its response divided out: T diag(H)^-1.
+        const std::complex<double> h = std::exp(std::complex<double>(0.0, -2.0 * M_PI * f * transfer.delay_s)) /
+                                       std::complex<double>(1.0, std::isfinite(transfer.corner_hz(c)) ? f / transfer.corner_hz(c) : 0.0);
+        t(c) = spectra[static_cast<std::size_t>(c + 3)](j) / h;
+      }
+      s_rr += r.adjoint() * r;
+      field += r.adjoint() * t;
+    }
+    if (count < 8) throw InputError("two_instrument_noise", "a frequency bin holds fewer than 8 harmonics: record too short");
+    field = field * n_inverse;  // S_RT diag(H)^-1 n^-1 = P
+    const double scale = 2.0 * dt / (static_cast<double>(length) * 0.375 * static_cast<double>(count));
+    out.bin_low_hz.push_back(lo);
+    out.bin_high_hz.push_back(hi);
+    out.harmonics.push_back(count);
+    out.coherent_psd.push_back(field.diagonal().real() * scale);
+    out.reference_psd.push_back((s_rr - field).diagonal().real() * scale);
+  }
+  return out;
+}
+
+}  // namespace magnetometer_insitu_calibration
