@@ -26,8 +26,11 @@
 // --no-response-model: the default before issue 14), givenmodel (the default pipeline with the
 // simulated reference noise given), hat (the default pipeline with the reference's noise from a
 // third instrument, as calibrate_records --third: a quiet third sensor of the test's noise class
-// with its own misalignment, on a pier without the test's tilt, heater and traffic view).
-// MC_PRINT_MODEL=1 adds, after each "default" line, the window's response model ("#   ...").
+// with its own misalignment, on a pier without the test's tilt, heater and traffic view), nopair
+// (the default pipeline without the reference's noise from the pair, --no-pair-noise: the default
+// of sessions 5-8).
+// MC_PRINT_MODEL=1 adds, after each pipeline line, the window's response model and its
+// reference-noise-from-the-pair line ("#   ...").
 #include "bias_scatter.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
