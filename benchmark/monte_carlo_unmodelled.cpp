@@ -240,9 +240,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
         cs.estimator.robust = es.robust;  // the knobs above
         cs.estimator.band_low_hz = es.band_low_hz;
         if (name == "hat") {
-          cs.estimator.robust.reference_white_nT = third_noise.white_nT;
-          cs.estimator.robust.reference_pink_nT_per_sqrt_hz = third_noise.pink_nT_per_sqrt_hz;
-          cs.estimator.robust.reference_noise_source = "three-cornered hat";
+          cs.estimator = mic::with_identified_noise(cs.estimator, third_noise, "three-cornered hat");
         }
         if (name == "nopair") cs.pair_noise = false;  // the default before session 9: no EIV without a figure
         if (name == "givenmodel") {  // with the simulated reference noise given, as a maker's figure

@@ -148,9 +148,7 @@ int main(int argc, char** argv) {
           mic::identify_reference_noise(prepared, reference, third, settings.preprocess, settings.estimator.band_low_hz,
                                         settings.estimator.band_high_hz);
       std::cout << noise.text << "\n";
-      settings.estimator.robust.reference_white_nT = noise.white_nT;
-      settings.estimator.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
-      settings.estimator.robust.reference_noise_source = "three-cornered hat with --third";
+      settings.estimator = mic::with_identified_noise(settings.estimator, noise, "three-cornered hat with --third");
     }
     result.windows = mic::calibrate_prepared(prepared, settings);
     const mic::ReportInputs inputs = bag.inputs(reference_paths, test_paths);

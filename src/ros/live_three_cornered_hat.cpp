@@ -127,11 +127,7 @@ WindowResult estimate_window_with_hat(WindowData window, const PairedRecord* mat
     }
   }
   if (!noise.identified) return estimate_window(std::move(window), estimator, rule);
-  EstimatorSettings with_noise = settings;
-  with_noise.robust.reference_white_nT = noise.white_nT;
-  with_noise.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
-  with_noise.robust.reference_noise_source = "three-cornered hat with " + mate_name;
-  WindowEstimator identified(with_noise);  // FFTW_ESTIMATE plans: microseconds per window
+  WindowEstimator identified(with_identified_noise(settings, noise, "three-cornered hat with " + mate_name));  // FFTW_ESTIMATE plans: microseconds per window
   return estimate_window(std::move(window), identified, rule);
 }
 
@@ -142,17 +138,14 @@ WindowResult estimate_window_with_pair_noise(WindowData window, WindowEstimator&
   const double period = window.period_s;
   WindowResult first = estimate_window(window, estimator, rule);
   try {
-    noise = identify_reference_noise_from_pair(paired, period, first.estimate, first.response_model, settings.band_high_hz);
+    noise = identify_reference_noise_from_pair(paired.reference_nT, paired.test_nT, period, first.estimate,
+                                               first.response_model, settings.band_high_hz);
   } catch (const std::exception& e) {
     noise = IdentifiedNoise{};
     noise.text = std::string("reference noise not identified from the pair: ") + e.what();
   }
   if (!noise.identified) return first;
-  EstimatorSettings with_noise = settings;
-  with_noise.robust.reference_white_nT = noise.white_nT;
-  with_noise.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
-  with_noise.robust.reference_noise_source = "from the pair above the band";
-  WindowEstimator identified(with_noise);
+  WindowEstimator identified(with_identified_noise(settings, noise, "from the pair above the band"));
   return estimate_window(std::move(window), identified, rule);
 }
 

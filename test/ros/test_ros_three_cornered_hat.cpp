@@ -109,6 +109,15 @@ ThreeChannels three_channels(std::uint64_t seed) {
   return t;
 }
 
+/// The identified noise on axis c as the white level (nT rms per sample at 1 s) of equal mean
+/// PSD over [low, high] Hz: sqrt((2 w^2 + p^2 mean(1/f)) / 2).
+double white_equivalent_nT(const mic::IdentifiedNoise& noise, int c, double low_hz, double high_hz) {
+  const double inverse_f = std::log(high_hz / low_hz) / (high_hz - low_hz);
+  const double psd = 2.0 * noise.white_nT(c) * noise.white_nT(c) +
+                     inverse_f * noise.pink_nT_per_sqrt_hz(c) * noise.pink_nT_per_sqrt_hz(c);
+  return std::sqrt(psd / 2.0);
+}
+
 }  // namespace
 
 TEST(EstimateWindowWithHat, IdentifiesTheReferenceNoiseAndCorrectsWithIt) {
@@ -120,11 +129,7 @@ TEST(EstimateWindowWithHat, IdentifiesTheReferenceNoiseAndCorrectsWithIt) {
   ASSERT_TRUE(noise.identified) << noise.text;
   EXPECT_NE(r.estimate.eiv.find("three-cornered hat with test 'b'"), std::string::npos) << r.estimate.eiv;
   // The identified level (ASD over the band) against the simulated white 0.1 nT: within 20 %.
-  const double inverse_f = std::log(0.01 / 0.0002) / (0.01 - 0.0002);
-  for (int c = 0; c < 3; ++c) {
-    const double psd = 2.0 * noise.white_nT(c) * noise.white_nT(c) + inverse_f * noise.pink_nT_per_sqrt_hz(c) * noise.pink_nT_per_sqrt_hz(c);
-    EXPECT_NEAR(std::sqrt(psd / 2.0) / 0.1, 1.0, 0.2) << c << ": " << noise.text;
-  }
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(white_equivalent_nT(noise, c, 0.0002, 0.01) / 0.1, 1.0, 0.2) << c << ": " << noise.text;
   // The window's estimate is the estimator's with that noise given (the same settings otherwise).
   mic::EstimatorSettings given;
   given.robust.reference_white_nT = noise.white_nT;
@@ -203,10 +208,8 @@ TEST(EstimateWindowWithPairNoise, IdentifiesTheReferenceNoiseFromOneTestAndCorre
   // white level comes out within 2 % (98-100 pT), but the fit also finds 6-9 pT/sqrt(Hz) of 1/f
   // noise that is not there, which 3-6x below its lowest bin adds 25 %; over the whole band,
   // extrapolated down 150x, it would double the level.
-  const double inverse_f = std::log(0.01 / 0.005) / (0.01 - 0.005);
   for (int c = 0; c < 3; ++c) {
-    const double psd = 2.0 * noise.white_nT(c) * noise.white_nT(c) + inverse_f * noise.pink_nT_per_sqrt_hz(c) * noise.pink_nT_per_sqrt_hz(c);
-    EXPECT_NEAR(std::sqrt(psd / 2.0) / 0.1, 1.0, 0.3) << c << ": " << noise.text;
+    EXPECT_NEAR(white_equivalent_nT(noise, c, 0.005, 0.01) / 0.1, 1.0, 0.3) << c << ": " << noise.text;
     EXPECT_NEAR(noise.white_nT(c) / 0.1, 1.0, 0.1) << c << ": " << noise.text;
   }
   // The window's estimate is the estimator's with that noise given (the same settings otherwise).

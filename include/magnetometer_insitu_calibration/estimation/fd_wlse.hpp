@@ -94,6 +94,14 @@ struct EstimatorSettings {
   EstimatorMethod method = EstimatorMethod::kRobust;  ///< used by WindowEstimator / the pipeline
   RobustSettings robust;                               ///< options of the robust method
 
+  /// The robust method with EIV "given" and no reference noise given yet: the correction waits
+  /// for a noise identified from the instruments (the three-cornered hat, the pair above the
+  /// band) and applies none without one.
+  bool awaits_identified_noise() const {
+    return method == EstimatorMethod::kRobust && robust.eiv == EivCorrection::kGiven &&
+           !robust.reference_noise_identified();
+  }
+
   /// Throws InputError naming the field when a value is impossible.
   void validate() const;
 };

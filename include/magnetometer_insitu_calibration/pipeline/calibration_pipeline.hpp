@@ -75,10 +75,6 @@ struct CalibrationSettings {
   void validate() const;
 };
 
-/// True when calibrate_prepared identifies the reference's noise from the pair (pair_noise on,
-/// robust method, EIV given, no noise given).
-bool pair_noise_applies(const CalibrationSettings& settings);
-
 /// What pre-processing did, for the report and the diagnostics.
 struct PreprocessReport {
   std::size_t reference_samples = 0, test_samples = 0;

@@ -32,7 +32,7 @@ struct IdentifiedNoise {
   Eigen::Vector3d pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
   ThreeCorneredHatResult hat;   ///< every instrument's PSD per bin, and the pairwise residual PSDs
   TwoInstrumentNoise pair;      ///< from the pair alone: the reference's PSD per bin above the band
-  std::size_t samples = 0;      ///< epochs all three records share on the estimation grid
+  std::size_t samples = 0;      ///< epochs used: all three records share them (hat); the pair's finite run
   double sample_period_s = 0.0; ///< of that grid, s
   std::string text;             ///< one line: levels, or why not identified
 };
@@ -78,18 +78,26 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
                                          double sample_period_s, double band_low_hz, double band_high_hz,
                                          int bins = 4, const std::string& third_name = "--third");
 
+/// `settings` with noise's white and 1/f levels as the reference noise the EIV correction uses
+/// (EivCorrection::kGiven), `source` named in each window's eiv text ("three-cornered hat with
+/// --third", "from the pair above the band").
+EstimatorSettings with_identified_noise(EstimatorSettings settings, const IdentifiedNoise& noise,
+                                        const std::string& source);
+
 /// The reference's noise from the pair alone, without a third instrument or a maker's figure
 /// (two_instrument_noise.hpp): over [max(band_high_hz, 0.03 / sample_period_s), 0.25 /
 /// sample_period_s) in kPairNoiseBins log-spaced bins, the part of the reference's PSD not coherent with the test through the
 /// window's first estimate (estimate.n, and model's delay), fitted by fit_white_and_pink and so
-/// extrapolated into the band. Uses the longest run of epochs where all six values are finite.
+/// extrapolated into the band. reference_nT, test_nT: N x 3 on one regular grid (NaN = missing);
+/// uses the longest run of epochs where all six values are finite.
 /// Not identified (the text says why, no correction follows) when:
 ///  - the response model applied a corner (a modelled filter above the band: the field's part of
 ///    the reference's PSD, many times its noise there, would carry the corner's error),
 ///  - the estimate is not finite, the band's top is at or above 0.25 / dt, or a bin holds fewer
 ///    than 8 harmonics (a run shorter than about an hour at 1 s),
 ///  - no bin comes out positive.
-IdentifiedNoise identify_reference_noise_from_pair(const PairedRecord& paired, double sample_period_s,
+IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readings>& reference_nT,
+                                                   const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
                                                    const WindowEstimate& estimate, const ResponseModel& model,
                                                    double band_high_hz);
 

@@ -109,14 +109,12 @@ struct CalibrationNodeSettings {
   /// The hat is used: ~three_cornered_hat, two or more tests, the robust method with eiv given
   /// and no ~reference_noise_pT (a maker's figure, when given, is used instead).
   bool hat_active() const {
-    return three_cornered_hat && tests.size() >= 2 && estimator.method == EstimatorMethod::kRobust &&
-           estimator.robust.eiv == EivCorrection::kGiven && !estimator.robust.reference_noise_identified();
+    return three_cornered_hat && tests.size() >= 2 && estimator.awaits_identified_noise();
   }
   /// The pair's noise is used where the hat is not: ~pair_noise, the robust method with eiv
   /// given and no ~reference_noise_pT.
   bool pair_noise_active() const {
-    return pair_noise && !hat_active() && estimator.method == EstimatorMethod::kRobust &&
-           estimator.robust.eiv == EivCorrection::kGiven && !estimator.robust.reference_noise_identified();
+    return pair_noise && !hat_active() && estimator.awaits_identified_noise();
   }
   /// Why the hat is or is not used, for the diagnostics.
   std::string hat_state() const;

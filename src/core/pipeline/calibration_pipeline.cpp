@@ -156,11 +156,11 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
 namespace {
 
 /// One window's estimate, response model, temperature terms and relative response with
-/// `estimator` (settings.estimator, or it with an identified reference noise).
+/// `estimator` (of settings.estimator, or of it with an identified reference noise).
 void estimate_span(CalibrationWindow& w, const PreparedPair& prepared, const WindowSpan& span,
-                   const CalibrationSettings& settings, const EstimatorSettings& estimator_settings) {
+                   const CalibrationSettings& settings, WindowEstimator& estimator) {
   const auto& p = prepared.paired;
-  WindowEstimator estimator(estimator_settings);  // plain Eq. 2 or robust, from its method
+  const EstimatorSettings& estimator_settings = estimator.settings();
   const auto reference = p.reference_nT.middleRows(span.first, span.count);
   const Readings recorded = p.test_nT.middleRows(span.first, span.count);
   Readings test = recorded;  // loses a modelled filter, then the temperature terms
@@ -192,15 +192,10 @@ void estimate_span(CalibrationWindow& w, const PreparedPair& prepared, const Win
 
 }  // namespace
 
-bool pair_noise_applies(const CalibrationSettings& settings) {
-  const EstimatorSettings& e = settings.estimator;
-  return settings.pair_noise && e.method == EstimatorMethod::kRobust && e.robust.eiv == EivCorrection::kGiven &&
-         !e.robust.reference_noise_identified();
-}
-
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings) {
   settings.validate();
   const auto& p = prepared.paired;
+  WindowEstimator estimator(settings.estimator);  // plain Eq. 2 or robust, from settings.estimator.method
   std::vector<CalibrationWindow> out;
   for (const WindowSpan& span : plan_windows(p.size(), prepared.sample_period_s, settings.windows)) {
     CalibrationWindow w;
@@ -212,24 +207,17 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
     for (const auto& gap : prepared.gaps.long_gaps) {
       w.overlaps_long_gap |= gap.first < span.first + span.count && gap.second >= span.first;
     }
-    estimate_span(w, prepared, span, settings, settings.estimator);
-    if (pair_noise_applies(settings)) {
+    estimate_span(w, prepared, span, settings, estimator);
+    if (settings.pair_noise && settings.estimator.awaits_identified_noise()) {
       // No figure and no third instrument: the reference's noise from the pair above the band,
       // then the window again with it (reference_noise.hpp).
-      PairedRecord window;
-      window.time_s.assign(p.time_s.begin() + static_cast<std::ptrdiff_t>(span.first),
-                           p.time_s.begin() + static_cast<std::ptrdiff_t>(span.first + span.count));
-      window.reference_nT = p.reference_nT.middleRows(span.first, span.count);
-      window.test_nT = p.test_nT.middleRows(span.first, span.count);
-      const IdentifiedNoise noise = identify_reference_noise_from_pair(window, prepared.sample_period_s, w.estimate,
-                                                                       w.response_model, settings.estimator.band_high_hz);
+      const IdentifiedNoise noise = identify_reference_noise_from_pair(
+          p.reference_nT.middleRows(span.first, span.count), p.test_nT.middleRows(span.first, span.count),
+          prepared.sample_period_s, w.estimate, w.response_model, settings.estimator.band_high_hz);
       w.reference_noise = noise.text;
       if (noise.identified) {
-        EstimatorSettings with_noise = settings.estimator;
-        with_noise.robust.reference_white_nT = noise.white_nT;
-        with_noise.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
-        with_noise.robust.reference_noise_source = "from the pair above the band";
-        estimate_span(w, prepared, span, settings, with_noise);
+        WindowEstimator identified(with_identified_noise(settings.estimator, noise, "from the pair above the band"));
+        estimate_span(w, prepared, span, settings, identified);
       }
     }
     const double filled_fraction = static_cast<double>(w.filled_samples) / static_cast<double>(span.count);

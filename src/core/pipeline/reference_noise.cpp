@@ -215,7 +215,16 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
   return out;
 }
 
-IdentifiedNoise identify_reference_noise_from_pair(const PairedRecord& paired, double sample_period_s,
+EstimatorSettings with_identified_noise(EstimatorSettings settings, const IdentifiedNoise& noise,
+                                        const std::string& source) {
+  settings.robust.reference_white_nT = noise.white_nT;
+  settings.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
+  settings.robust.reference_noise_source = source;
+  return settings;
+}
+
+IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readings>& reference_nT,
+                                                   const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
                                                    const WindowEstimate& estimate, const ResponseModel& model,
                                                    double band_high_hz) {
   IdentifiedNoise out;
@@ -232,10 +241,11 @@ IdentifiedNoise identify_reference_noise_from_pair(const PairedRecord& paired, d
   if (!(low < top)) return refuse("the band reaches the top of the bins above it");
   // The longest run of epochs with all six values finite.
   std::size_t best_first = 0, best_count = 0;
-  const std::size_t rows = paired.size();
+  if (reference_nT.rows() != test_nT.rows()) throw InputError("two_instrument_noise", "records of unequal length");
+  const auto rows = static_cast<std::size_t>(reference_nT.rows());
   for (std::size_t i = 0, first = 0; i <= rows; ++i) {
-    const bool bad = i == rows || !paired.reference_nT.row(static_cast<Eigen::Index>(i)).allFinite() ||
-                     !paired.test_nT.row(static_cast<Eigen::Index>(i)).allFinite();
+    const bool bad = i == rows || !reference_nT.row(static_cast<Eigen::Index>(i)).allFinite() ||
+                     !test_nT.row(static_cast<Eigen::Index>(i)).allFinite();
     if (!bad) continue;
     if (i - first > best_count) {
       best_first = first;
@@ -248,7 +258,7 @@ IdentifiedNoise identify_reference_noise_from_pair(const PairedRecord& paired, d
   RelativeTransfer transfer;
   if (model.fitted) transfer.delay_s = model.delay_s;
   try {
-    out.pair = two_instrument_noise(paired.reference_nT.middleRows(first, count), paired.test_nT.middleRows(first, count),
+    out.pair = two_instrument_noise(reference_nT.middleRows(first, count), test_nT.middleRows(first, count),
                                     sample_period_s, estimate.n, transfer, low, top, kPairNoiseBins);
   } catch (const InputError& e) {
     return refuse(e.problem());
