@@ -249,7 +249,12 @@ TEST(IdentifyReferenceNoiseFromPair, NotFromATestBehindAModelledFilter) {
   mic::SimulatedPair pair = mic::simulate_pair(s);
   mic::apply_test_response(pair.test.values_nT, 1.0, 0.03, 0.0);
   const mic::CalibrationWindow w = mic::calibrate_records(pair.reference, pair.test, {}).windows.back();
+  mic::CalibrationSettings off;
+  off.pair_noise = false;
+  const mic::CalibrationWindow without = mic::calibrate_records(pair.reference, pair.test, off).windows.back();
   ASSERT_TRUE(w.response_model.applied) << w.response_model.text;
+  // Refused means untouched: n is the one estimated without the step, to the bit.
+  EXPECT_EQ(w.estimate.n, without.estimate.n);
   EXPECT_NE(w.reference_noise.find("not identified from the pair: the test's filter is modelled"), std::string::npos)
       << w.reference_noise;
   EXPECT_NE(w.estimate.eiv.find("none"), std::string::npos) << w.estimate.eiv;

@@ -135,7 +135,8 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
     const nlohmann::json j = nlohmann::json::parse(in);
     EXPECT_EQ(j["windows"][0]["eiv"], c.expected) << c.options;
   }
-  // The default: the pair's noise, said in the EIV line, the JSON and the window's own line.
+  // The default: the pair's noise, said in the EIV line, the JSON and the window's own line
+  // (its n against the simulated truth: WritesTheJsonDocumentWithTheTruthInside runs the default).
   const ProgramRun pair = run(io + "/eiv_pair.json");
   ASSERT_EQ(pair.status, 0) << pair.output;
   EXPECT_NE(pair.output.find("(from the pair above the band)\n"), std::string::npos) << pair.output;
