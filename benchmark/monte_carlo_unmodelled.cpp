@@ -292,6 +292,32 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
 
 /// Real pair: per parameter, sqrt(chi2 / 3) of the four quarters around their weighted mean
 /// (standard errors = ci95 / 1.96), and the whole day's scale ratios with their half-widths.
+/// The whole day's reference-noise bins from the pair (estimate +- its standard deviation, per
+/// axis, pT/sqrt(Hz) as the ASD of each bin's mean PSD) against what the maker's figure read as
+/// 1/f 10 pT/sqrt(Hz) at 1 Hz predicts there, and the figure's excess in standard deviations:
+/// the data's test of that figure where the pair can measure the reference's noise.
+void print_pair_bins_against_figure(const mic::VectorRecord& reference, const mic::VectorRecord& test,
+                                    const mic::CalibrationSettings& settings, const mic::CalibrationWindow& day) {
+  const mic::PreparedPair prepared = mic::prepare_pair(reference, test, settings.preprocess);
+  const mic::IdentifiedNoise noise = mic::identify_reference_noise_from_pair(
+      prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s, day.estimate, day.response_model,
+      settings.estimator.band_high_hz);
+  std::printf("# the day's pair bins, reference ASD x, y, z in pT/sqrt(Hz) (+- 1 sd); 1/f 10 pT/sqrt(Hz) at 1 Hz "
+              "predicts; (prediction - estimate) / sd per axis\n");
+  const double figure = 0.010;  // nT/sqrt(Hz) at 1 Hz
+  for (std::size_t k = 0; k < noise.pair.reference_psd.size(); ++k) {
+    const double lo = noise.pair.bin_low_hz[k], hi = noise.pair.bin_high_hz[k];
+    const double predicted = figure * figure * std::log(hi / lo) / (hi - lo);  // nT^2/Hz
+    const Eigen::Vector3d& psd = noise.pair.reference_psd[k];
+    const Eigen::Vector3d& sd = noise.pair.reference_psd_sd[k];
+    const auto asd = [](double v) { return 1e3 * std::sqrt(std::max(v, 0.0)); };
+    std::printf("#   %.4f-%.4f Hz: %.1f (%.1f-%.1f), %.1f (%.1f-%.1f), %.1f (%.1f-%.1f); figure %.1f; %+.1f %+.1f %+.1f sd\n", lo,
+                hi, asd(psd(0)), asd(psd(0) - sd(0)), asd(psd(0) + sd(0)), asd(psd(1)), asd(psd(1) - sd(1)),
+                asd(psd(1) + sd(1)), asd(psd(2)), asd(psd(2) - sd(2)), asd(psd(2) + sd(2)), asd(predicted),
+                (predicted - psd(0)) / sd(0), (predicted - psd(1)) / sd(1), (predicted - psd(2)) / sd(2));
+  }
+}
+
 int run_wic(const std::string& dir) {
   const mic::VectorRecord reference = mic::read_record(dir + "/wic20250514_lemi036.sec.gz");
   const mic::VectorRecord test = mic::read_record(dir + "/wic20250514_fge.sec.gz");
@@ -332,6 +358,7 @@ int run_wic(const std::string& dir) {
                 day.eiv.c_str());
     for (const auto& w : result.windows)
       if (!w.reference_noise.empty()) std::printf("#   %s: %s\n", w.label.c_str(), w.reference_noise.c_str());
+    if (m == 3) print_pair_bins_against_figure(reference, test, settings, result.windows.back());
   }
   return 0;
 }

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <complex>
 #include <cstddef>
 #include <functional>
@@ -42,6 +43,10 @@ enum class EivCorrection : int {
 const char* eiv_correction_name(EivCorrection mode);  ///< "none", "ratio", "given"
 EivCorrection parse_eiv_correction(const std::string& text, const std::string& where = "eiv");
 
+/// Covariance, per axis of the reference's frame, of an identified noise's two levels (white^2 in
+/// nT^2 rms^2 per sample, pink^2 in nT^2/Hz at 1 Hz), in that order: nT^4 and their products.
+using NoiseLevelCovariance = std::array<Eigen::Matrix2d, 3>;
+
 /// Options of the robust estimator, of the automatic band and of the delay (robust_estimator.hpp
 /// explains each step). Ignored by FdWlseEstimator itself.
 struct RobustSettings {
@@ -74,6 +79,12 @@ struct RobustSettings {
   /// kGiven: where the figure came from, appended to WindowEstimate::eiv in parentheses when not
   /// empty (e.g. "three-cornered hat"); empty: a maker's figure.
   std::string reference_noise_source;
+  /// kGiven: the uncertainty of those levels when they were identified from the data (the pair
+  /// above the band); its effect on n, through the correction, is added to n's covariance
+  /// (robust_estimator.hpp, step 6d). Zero (the default): the levels are taken as exact, as a
+  /// maker's figure is.
+  NoiseLevelCovariance reference_noise_level_covariance{Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(),
+                                                        Eigen::Matrix2d::Zero()};
 
   /// True when kGiven has a non-zero reference noise: the correction has noise to use.
   bool reference_noise_identified() const;

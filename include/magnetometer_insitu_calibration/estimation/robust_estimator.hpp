@@ -64,7 +64,11 @@
 //        leverage of the few strong low harmonics (section_jackknife.cpp says why interleaved);
 //     c. reported: Cov = D S D, D_kk = sqrt(max(1, J_kk / S_kk)) (the sandwich raised to the
 //        jackknife entry by entry, its correlations kept); the sandwich alone when the jackknife
-//        cannot be formed (a group held the whole signal of a direction).
+//        cannot be formed (a group held the whole signal of a direction);
+//     d. plus, with a given noise whose levels were identified from the data (the pair above
+//        the band: RobustSettings::reference_noise_level_covariance), the delta method's
+//        J Sigma J^T of those levels through the correction (noise_level_covariance_term): the
+//        jackknife re-solves with the same levels, so it cannot see their uncertainty.
 //     Measured coverage and the reasoning: section_jackknife.cpp (combine_covariances) and
 //     docs/robust_estimation.md.
 //
@@ -95,6 +99,7 @@ struct RobustDiagnostics {
   bool delay_corrected = false;
   Matrix9d covariance_sandwich = Matrix9d::Zero();   ///< step 6a, row-major vec(n)
   Matrix9d covariance_jackknife = Matrix9d::Zero();  ///< step 6b (NaN with fewer than 2 sections)
+  Matrix9d covariance_noise_levels = Matrix9d::Zero();  ///< step 6d: a given noise's level uncertainty through the correction
   std::size_t jackknife_sections = 0;    ///< the jackknife's groups with weight (sections or frequency groups)
   bool jackknife_frequency_groups = false;  ///< groups are 8 interleaved frequency groups (< 6 sections)
   BandSelection band;                    ///< when auto_band

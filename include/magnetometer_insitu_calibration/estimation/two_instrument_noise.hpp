@@ -33,6 +33,10 @@ struct RelativeTransfer {
 struct TwoInstrumentNoise {
   std::vector<double> bin_low_hz, bin_high_hz;   ///< Hz
   std::vector<Eigen::Vector3d> reference_psd;    ///< one-sided PSD per axis, nT^2/Hz
+  /// Standard deviation of each reference_psd value, nT^2/Hz: from the scatter over the bin's
+  /// harmonics of each one's term (the field's part included), for the Hann taper's correlation
+  /// of neighbouring harmonics.
+  std::vector<Eigen::Vector3d> reference_psd_sd;
   std::vector<Eigen::Vector3d> coherent_psd;     ///< the field's part of the reference's PSD, nT^2/Hz
   std::vector<int> harmonics;                    ///< per bin
 };

@@ -30,6 +30,9 @@ struct IdentifiedNoise {
   /// period; 1/f, nT/sqrt(Hz) at 1 Hz (the units of RobustSettings::reference_white_nT / _pink_).
   Eigen::Vector3d white_nT = Eigen::Vector3d::Zero();
   Eigen::Vector3d pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
+  /// Covariance of (white^2, pink^2) per axis (fd_wlse.hpp); from the pair's per-bin scatter,
+  /// zero for the hat (its bins carry no standard deviation yet).
+  NoiseLevelCovariance level_covariance{Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
   ThreeCorneredHatResult hat;   ///< every instrument's PSD per bin, and the pairwise residual PSDs
   TwoInstrumentNoise pair;      ///< from the pair alone: the reference's PSD per bin above the band
   std::size_t samples = 0;      ///< epochs used: all three records share them (hat); the pair's finite run
@@ -45,6 +48,15 @@ struct IdentifiedNoise {
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, const std::vector<double>& bin_low_hz,
                         const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,
                         Eigen::Vector3d& pink_nT_per_sqrt_hz);
+
+/// The same with each bin's standard deviation (nT^2/Hz), and the covariance of (w^2, p^2) per
+/// axis: that of the unconstrained last pass, (A^T A)^-1 A^T diag(sd^2) A (A^T A)^-1 in the
+/// relative rows, also when a level came out at its bound of zero. Throws
+/// InputError("fit_white_and_pink", ...) when psd_sd does not hold one value per bin.
+bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz,
+                        const std::vector<Eigen::Vector3d>& psd_sd_nT2_per_hz, const std::vector<double>& bin_low_hz,
+                        const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,
+                        Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance);
 
 /// The reference and test as already paired for calibration (prepare_pair(reference, test,
 /// preprocess), so they are prepared once) and a third instrument's record (any frame, nearly
@@ -78,8 +90,8 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
                                          double sample_period_s, double band_low_hz, double band_high_hz,
                                          int bins = 4, const std::string& third_name = "--third");
 
-/// `settings` with noise's white and 1/f levels as the reference noise the EIV correction uses
-/// (EivCorrection::kGiven), `source` named in each window's eiv text ("three-cornered hat with
+/// `settings` with noise's white and 1/f levels, and their covariance, as the reference noise the
+/// EIV correction uses (EivCorrection::kGiven), `source` named in each window's eiv text ("three-cornered hat with
 /// --third", "from the pair above the band").
 EstimatorSettings with_identified_noise(EstimatorSettings settings, const IdentifiedNoise& noise,
                                         const std::string& source);

@@ -64,6 +64,11 @@ void RobustSettings::validate() const {
     throw InputError("reference_white_nT", "must be finite and >= 0");
   if (!reference_pink_nT_per_sqrt_hz.allFinite() || (reference_pink_nT_per_sqrt_hz.array() < 0.0).any())
     throw InputError("reference_pink_nT_per_sqrt_hz", "must be finite and >= 0");
+  for (const Eigen::Matrix2d& c : reference_noise_level_covariance) {
+    if (!c.allFinite() || c(0, 0) < 0.0 || c(1, 1) < 0.0 || std::abs(c(0, 1) - c(1, 0)) > 1e-12 * c.cwiseAbs().maxCoeff() ||
+        c(0, 1) * c(0, 1) > c(0, 0) * c(1, 1) * (1.0 + 1e-9))
+      throw InputError("reference_noise_level_covariance", "must be a finite symmetric positive semi-definite 2 x 2 per axis");
+  }
 }
 
 

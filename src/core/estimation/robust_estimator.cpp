@@ -372,6 +372,14 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
                                          (jack.frequency_groups ? " interleaved frequency groups" : " sections")
                                    : std::string("sandwich (no jackknife: too few groups with weight, or one held the "
                                                  "whole signal of a direction)");
+  // Step 6d: the identified noise's own uncertainty, through the correction (the jackknife
+  // re-solves with the same levels, so it does not see it).
+  const Matrix9d level_term = noise_level_covariance_term(cells, fit.weight, fit, rs, sample_period_s);
+  diagnostics_.covariance_noise_levels = level_term;
+  if (!level_term.isZero(0.0)) {
+    result.n_covariance += level_term;
+    result.intervals += ", plus the identified reference noise's uncertainty";
+  }
   result.parameters = decompose(result.n, result.n_covariance);
   result.downweighted_fraction = 1.0 - weight_sum / std::max(weight_max_sum, 1.0);
 

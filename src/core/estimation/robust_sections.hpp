@@ -92,6 +92,11 @@ WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix
 WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
                               const std::vector<Eigen::Vector3d>& scale2, const RobustSettings& rs,
                               double sample_period_s, int exclude, const Eigen::Matrix3d& n_start);
+/// Step 6d: the covariance of row-major vec(n) that the uncertainty of a given noise's levels
+/// (rs.reference_noise_level_covariance) carries through the correction; zero unless the given
+/// correction was applied.
+Matrix9d noise_level_covariance_term(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                     const WeightedSolution& fit, const RobustSettings& rs, double sample_period_s);
 
 // section_irls.cpp: steps 3 and 5, IRLS over the cells.
 IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,

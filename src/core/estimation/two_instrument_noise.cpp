@@ -12,6 +12,10 @@
 
 namespace magnetometer_insitu_calibration {
 
+namespace {
+constexpr double kHannSumInflation = 35.0 / 18.0;
+}  // namespace
+
 TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
                                         const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
                                         double high_hz, int bins) {
@@ -41,6 +45,9 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
   for (int k = 0; k < bins; ++k) {
     const double lo = low_hz * std::pow(ratio, k), hi = k + 1 == bins ? high_hz : low_hz * std::pow(ratio, k + 1);
     Eigen::Matrix3cd s_rr = Eigen::Matrix3cd::Zero(), field = Eigen::Matrix3cd::Zero();
+    // Per harmonic and axis, the reference's noise term z = Re(conj(R_c) (R - T diag(H)^-1 n^-1)_c):
+    // its sum over the bin is the estimate (the field cancels), its scatter the estimate's spread.
+    Eigen::Vector3d z_sum = Eigen::Vector3d::Zero(), z2_sum = Eigen::Vector3d::Zero();
     int count = 0;
     for (Eigen::Index j = 1; j < harmonics - 1; ++j) {
       const double f = static_cast<double>(j) / duration;
@@ -56,6 +63,12 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
       }
       s_rr += r.adjoint() * r;
       field += r.adjoint() * t;
+      const Eigen::RowVector3cd u = r - t * n_inverse;
+      for (int c = 0; c < 3; ++c) {
+        const double z = (std::conj(r(c)) * u(c)).real();
+        z_sum(c) += z;
+        z2_sum(c) += z * z;
+      }
     }
     if (count < 8) throw InputError("two_instrument_noise", "a frequency bin holds fewer than 8 harmonics: record too short");
     field = field * n_inverse;  // S_RT diag(H)^-1 n^-1 = P
@@ -65,6 +78,11 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
     out.harmonics.push_back(count);
     out.coherent_psd.push_back(field.diagonal().real() * scale);
     out.reference_psd.push_back((s_rr - field).diagonal().real() * scale);
+    // Var(sum z) = kHannSumInflation x the sum of squared deviations: Hann-tapered harmonics
+    // j and j +- 1, j +- 2 correlate by -2/3 and 1/6 in amplitude, so their products z by 4/9
+    // and 1/36 (1 + 2 (4/9 + 1/36) = 35/18) where the spectra are smooth over a few harmonics.
+    const Eigen::Vector3d deviations = (z2_sum - z_sum.cwiseAbs2() / count).cwiseMax(0.0);
+    out.reference_psd_sd.push_back((kHannSumInflation * deviations).cwiseSqrt() * scale);
   }
   return out;
 }

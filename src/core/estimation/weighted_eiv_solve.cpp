@@ -115,4 +115,40 @@ WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<
   return out;
 }
 
+/// With the weights frozen, n = (A - N)^-1 C and N = diag_c(w_c^2 G_w + p_c^2 G_p), G_w and G_p
+/// the weighted sums of the expected periodogram of unit white and unit 1/f noise over the
+/// cells. So dn / d(w_c^2) = G_w (A - N)^-1 e_c e_c^T n: column c of the inverse times row c of n,
+/// and likewise for p_c^2; the delta method adds J_c Sigma_c J_c^T per axis c (the axes' levels
+/// were fitted separately, so they are independent). This is the first-order effect; the
+/// correction is small next to A wherever the estimate is usable.
+Matrix9d noise_level_covariance_term(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                     const WeightedSolution& fit, const RobustSettings& rs, double sample_period_s) {
+  Matrix9d out = Matrix9d::Zero();
+  if (!fit.eiv_applied || rs.eiv != EivCorrection::kGiven) return out;
+  NoiseSpectrum unit_white, unit_pink;
+  unit_white.white_nT.setOnes();
+  unit_pink.pink_nT_per_sqrt_hz.setOnes();
+  double g_white = 0.0, g_pink = 0.0;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const double wg = weight[i] * cells[i].g;
+    if (wg == 0.0) continue;
+    g_white += wg * unit_white.expected_periodogram(cells[i].frequency_hz, sample_period_s, cells[i].length)(0);
+    g_pink += wg * unit_pink.expected_periodogram(cells[i].frequency_hz, sample_period_s, cells[i].length)(0);
+  }
+  for (int c = 0; c < 3; ++c) {
+    const Eigen::Matrix2d& sigma = rs.reference_noise_level_covariance[static_cast<std::size_t>(c)];
+    if (sigma.isZero(0.0)) continue;
+    Eigen::Matrix<double, 9, 2> jacobian;
+    for (int r = 0; r < 3; ++r) {
+      for (int q = 0; q < 3; ++q) {
+        const double dn = fit.a_inverse(r, c) * fit.n(c, q);
+        jacobian(3 * r + q, 0) = g_white * dn;
+        jacobian(3 * r + q, 1) = g_pink * dn;
+      }
+    }
+    out.noalias() += jacobian * sigma * jacobian.transpose();
+  }
+  return out;
+}
+
 }  // namespace magnetometer_insitu_calibration::detail::robust

@@ -39,8 +39,17 @@ Eigen::Vector2d non_negative_fit(const Eigen::MatrixX2d& a, const Eigen::VectorX
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vector<double>& low,
                         const std::vector<double>& high, double dt, Eigen::Vector3d& white_nT,
                         Eigen::Vector3d& pink_nT_per_sqrt_hz) {
+  return fit_white_and_pink(psd, {}, low, high, dt, white_nT, pink_nT_per_sqrt_hz, nullptr);
+}
+
+bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vector<Eigen::Vector3d>& psd_sd,
+                        const std::vector<double>& low, const std::vector<double>& high, double dt,
+                        Eigen::Vector3d& white_nT, Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance) {
   white_nT.setZero();
   pink_nT_per_sqrt_hz.setZero();
+  if (covariance != nullptr) covariance->fill(Eigen::Matrix2d::Zero());
+  if (covariance != nullptr && psd_sd.size() != psd.size())
+    throw InputError("fit_white_and_pink", "one standard deviation per bin is needed for the covariance");
   bool all = true;
   for (int c = 0; c < 3; ++c) {
     std::vector<std::size_t> used;
@@ -58,20 +67,36 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
     // Least squares relative to each bin: first to the bin's own value, then to the first fit's
     // model value (weighting by the noisy value itself favours low bins and biases the level low).
     Eigen::Vector2d x = Eigen::Vector2d::Zero();
+    const auto rows = static_cast<Eigen::Index>(used.size());
+    Eigen::MatrixX2d a(rows, 2);
+    Eigen::VectorXd b(rows), relative_sd(rows);
     for (int pass = 0; pass < 2; ++pass) {
-      const auto rows = static_cast<Eigen::Index>(used.size());
-      Eigen::MatrixX2d a(rows, 2);
-      Eigen::VectorXd b(rows);
       for (Eigen::Index i = 0; i < rows; ++i) {
+        const std::size_t k = used[static_cast<std::size_t>(i)];
         const double model = design[static_cast<std::size_t>(i)].dot(x);
-        const double scale = pass == 0 || !(model > 0.0) ? psd[used[static_cast<std::size_t>(i)]](c) : model;
+        const double scale = pass == 0 || !(model > 0.0) ? psd[k](c) : model;
         a.row(i) = design[static_cast<std::size_t>(i)] / scale;
-        b(i) = psd[used[static_cast<std::size_t>(i)]](c) / scale;
+        b(i) = psd[k](c) / scale;
+        if (covariance != nullptr) relative_sd(i) = psd_sd[k](c) / scale;
       }
       x = non_negative_fit(a, b);
     }
     white_nT(c) = std::sqrt(x(0));
     pink_nT_per_sqrt_hz(c) = std::sqrt(x(1));
+    if (covariance == nullptr) continue;
+    // The unconstrained linear fit's covariance, (A^T A)^-1 A^T diag(sd^2) A (A^T A)^-1, whether or
+    // not a level came out at its bound of zero: a level fitted as zero is still uncertain by this.
+    // With one bin only the level that was fitted gets its variance.
+    const Eigen::Matrix2d ata = a.transpose() * a;
+    if (rows >= 2 && std::abs(ata.determinant()) > 1e-12 * ata.squaredNorm()) {
+      const Eigen::Matrix2d inverse = ata.inverse();
+      const Eigen::MatrixX2d weighted = relative_sd.asDiagonal() * a;
+      (*covariance)[static_cast<std::size_t>(c)] = inverse * (weighted.transpose() * weighted) * inverse;
+    } else {
+      for (int j = 0; j < 2; ++j) {
+        if (x(j) > 0.0) (*covariance)[static_cast<std::size_t>(c)](j, j) = relative_sd.cwiseQuotient(a.col(j)).squaredNorm() / static_cast<double>(rows * rows);
+      }
+    }
   }
   return all;
 }
@@ -220,6 +245,7 @@ EstimatorSettings with_identified_noise(EstimatorSettings settings, const Identi
   settings.robust.reference_white_nT = noise.white_nT;
   settings.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
   settings.robust.reference_noise_source = source;
+  settings.robust.reference_noise_level_covariance = noise.level_covariance;
   return settings;
 }
 
@@ -263,8 +289,8 @@ IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readin
   } catch (const InputError& e) {
     return refuse(e.problem());
   }
-  fit_white_and_pink(out.pair.reference_psd, out.pair.bin_low_hz, out.pair.bin_high_hz, sample_period_s, out.white_nT,
-                     out.pink_nT_per_sqrt_hz);
+  fit_white_and_pink(out.pair.reference_psd, out.pair.reference_psd_sd, out.pair.bin_low_hz, out.pair.bin_high_hz,
+                     sample_period_s, out.white_nT, out.pink_nT_per_sqrt_hz, &out.level_covariance);
   out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();
   if (!out.identified) return refuse("no bin above the band with a positive estimate");
   std::snprintf(text, sizeof text,

@@ -149,3 +149,61 @@ TEST(ErrorsInVariables, RatioModeEstimatesTheReferenceNoiseAndPropagatesItsUncer
   EXPECT_LT(z2_sum / seeds, 2.5);  // about 1 when honest; 8 (2.8^2) before the jackknife
   EXPECT_GE(coverage, 0.88);
 }
+
+TEST(ErrorsInVariables, TheGivenLevelsUncertaintyEntersTheCovarianceAsBruteForceSays) {
+  // A given noise with a stated uncertainty of its levels (as the pair above the band states
+  // it): the covariance term the estimator adds must match the one from refitting n with each
+  // level moved by +-1 standard deviation (central differences), and a zero covariance (a
+  // maker's figure) must leave the covariance exactly as it was.
+  mic::SimulationSettings s;
+  s.seed = 77;
+  s.keep_clean_field = false;
+  s.reference_white_nT = 0.1;
+  s.reference_pink_nT_per_sqrt_hz = 0.05;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::EstimatorSettings es;
+  es.robust.eiv = mic::EivCorrection::kGiven;
+  es.robust.reference_white_nT.setConstant(0.1);
+  es.robust.reference_pink_nT_per_sqrt_hz.setConstant(0.05);
+  mic::RobustFdEstimator exact(es);
+  const mic::WindowEstimate e0 = exact.estimate(pair.reference.values_nT, pair.test.values_nT, 1.0);
+  ASSERT_TRUE(exact.diagnostics().eiv_applied);
+  EXPECT_TRUE(exact.diagnostics().covariance_noise_levels.isZero(0.0));
+  EXPECT_EQ(e0.intervals.find("identified reference noise"), std::string::npos) << e0.intervals;
+
+  // Level standard deviations: 20 % of w^2 and 30 % of p^2, uncorrelated; x and z only.
+  const Eigen::Vector2d sd(0.2 * 0.1 * 0.1, 0.3 * 0.05 * 0.05);
+  mic::EstimatorSettings uncertain = es;
+  for (int c : {0, 2}) uncertain.robust.reference_noise_level_covariance[static_cast<std::size_t>(c)] = sd.cwiseAbs2().asDiagonal();
+  mic::RobustFdEstimator with(uncertain);
+  const mic::WindowEstimate e1 = with.estimate(pair.reference.values_nT, pair.test.values_nT, 1.0);
+  EXPECT_EQ((e1.n - e0.n).cwiseAbs().maxCoeff(), 0.0);  // the levels themselves are the same
+  EXPECT_NE(e1.intervals.find("identified reference noise"), std::string::npos) << e1.intervals;
+  const mic::Matrix9d term = with.diagnostics().covariance_noise_levels;
+  EXPECT_LT((e1.n_covariance - e0.n_covariance - term).cwiseAbs().maxCoeff(), 1e-12 * e0.n_covariance.cwiseAbs().maxCoeff());
+
+  // Brute force: n refitted (weights re-chosen, as a real change of levels would) at each level
+  // +-1 sd; the variance of vec(n) entry k is sum over (axis, level) of (dn_k/dlevel sd)^2.
+  Eigen::Matrix<double, 9, 1> brute = Eigen::Matrix<double, 9, 1>::Zero();
+  for (int c : {0, 2}) {
+    for (int j = 0; j < 2; ++j) {
+      Eigen::Matrix3d n_at[2];
+      for (int side = 0; side < 2; ++side) {
+        mic::EstimatorSettings moved = es;
+        const double sign = side == 0 ? 1.0 : -1.0;
+        if (j == 0) moved.robust.reference_white_nT(c) = std::sqrt(0.1 * 0.1 + sign * sd(0));
+        else moved.robust.reference_pink_nT_per_sqrt_hz(c) = std::sqrt(0.05 * 0.05 + sign * sd(1));
+        n_at[side] = mic::RobustFdEstimator(moved).estimate(pair.reference.values_nT, pair.test.values_nT, 1.0).n;
+      }
+      const Eigen::Matrix3d dn = 0.5 * (n_at[0] - n_at[1]);
+      for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q) brute(3 * r + q) += dn(r, q) * dn(r, q);
+    }
+  }
+  for (int k = 0; k < 9; ++k) {
+    if (brute(k) < 1e-6 * brute.maxCoeff()) continue;  // entries the two axes hardly move
+    EXPECT_NEAR(std::sqrt(term(k, k) / brute(k)), 1.0, 0.1) << "entry " << k;
+  }
+  // The term is not negligible here: x's scale-ratio variance grows by more than 5 %.
+  EXPECT_GT(term(0, 0), 0.05 * e0.n_covariance(0, 0));
+}

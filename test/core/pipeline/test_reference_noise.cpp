@@ -12,7 +12,9 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstdio>
 #include <limits>
+#include <random>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -58,6 +60,61 @@ TEST(FitWhiteAndPink, LeavesOutNegativeBinsAndReportsAnAxisWithNone) {
   EXPECT_NEAR(pink(0), 0.004, 1e-9);
   EXPECT_EQ(white(2), 0.0);
   EXPECT_EQ(pink(2), 0.0);
+}
+
+TEST(FitWhiteAndPink, StatesTheCovarianceOfItsLevels) {
+  // The pair's bins (6 log-spaced over 0.03-0.25 Hz at 1 s) with the simulator's reference noise
+  // (white 0.01 nT, 1/f 0.005 nT/sqrt(Hz): the two terms comparable there). 400 sets, each bin
+  // the truth plus Gaussian noise of a stated sd (25 % of the bin in the lowest, 5 % in the
+  // top, as two days of the quiet station give): the fitted w^2 and p^2 scatter about the truth
+  // as the stated covariance says, and the correlation between them is the stated one (the two
+  // terms trade off across the bins).
+  Bins b;
+  b.low.clear();
+  b.high.clear();
+  for (int k = 0; k < 6; ++k) {
+    b.low.push_back(0.03 * std::pow(0.25 / 0.03, k / 6.0));
+    b.high.push_back(0.03 * std::pow(0.25 / 0.03, (k + 1) / 6.0));
+  }
+  const Eigen::Vector3d w = Eigen::Vector3d::Constant(0.01), p = Eigen::Vector3d::Constant(0.005);
+  const std::vector<Eigen::Vector3d> truth = b.psd(w, p, 1.0);
+  std::vector<Eigen::Vector3d> sd;
+  for (std::size_t k = 0; k < truth.size(); ++k) sd.push_back(truth[k] * (0.25 - 0.04 * static_cast<double>(k)));
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Eigen::Vector2d z2 = Eigen::Vector2d::Zero();
+  double cross = 0.0, stated_correlation = 0.0;
+  const int draws = 400;
+  for (int d = 0; d < draws; ++d) {
+    std::vector<Eigen::Vector3d> psd = truth;
+    for (std::size_t k = 0; k < psd.size(); ++k)
+      for (int c = 0; c < 3; ++c) psd[k](c) += sd[k](c) * normal(rng);
+    Eigen::Vector3d white, pink;
+    mic::NoiseLevelCovariance cov;
+    mic::fit_white_and_pink(psd, sd, b.low, b.high, 1.0, white, pink, &cov);
+    const Eigen::Vector2d e(white(0) * white(0) - w(0) * w(0), pink(0) * pink(0) - p(0) * p(0));
+    const Eigen::Vector2d z(e(0) / std::sqrt(cov[0](0, 0)), e(1) / std::sqrt(cov[0](1, 1)));
+    z2 += z.cwiseAbs2();
+    cross += z(0) * z(1);
+    stated_correlation += cov[0](0, 1) / std::sqrt(cov[0](0, 0) * cov[0](1, 1));
+  }
+  const Eigen::Vector2d rms = (z2 / draws).cwiseSqrt();
+  std::printf("rms z of w^2, p^2: %.3f %.3f; correlation %.2f (stated %.2f)\n", rms(0), rms(1), cross / draws,
+              stated_correlation / draws);
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_GT(rms(j), 0.85) << j;
+    EXPECT_LT(rms(j), 1.2) << j;
+  }
+  EXPECT_NEAR(cross / draws, stated_correlation / draws, 0.15);
+  // One standard deviation per bin is needed.
+  Eigen::Vector3d white, pink;
+  mic::NoiseLevelCovariance cov;
+  try {
+    mic::fit_white_and_pink(truth, {}, b.low, b.high, 1.0, white, pink, &cov);
+    FAIL() << "missing standard deviations accepted";
+  } catch (const mic::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("fit_white_and_pink"), std::string::npos) << e.what();
+  }
 }
 
 namespace {

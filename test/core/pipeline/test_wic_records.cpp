@@ -72,10 +72,12 @@ TEST(WicRecords, SixHourIntervalsAgreeWithTheWholeDay) {
     }
     // The day is more precise than each of its quarters.
     EXPECT_LT(half_widths(day.parameters).sum(), half_widths(e.parameters).sum());
-    // A quarter holds 2 sections: its intervals take the jackknife over frequency groups.
-    EXPECT_EQ(e.intervals, "sandwich raised to the jackknife over 8 interleaved frequency groups");
+    // A quarter holds 2 sections: its intervals take the jackknife over frequency groups; the
+    // pair's reference noise is identified on each, and its uncertainty added (step 6d).
+    EXPECT_EQ(e.intervals, "sandwich raised to the jackknife over 8 interleaved frequency groups, plus the identified "
+                           "reference noise's uncertainty");
   }
-  EXPECT_EQ(day.intervals, "sandwich raised to the jackknife over 8 sections");
+  EXPECT_EQ(day.intervals, "sandwich raised to the jackknife over 8 sections, plus the identified reference noise's uncertainty");
   // 36 comparisons; honest intervals leave at most a few outside.
   EXPECT_LE(disagreements, 2);
 }
