@@ -49,6 +49,9 @@ struct ThreeCorneredHatResult {
   /// psd_nT2_per_hz[instrument][bin]: one-sided PSD per axis of that instrument's frame,
   /// nT^2/Hz (the mean over the bin's harmonics); instrument 0, 1, 2 = a, b, c.
   std::array<std::vector<Eigen::Vector3d>, 3> psd_nT2_per_hz;
+  /// kCrossSpectral: the standard deviation of each psd_nT2_per_hz value, same layout and units,
+  /// from the scatter of its terms over the bin's harmonics; empty with kResidual.
+  std::array<std::vector<Eigen::Vector3d>, 3> psd_sd_nT2_per_hz;
   /// Pairwise residual PSDs (ab, ac, bc), same layout: the inputs of the kResidual hat (empty
   /// with kCrossSpectral, which needs no pairwise fit).
   std::array<std::vector<Eigen::Vector3d>, 3> pair_psd_nT2_per_hz;

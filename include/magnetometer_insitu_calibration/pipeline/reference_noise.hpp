@@ -30,8 +30,8 @@ struct IdentifiedNoise {
   /// period; 1/f, nT/sqrt(Hz) at 1 Hz (the units of RobustSettings::reference_white_nT / _pink_).
   Eigen::Vector3d white_nT = Eigen::Vector3d::Zero();
   Eigen::Vector3d pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
-  /// Covariance of (white^2, pink^2) per axis (fd_wlse.hpp); from the pair's per-bin scatter,
-  /// zero for the hat (its bins carry no standard deviation yet).
+  /// Covariance of (white^2, pink^2) per axis (fd_wlse.hpp), from the per-bin standard
+  /// deviations of the pair's or the hat's estimate.
   NoiseLevelCovariance level_covariance{Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
   ThreeCorneredHatResult hat;   ///< every instrument's PSD per bin, and the pairwise residual PSDs
   TwoInstrumentNoise pair;      ///< from the pair alone: the reference's PSD per bin above the band

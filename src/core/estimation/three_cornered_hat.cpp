@@ -65,7 +65,8 @@ std::vector<Eigen::Vector3d> residual_psd(const Readings& ref, const Readings& t
 /// Averaged over count harmonics, divided by count - 3 (see below).
 std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<const Readings*, 3>& records, double dt,
                                                                const std::vector<double>& low,
-                                                               const std::vector<double>& high, detail::RealDft& dft) {
+                                                               const std::vector<double>& high, detail::RealDft& dft,
+                                                               std::array<std::vector<Eigen::Vector3d>, 3>& sd) {
   const std::size_t n = static_cast<std::size_t>(records[0]->rows());
   const double duration = static_cast<double>(n) * dt;
   std::vector<double> column(n);
@@ -101,8 +102,32 @@ std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<
     // 3 of the bin's `count` degrees of freedom from each noise (as a regression's residual
     // does): count - 3 (a level 3 % low over 0.0002-0.01 Hz in a day without it).
     const double scale = 2.0 * dt / (static_cast<double>(n) * static_cast<double>(count - 3));
-    const auto noise = [&](int x, int y, int z) -> Eigen::Vector3d {  // N_x = diag(S_xx - S_xz S_yz^-1 S_yx)
-      const Eigen::Matrix3cd field = sum[x][z] * sum[y][z].fullPivLu().solve(sum[y][x]);
+    // N_x = diag(S_xx - S_xz S_yz^-1 S_yx). Its standard deviation: the field x noise terms
+    // cancel in the bin's sums (W = S_xz S_yz^-1 is fitted on the same harmonics, as a
+    // regression's residual is orthogonal to its regressors), so per harmonic the estimate holds
+    // conj(e_x) (e_x - d), d the other instrument's noise through W: variance N_x^2 + N_x N_d / 2
+    // (complex Gaussian noise), N_d from the residual r = X - Y W^H = e_x - d, whose mean |r|^2
+    // is N_x + N_d; over count - 3 independent harmonics (no taper).
+    const auto noise = [&](int x, int y, int z) -> Eigen::Vector3d {
+      const Eigen::FullPivLU<Eigen::Matrix3cd> lu(sum[y][z]);
+      const Eigen::Matrix3cd field = sum[x][z] * lu.solve(sum[y][x]);
+      const Eigen::Matrix3cd w_adjoint = (sum[x][z] * lu.inverse()).adjoint();
+      Eigen::Vector3d r2_sum = Eigen::Vector3d::Zero();
+      for (Eigen::Index j = 1; j < harmonics - 1; ++j) {
+        const double f = static_cast<double>(j) / duration;
+        if (f < low[k] || f >= high[k]) continue;
+        Eigen::RowVector3cd xr, yr;
+        for (int c = 0; c < 3; ++c) {
+          xr(c) = spectra[static_cast<std::size_t>(x)][static_cast<std::size_t>(c)](j);
+          yr(c) = spectra[static_cast<std::size_t>(y)][static_cast<std::size_t>(c)](j);
+        }
+        r2_sum += (xr - yr * w_adjoint).cwiseAbs2().transpose();
+      }
+      const double dof = static_cast<double>(count - 3);
+      const Eigen::Vector3d n_x = ((sum[x][x] - field).diagonal().real() / dof).cwiseMax(0.0);  // per harmonic
+      const Eigen::Vector3d n_d = (r2_sum / dof - n_x).cwiseMax(0.0);
+      const Eigen::Vector3d variance = n_x.cwiseAbs2() + 0.5 * n_x.cwiseProduct(n_d);
+      sd[static_cast<std::size_t>(x)].push_back((variance / dof).cwiseSqrt() * (scale * dof));
       return (sum[x][x] - field).diagonal().real() * scale;
     };
     out[0].push_back(noise(0, 1, 2));
@@ -129,7 +154,7 @@ ThreeCorneredHatResult three_cornered_hat(const Readings& a, const Readings& b, 
   }
   detail::RealDft dft;
   if (s.method == ThreeCorneredHatMethod::kCrossSpectral) {
-    out.psd_nT2_per_hz = cross_spectral_psd({&a, &b, &c}, dt, out.bin_low_hz, out.bin_high_hz, dft);
+    out.psd_nT2_per_hz = cross_spectral_psd({&a, &b, &c}, dt, out.bin_low_hz, out.bin_high_hz, dft, out.psd_sd_nT2_per_hz);
     return out;
   }
   out.pair_psd_nT2_per_hz[0] = residual_psd(a, b, dt, out.bin_low_hz, out.bin_high_hz, dft);  // ab

@@ -220,8 +220,8 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
     out.text = text;
     return out;
   }
-  fit_white_and_pink(out.hat.psd_nT2_per_hz[0], out.hat.bin_low_hz, out.hat.bin_high_hz, out.sample_period_s,
-                     out.white_nT, out.pink_nT_per_sqrt_hz);
+  fit_white_and_pink(out.hat.psd_nT2_per_hz[0], out.hat.psd_sd_nT2_per_hz[0], out.hat.bin_low_hz, out.hat.bin_high_hz,
+                     out.sample_period_s, out.white_nT, out.pink_nT_per_sqrt_hz, &out.level_covariance);
   out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();
   if (out.identified) {
     std::snprintf(text, sizeof text,
