@@ -12,7 +12,8 @@
 //   monte_carlo_unmodelled hat       [seeds=200] [days=1] [first_seed=7000]  three instruments,
 //                                    reference noise identified by the three-cornered hat
 //   monte_carlo_unmodelled wic       [data_dir=data]   four 6-hour quarters + the whole day
-//                                    (MC_WIC_NOISE_PT: reference noise figure for the default)
+//                                    (MC_WIC_NOISE_PT: reference noise figure for the default, as 1/f
+//                                    at 1 Hz; MC_WIC_WHITE_PT: the same read as a flat ASD)
 //
 // Printed per estimator: median and 95th percentile over the seeds of the largest |scale-ratio
 // error| of the three axes (%) and of the largest |non-orthogonality error| (deg), and the
@@ -293,28 +294,31 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
 /// Real pair: per parameter, sqrt(chi2 / 3) of the four quarters around their weighted mean
 /// (standard errors = ci95 / 1.96), and the whole day's scale ratios with their half-widths.
 /// The whole day's reference-noise bins from the pair (estimate +- its standard deviation, per
-/// axis, pT/sqrt(Hz) as the ASD of each bin's mean PSD) against what the maker's figure read as
-/// 1/f 10 pT/sqrt(Hz) at 1 Hz predicts there, and the figure's excess in standard deviations:
-/// the data's test of that figure where the pair can measure the reference's noise.
+/// axis, pT/sqrt(Hz) as the ASD of each bin's mean PSD) against what the maker's figure, 10
+/// pT/sqrt(Hz), predicts there read as 1/f at 1 Hz and read as a flat level, and each reading's
+/// excess in standard deviations: the data's test of the figure where the pair can measure the
+/// reference's noise.
 void print_pair_bins_against_figure(const mic::VectorRecord& reference, const mic::VectorRecord& test,
                                     const mic::CalibrationSettings& settings, const mic::CalibrationWindow& day) {
   const mic::PreparedPair prepared = mic::prepare_pair(reference, test, settings.preprocess);
   const mic::IdentifiedNoise noise = mic::identify_reference_noise_from_pair(
       prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s, day.estimate, day.response_model,
       settings.estimator.band_high_hz);
-  std::printf("# the day's pair bins, reference ASD x, y, z in pT/sqrt(Hz) (+- 1 sd); 1/f 10 pT/sqrt(Hz) at 1 Hz "
-              "predicts; (prediction - estimate) / sd per axis\n");
-  const double figure = 0.010;  // nT/sqrt(Hz) at 1 Hz
+  std::printf("# the day's pair bins, reference ASD x, y, z in pT/sqrt(Hz) (+- 1 sd); 10 pT/sqrt(Hz) read as 1/f at 1 Hz "
+              "and as flat: (prediction - estimate) / sd per axis\n");
+  const double figure = 0.010;  // nT/sqrt(Hz)
   for (std::size_t k = 0; k < noise.pair.reference_psd.size(); ++k) {
     const double lo = noise.pair.bin_low_hz[k], hi = noise.pair.bin_high_hz[k];
-    const double predicted = figure * figure * std::log(hi / lo) / (hi - lo);  // nT^2/Hz
+    const double as_pink = figure * figure * std::log(hi / lo) / (hi - lo), as_flat = figure * figure;  // nT^2/Hz
     const Eigen::Vector3d& psd = noise.pair.reference_psd[k];
     const Eigen::Vector3d& sd = noise.pair.reference_psd_sd[k];
     const auto asd = [](double v) { return 1e3 * std::sqrt(std::max(v, 0.0)); };
-    std::printf("#   %.4f-%.4f Hz: %.1f (%.1f-%.1f), %.1f (%.1f-%.1f), %.1f (%.1f-%.1f); figure %.1f; %+.1f %+.1f %+.1f sd\n", lo,
-                hi, asd(psd(0)), asd(psd(0) - sd(0)), asd(psd(0) + sd(0)), asd(psd(1)), asd(psd(1) - sd(1)),
-                asd(psd(1) + sd(1)), asd(psd(2)), asd(psd(2) - sd(2)), asd(psd(2) + sd(2)), asd(predicted),
-                (predicted - psd(0)) / sd(0), (predicted - psd(1)) / sd(1), (predicted - psd(2)) / sd(2));
+    std::printf("#   %.4f-%.4f Hz: %.1f (%.1f-%.1f), %.1f (%.1f-%.1f), %.1f (%.1f-%.1f); 1/f %.1f: %+.1f %+.1f %+.1f sd; flat %.1f: "
+                "%+.1f %+.1f %+.1f sd\n",
+                lo, hi, asd(psd(0)), asd(psd(0) - sd(0)), asd(psd(0) + sd(0)), asd(psd(1)), asd(psd(1) - sd(1)),
+                asd(psd(1) + sd(1)), asd(psd(2)), asd(psd(2) - sd(2)), asd(psd(2) + sd(2)), asd(as_pink),
+                (as_pink - psd(0)) / sd(0), (as_pink - psd(1)) / sd(1), (as_pink - psd(2)) / sd(2), asd(as_flat),
+                (as_flat - psd(0)) / sd(0), (as_flat - psd(1)) / sd(1), (as_flat - psd(2)) / sd(2));
   }
 }
 
@@ -333,6 +337,9 @@ int run_wic(const std::string& dir) {
     if (m == 1) settings.estimator.method = mic::EstimatorMethod::kPlain;
     // MC_WIC_NOISE_PT: the reference's noise figure (pT/sqrt(Hz) at 1 Hz) for the default.
     settings.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(knob("MC_WIC_NOISE_PT", 0.0) / 1000.0);
+    // MC_WIC_WHITE_PT: the same figure read as a flat (white) ASD, pT/sqrt(Hz): rms per sample
+    // ASD sqrt(1 / (2 dt)) at dt = 1 s.
+    settings.estimator.robust.reference_white_nT.setConstant(knob("MC_WIC_WHITE_PT", 0.0) / 1000.0 / std::sqrt(2.0));
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
     double chi[6];
     for (int p = 0; p < 6; ++p) {
