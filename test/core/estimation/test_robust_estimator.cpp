@@ -122,6 +122,17 @@ TEST(RobustEstimator, SettingsValidationNamesTheField) {
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("huber_k"), std::string::npos) << e.what();
   }
+  // An identified noise's level covariance must be a covariance.
+  mic::EstimatorSettings bad_levels;
+  bad_levels.robust.reference_noise_level_covariance[1](1, 1) = -1e-6;
+  try {
+    mic::RobustFdEstimator e(bad_levels);
+    FAIL() << "negative level variance accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("reference_noise_level_covariance"), std::string::npos) << e.what();
+  }
+  bad_levels.robust.reference_noise_level_covariance[1] << 1.0, 2.0, 2.0, 1.0;  // correlation 2
+  EXPECT_THROW(mic::RobustFdEstimator{bad_levels}, std::exception);
   EXPECT_EQ(mic::parse_estimator_method("plain"), mic::EstimatorMethod::kPlain);
   EXPECT_THROW(mic::parse_estimator_method("fancy"), std::exception);
 }
