@@ -15,6 +15,19 @@
 
 namespace mic = magnetometer_insitu_calibration;
 
+namespace {
+
+/// clean plus independent white noise of rms nT per sample on each axis, drawn from rng.
+mic::Readings with_white_noise(const mic::Readings& clean, double rms, std::mt19937_64& rng,
+                               std::normal_distribution<double>& normal) {
+  mic::Readings r = clean;
+  for (Eigen::Index i = 0; i < r.rows(); ++i)
+    for (int k = 0; k < 3; ++k) r(i, k) += rms * normal(rng);
+  return r;
+}
+
+}  // namespace
+
 TEST(ThreeCorneredHat, RecoversEachInstrumentsNoiseLevel) {
   mic::SimulationSettings s;
   s.duration_s = 5 * 86400.0;
@@ -29,12 +42,7 @@ TEST(ThreeCorneredHat, RecoversEachInstrumentsNoiseLevel) {
   const double sigma[3] = {0.03, 0.05, 0.08};  // nT rms per sample, white
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> normal;
-  auto noisy = [&](const mic::Readings& clean, double rms) {
-    mic::Readings r = clean;
-    for (Eigen::Index i = 0; i < r.rows(); ++i)
-      for (int k = 0; k < 3; ++k) r(i, k) += rms * normal(rng);
-    return r;
-  };
+  auto noisy = [&](const mic::Readings& clean, double rms) { return with_white_noise(clean, rms, rng, normal); };
   const mic::Readings a = noisy(field, sigma[0]), b = noisy(field * n_b, sigma[1]), c = noisy(field * n_c, sigma[2]);
   mic::ThreeCorneredHatSettings hs;
   hs.bins = 1;
@@ -67,12 +75,7 @@ TEST(ThreeCorneredHat, StatesTheScatterOfItsEstimates) {
     const mic::SimulatedPair pair = mic::simulate_pair(s);
     std::mt19937_64 rng(seed);
     std::normal_distribution<double> normal;
-    auto noisy = [&](const mic::Readings& clean, double rms) {
-      mic::Readings r = clean;
-      for (Eigen::Index i = 0; i < r.rows(); ++i)
-        for (int k = 0; k < 3; ++k) r(i, k) += rms * normal(rng);
-      return r;
-    };
+    auto noisy = [&](const mic::Readings& clean, double rms) { return with_white_noise(clean, rms, rng, normal); };
     const mic::Readings a = noisy(pair.field_nT, sigma[0]), b = noisy(pair.field_nT * pair.n_true, sigma[1]),
                         c = noisy(pair.field_nT * mic::co_located_instrument_matrix(), sigma[2]);
     const mic::ThreeCorneredHatResult r = mic::three_cornered_hat(a, b, c, 1.0);
