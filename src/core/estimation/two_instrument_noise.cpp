@@ -44,10 +44,10 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
   const Eigen::Index harmonics = spectra[0].size();
   for (int k = 0; k < bins; ++k) {
     const double lo = low_hz * std::pow(ratio, k), hi = k + 1 == bins ? high_hz : low_hz * std::pow(ratio, k + 1);
-    Eigen::Matrix3cd s_rr = Eigen::Matrix3cd::Zero(), field = Eigen::Matrix3cd::Zero();
     // Per harmonic and axis, the reference's noise term z = Re(conj(R_c) (R - T diag(H)^-1 n^-1)_c):
-    // its sum over the bin is the estimate (the field cancels), its scatter the estimate's spread.
-    Eigen::Vector3d z_sum = Eigen::Vector3d::Zero(), z2_sum = Eigen::Vector3d::Zero();
+    // its sum over the bin is diag(S_RR - S_RT diag(H)^-1 n^-1), the estimate (the field cancels),
+    // its scatter the estimate's spread; |R_c|^2 - z is the field's part, diag(P).
+    Eigen::Vector3d rr_sum = Eigen::Vector3d::Zero(), z_sum = Eigen::Vector3d::Zero(), z2_sum = Eigen::Vector3d::Zero();
     int count = 0;
     for (Eigen::Index j = 1; j < harmonics - 1; ++j) {
       const double f = static_cast<double>(j) / duration;
@@ -61,23 +61,21 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
                                        std::complex<double>(1.0, std::isfinite(transfer.corner_hz(c)) ? f / transfer.corner_hz(c) : 0.0);
         t(c) = spectra[static_cast<std::size_t>(c + 3)](j) / h;
       }
-      s_rr += r.adjoint() * r;
-      field += r.adjoint() * t;
       const Eigen::RowVector3cd u = r - t * n_inverse;
       for (int c = 0; c < 3; ++c) {
         const double z = (std::conj(r(c)) * u(c)).real();
+        rr_sum(c) += std::norm(r(c));
         z_sum(c) += z;
         z2_sum(c) += z * z;
       }
     }
     if (count < 8) throw InputError("two_instrument_noise", "a frequency bin holds fewer than 8 harmonics: record too short");
-    field = field * n_inverse;  // S_RT diag(H)^-1 n^-1 = P
     const double scale = 2.0 * dt / (static_cast<double>(length) * 0.375 * static_cast<double>(count));
     out.bin_low_hz.push_back(lo);
     out.bin_high_hz.push_back(hi);
     out.harmonics.push_back(count);
-    out.coherent_psd.push_back(field.diagonal().real() * scale);
-    out.reference_psd.push_back((s_rr - field).diagonal().real() * scale);
+    out.coherent_psd.push_back((rr_sum - z_sum) * scale);
+    out.reference_psd.push_back(z_sum * scale);
     // Var(sum z) = kHannSumInflation x the sum of squared deviations: Hann-tapered harmonics
     // j and j +- 1, j +- 2 correlate by -2/3 and 1/6 in amplitude, so their products z by 4/9
     // and 1/36 (1 + 2 (4/9 + 1/36) = 35/18) where the spectra are smooth over a few harmonics.
