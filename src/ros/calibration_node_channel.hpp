@@ -83,7 +83,7 @@ struct CalibrationNode::Channel {
   std::string last_eiv;  ///< noise model of the last window's errors-in-variables step
   std::size_t spikes_removed = 0;  ///< values despiked, all windows
   std::string last_weights, last_intervals;  ///< of the last window (WindowEstimate::weights, ::intervals)
-  std::string last_reference_noise;      ///< the three-cornered hat of the last window ("" when not active)
+  std::string last_reference_noise;      ///< the hat's or the pair's noise of the last window ("" when neither is active)
   std::size_t hat_identified_windows = 0;  ///< windows corrected with the hat's reference noise
   std::size_t pair_identified_windows = 0;  ///< windows corrected with the pair's reference noise
   ResponseSummary last_response;  ///< relative response over the band used (bands == 0: none yet)
