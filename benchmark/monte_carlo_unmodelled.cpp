@@ -217,6 +217,7 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
       es.robust.screen = knob("MC_SCREEN", 1.0) != 0.0;
       es.robust.huber_k = knob("MC_HUBER_K", es.robust.huber_k);
       es.robust.section_s = knob("MC_SECTION_S", es.robust.section_s);
+      es.robust.section_trend = knob("MC_SECTION_TREND", 1.0) != 0.0;
       es.robust.section_rejection = knob("MC_SECTION_REJECTION", es.robust.section_rejection);
       es.robust.correct_delay = knob("MC_CORRECT_DELAY", 1.0) != 0.0;
       es.band_low_hz = knob("MC_BAND_LOW", es.band_low_hz);

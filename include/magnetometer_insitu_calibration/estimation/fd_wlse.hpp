@@ -57,6 +57,7 @@ struct RobustSettings {
   double screen_margin_s = 30.0;     ///< s, flagged spans are widened by this on each side
   // Sectioned M-estimation.
   double section_s = 10800.0;        ///< s, section length (shortened for short windows, >= 2 / band_low)
+  bool section_trend = true;         ///< Eq. 2's trend column per section (its ramp projected out of the cells)
   double huber_k = 2.0;              ///< Huber constant on the standardised cell residual (sigma units)
   double section_rejection = 4.0;    ///< section weight 0 when its robust residual z exceeds this
   int iterations = 8;                ///< IRLS iterations (stops earlier when converged)

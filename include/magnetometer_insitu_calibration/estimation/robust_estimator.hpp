@@ -22,9 +22,14 @@
 //     they select no particular field either. Twice: the second pass uses n0 re-estimated on
 //     the cleaned records. Spikes, transients and the edges of steps are removed here.
 //  2. Sections. The window is cut into K sections of about section_s (>= 2 / band_low), each
-//     linearly detrended (replaces the trend column: per section it also absorbs nonlinear
-//     baseline drift and tilt-induced drift) and transformed. A cell is one harmonic of one
-//     section inside the band; it gives X (3 reference DFT values) and Y (3 test values).
+//     linearly detrended and transformed. A cell is one harmonic of one section inside the
+//     band; it gives X (3 reference DFT values) and Y (3 test values). With section_trend (the
+//     default since session 11) each section also takes Eq. 2's trend column: the DFT of a
+//     ramp, with one real coefficient per section and component, is projected out of every
+//     column of its cells (section_trend.hpp). The time-domain line alone leaves the section's
+//     end mismatch, which an untapered DFT spreads over all its harmonics as that ramp: a
+//     drift seen by one sensor (a pier's tilt) then made the cells of a section coherent, and
+//     the below-band daily variation's leakage stood in for in-band signal.
 //  3. M-estimation (IRLS). With cell weights w_c and the Eq. 2 weights g_c = lambda_c^gamma,
 //       A = sum w g Re(X X^H),  C = sum w g Re(X Y^H),  n = A^-1 C        (Eq. 2 with weights)
 //     Residual e_c = Y_c - n^T X_c. Its scale sigma_l^2(f) is the median of |e_l|^2 / ln 2 over

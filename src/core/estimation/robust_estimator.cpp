@@ -9,6 +9,7 @@
 #include "delay_spectra.hpp"
 #include "failed_window_estimate.hpp"
 #include "robust_sections.hpp"
+#include "section_trend.hpp"
 #include "spectral_tools.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -184,10 +185,12 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
         std::copy(columns[c], columns[c] + count, impl_->dft.input(count));
         impl_->dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
       }
+      const std::size_t section_begin = cells.size();
       for (long j = j0; j <= j1; ++j) {
         Cell cell;
         cell.section = static_cast<int>(s);
         cell.frequency_hz = static_cast<double>(j) / section_duration;
+        cell.harmonic = j;
         cell.g = std::pow(2.0 * M_PI * static_cast<double>(j) / static_cast<double>(count), settings_.gamma);
         cell.length = count;
         for (int k = 0; k < 3; ++k) {
@@ -196,6 +199,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
         }
         cells.push_back(cell);
       }
+      if (rs.section_trend) remove_section_trend(cells, section_begin, cells.size());
     }
     return cells;
   };

@@ -36,6 +36,7 @@ struct Cell {
   int section = 0;
   int bin = 0;           ///< scale bin (neighbouring frequencies)
   double frequency_hz = 0.0;
+  long harmonic = 0;     ///< j: the cell is the section's DFT bin j (frequency_hz = j / section duration)
   double g = 0.0;        ///< lambda^gamma
   std::size_t length = 0;  ///< section length, samples
   Eigen::Vector3cd x, y;

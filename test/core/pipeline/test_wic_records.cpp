@@ -1,12 +1,15 @@
 // Self-consistency on the real WIC pair of 2025-05-14 (Conrad Observatory, CC-BY-4.0; see
 // data/README.md): LEMI-036 reference, DTU FGE test. No truth is known for real instruments, so
 // the checks are the ones an observatory would make: each 6-hour interval agrees with the whole
-// day within the two intervals, and swapping the roles gives the inverse calibration.
+// day within what their intervals allow, and swapping the roles gives the inverse calibration.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -55,31 +58,40 @@ TEST(WicRecords, SixHourIntervalsAgreeWithTheWholeDay) {
   // Real orientation differences between piers of the order of a degree, scale within 1 %.
   EXPECT_LT((day.parameters.scale_ratio - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff(), 0.01);
   EXPECT_LT(day.parameters.misalignment_deg.cwiseAbs().maxCoeff(), 2.0);
-  int disagreements = 0;
+  // Each quarter against the day that contains it: the quarter's error minus the day's has
+  // variance se_q^2 - se_day^2 (the day is the efficient combination of its quarters), so
+  // z = (q - day) / sqrt(se_q^2 - se_day^2), se = half-width / 1.96. Honest intervals give z of
+  // unit variance: over the 36 (4 quarters x 9 parameters) an rms near 1 (the real pair, whose
+  // piers differ, was measured at 1.47 with the per-section trend column of session 11; about
+  // 1.3 over the 35 defined before it), and no |z| beyond 4 (measured largest 3.28: the third quarter's misalignment
+  // about z). Intervals half as wide as they should be would give an rms near 3.
+  double sum_z2 = 0.0;
   for (int i = 0; i < 4; ++i) {
     const auto& e = result.windows[i].estimate;
     EXPECT_EQ(e.quality, mic::Quality::kOk) << result.windows[i].label << ": " << e.quality_text;
     // Evaluated into matrices: an Eigen expression held in `auto` would keep references to
     // temporaries that are gone by the next line.
-    const Eigen::Matrix<double, 9, 1> diff = (values(e.parameters) - values(day.parameters)).cwiseAbs();
-    const Eigen::Matrix<double, 9, 1> allowed = half_widths(e.parameters) + half_widths(day.parameters);
+    const Eigen::Matrix<double, 9, 1> se_q = half_widths(e.parameters) / 1.96;
+    const Eigen::Matrix<double, 9, 1> se_day = half_widths(day.parameters) / 1.96;
     for (int k = 0; k < 9; ++k) {
-      disagreements += diff(k) > allowed(k);
-      if (diff(k) > allowed(k)) {
-        ADD_FAILURE() << result.windows[i].label << " parameter " << k << ": " << values(e.parameters)(k)
-                      << " vs day " << values(day.parameters)(k) << ", allowed " << allowed(k);
-      }
+      // A quarter is never more precise than the day that contains it (before session 11 the
+      // third quarter's H scale ratio was: +-0.00318 against the day's +-0.00358).
+      ASSERT_GT(se_q(k), se_day(k)) << result.windows[i].label << " parameter " << k;
+      const double z = (values(e.parameters)(k) - values(day.parameters)(k)) /
+                       std::sqrt(se_q(k) * se_q(k) - se_day(k) * se_day(k));
+      sum_z2 += z * z;
+      EXPECT_LT(std::abs(z), 4.0) << result.windows[i].label << " parameter " << k << ": " << values(e.parameters)(k)
+                                  << " vs day " << values(day.parameters)(k);
     }
-    // The day is more precise than each of its quarters.
-    EXPECT_LT(half_widths(day.parameters).sum(), half_widths(e.parameters).sum());
     // A quarter holds 2 sections: its intervals take the jackknife over frequency groups; the
     // pair's reference noise is identified on each, and its uncertainty added (step 6d).
     EXPECT_EQ(e.intervals, "sandwich raised to the jackknife over 8 interleaved frequency groups, plus the identified "
                            "reference noise's uncertainty");
   }
+  const double rms_z = std::sqrt(sum_z2 / 36.0);
+  std::printf("quarters against the day: rms z %.2f over 36 parameters\n", rms_z);
+  EXPECT_LT(rms_z, 2.0);
   EXPECT_EQ(day.intervals, "sandwich raised to the jackknife over 8 sections, plus the identified reference noise's uncertainty");
-  // 36 comparisons; honest intervals leave at most a few outside.
-  EXPECT_LE(disagreements, 2);
 }
 
 TEST(WicRecords, SwappingTheRolesGivesTheInverse) {
