@@ -63,6 +63,14 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
                                const Eigen::Ref<const Eigen::VectorXd>& temperature_C, double sample_period_s,
                                const Eigen::Matrix3d& n0, const TemperatureBand& band);
 
+/// Refers the offset coefficients c_l = a_l - s_l F_l (and their intervals) to the mean field F
+/// (nT, test frame) of the n that is published with them, F = (mean(R) n)^T: the model
+/// T = (R n)(1 + s u) + c u + d that correction_node inverts takes its lever from that n. The fit
+/// itself uses n0 (the estimate before the terms were removed); a and s do not depend on F, but
+/// where s is barely determined (hundreds of ppm/degC on a few hours) a lever a few hundred nT off
+/// moves c by tens of nT/degC and the full model's correction by s times that lever.
+void refer_offset_to_mean_field(TemperatureFit& fit, const Eigen::Vector3d& mean_field_nT);
+
 /// T with the fitted temperature terms removed: T_l - a_l u - s_l u (dR n0)_l (same n0).
 Readings remove_temperature_terms(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
                                   const Eigen::Ref<const Eigen::VectorXd>& temperature_C, const Eigen::Matrix3d& n0,

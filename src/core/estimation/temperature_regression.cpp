@@ -153,22 +153,32 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
       for (int i = 0; i < 2; ++i)
         for (int k = 0; k < 2; ++k) fit.covariance(2 * l + i, 2 * q + k) = cov(l * p + p - 2 + i, q * p + p - 2 + k);
     }
-    const double a_l = b[l](p - 2), s_l = b[l](p - 1), f = fit.mean_field_nT(l);
+    const double a_l = b[l](p - 2), s_l = b[l](p - 1);
     const double var_a = fit.covariance(2 * l, 2 * l), var_s = fit.covariance(2 * l + 1, 2 * l + 1);
-    const double cov_as = fit.covariance(2 * l, 2 * l + 1);
     fit.apparent_nT_per_C(l) = a_l;
     fit.apparent_ci95_nT_per_C(l) = t95 * std::sqrt(std::max(0.0, var_a));
     fit.scale_ppm_per_C(l) = 1e6 * s_l;
     fit.scale_ci95_ppm_per_C(l) = 1e6 * t95 * std::sqrt(std::max(0.0, var_s));
-    fit.offset_nT_per_C(l) = a_l - s_l * f;
-    fit.offset_ci95_nT_per_C(l) = t95 * std::sqrt(std::max(0.0, var_a + f * f * var_s - 2.0 * f * cov_as));
   }
+  refer_offset_to_mean_field(fit, fit.mean_field_nT);
   fit.fitted = true;
   std::ostringstream text;
   text.precision(3);
   text << "temperature terms fitted; n at " << std::fixed << fit.reference_C << " degC (range " << fit.range_C << " degC)";
   fit.text = text.str();
   return fit;
+}
+
+void refer_offset_to_mean_field(TemperatureFit& fit, const Eigen::Vector3d& mean_field_nT) {
+  fit.mean_field_nT = mean_field_nT;
+  const double t95 = student_t95(fit.dof);
+  for (int l = 0; l < 3; ++l) {
+    const double f = mean_field_nT(l), s_l = 1e-6 * fit.scale_ppm_per_C(l);
+    const double var_a = fit.covariance(2 * l, 2 * l), var_s = fit.covariance(2 * l + 1, 2 * l + 1);
+    const double cov_as = fit.covariance(2 * l, 2 * l + 1);
+    fit.offset_nT_per_C(l) = fit.apparent_nT_per_C(l) - s_l * f;
+    fit.offset_ci95_nT_per_C(l) = t95 * std::sqrt(std::max(0.0, var_a + f * f * var_s - 2.0 * f * cov_as));
+  }
 }
 
 Readings remove_temperature_terms(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,

@@ -29,6 +29,8 @@ TemperatureFit with_temperature_terms(const WindowEstimateFunction& estimate_aga
   if (estimate.n.allFinite()) {
     estimate.n_covariance += fit.coupling * fit.covariance * fit.coupling.transpose();
     estimate.parameters = decompose(estimate.n, estimate.n_covariance);
+    // c = a - s F with F from the n published with the terms, not n0 (correction_node's lever).
+    refer_offset_to_mean_field(fit, (reference_nT.colwise().mean() * estimate.n).transpose());
   }
   return fit;
 }
