@@ -7,8 +7,9 @@
 // What it assumes (three_cornered_hat.hpp): the three instruments' noises are independent. A
 // disturbance seen by the reference only counts as its noise (and is then corrected for, as an
 // error in the regressor should be); noise shared by two instruments makes the third's estimate
-// too large and theirs too small, possibly negative: a negative bin is left out of the fit, and
-// with none left the noise is reported as not identified (no correction).
+// too large and theirs too small, possibly negative: every bin enters the fit, and when the fit
+// leaves both levels of every axis at zero the noise is reported as not identified (no
+// correction).
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
@@ -42,9 +43,13 @@ struct IdentifiedNoise {
 
 /// Fits S(f) = 2 w^2 dt + p^2 / f per axis to a PSD given per bin (nT^2/Hz, bins [low, high) Hz;
 /// the 1/f term is averaged over each bin as ln(high / low) / (high - low)) by least squares
-/// relative to each bin, w^2 >= 0 and p^2 >= 0: first relative to the bin's own value, then to the
-/// first fit's model value (the noisy value itself as weight favours low bins: a level biased
-/// low). Bins <= 0 are left out. Returns false for an axis with no positive bin (w = p = 0 there).
+/// relative to each bin's model value, w^2 >= 0 and p^2 >= 0: a first fit with one scale for
+/// all bins (the mean |S|), then two passes relative to the previous fit's model value. Every
+/// finite bin enters, negative ones too (an estimate scatters about its true value; leaving out
+/// the negative ones biases the level up), and the levels are continuous in the bins: not
+/// weighting by each bin's own value, where a value near zero took all the weight (session 12).
+/// With one bin, a white level only. Returns false for an axis whose two levels come out zero
+/// (no finite bin, or bins that do not support a positive level).
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, const std::vector<double>& bin_low_hz,
                         const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,
                         Eigen::Vector3d& pink_nT_per_sqrt_hz);
@@ -107,7 +112,7 @@ EstimatorSettings with_identified_noise(EstimatorSettings settings, const Identi
 ///    the reference's PSD, many times its noise there, would carry the corner's error),
 ///  - the estimate is not finite, the band's top is at or above 0.25 / dt, or a bin holds fewer
 ///    than 8 harmonics (a run shorter than about an hour at 1 s),
-///  - no bin comes out positive.
+///  - the bins support no positive level on any axis (fit_white_and_pink).
 IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readings>& reference_nT,
                                                    const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
                                                    const WindowEstimate& estimate, const ResponseModel& model,

@@ -15,9 +15,15 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 /// min |a x - b| over x >= 0 in two unknowns: the unconstrained solution when both are >= 0,
-/// else the better of the two one-term fits (zero when neither is positive).
+/// else the better of the two one-term fits (zero when neither is positive). With one row the
+/// two one-term fits are both exact and the choice between them would fall to rounding: the
+/// first term (white) only.
 Eigen::Vector2d non_negative_fit(const Eigen::MatrixX2d& a, const Eigen::VectorXd& b) {
   Eigen::Vector2d x = Eigen::Vector2d::Zero();
+  if (a.rows() == 1) {
+    x(0) = std::max(0.0, b(0) / a(0, 0));
+    return x;
+  }
   if (a.rows() >= 2) x = a.colPivHouseholderQr().solve(b);
   if (a.rows() >= 2 && x(0) >= 0.0 && x(1) >= 0.0) return x;
   double best = b.squaredNorm();
@@ -52,29 +58,38 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
     throw InputError("fit_white_and_pink", "one standard deviation per bin is needed for the covariance");
   bool all = true;
   for (int c = 0; c < 3; ++c) {
+    // Every finite bin enters, negative ones too: a bin's estimate scatters about its true value,
+    // of either sign where the noise is small against that scatter, and leaving out the negative
+    // ones would bias the level up.
     std::vector<std::size_t> used;
     std::vector<Eigen::RowVector2d> design;  // [2 dt, mean(1/f) over the bin]: S = design . (w^2, p^2)
+    double common_scale = 0.0;               // mean |S| of the axis's bins, nT^2/Hz
     for (std::size_t k = 0; k < psd.size(); ++k) {
       const double s = psd[k](c);
-      if (!(s > 0.0) || !std::isfinite(s)) continue;
+      if (!std::isfinite(s)) continue;
       used.push_back(k);
       design.emplace_back(2.0 * dt, std::log(high[k] / low[k]) / (high[k] - low[k]));
+      common_scale += std::abs(s);
     }
-    if (used.empty()) {
+    if (used.empty() || !(common_scale > 0.0)) {
       all = false;
       continue;
     }
-    // Least squares relative to each bin: first to the bin's own value, then to the first fit's
-    // model value (weighting by the noisy value itself favours low bins and biases the level low).
+    common_scale /= static_cast<double>(used.size());
+    // Least squares relative to each bin's model value: first with one scale for all bins (the
+    // first fit's model is not known yet), then twice relative to the previous fit's model value.
+    // Not relative to the bin's own value (session 12): a value near zero would take all the
+    // weight, and the levels jumped when one ulp of the input moved it; weighting by the noisy
+    // value itself also favours low bins and biases the level low.
     Eigen::Vector2d x = Eigen::Vector2d::Zero();
     const auto rows = static_cast<Eigen::Index>(used.size());
     Eigen::MatrixX2d a(rows, 2);
     Eigen::VectorXd b(rows), relative_sd(rows);
-    for (int pass = 0; pass < 2; ++pass) {
+    for (int pass = 0; pass < 3; ++pass) {
       for (Eigen::Index i = 0; i < rows; ++i) {
         const std::size_t k = used[static_cast<std::size_t>(i)];
         const double model = design[static_cast<std::size_t>(i)].dot(x);
-        const double scale = pass == 0 || !(model > 0.0) ? psd[k](c) : model;
+        const double scale = pass == 0 || !(model > 0.0) ? common_scale : model;
         a.row(i) = design[static_cast<std::size_t>(i)] / scale;
         b(i) = psd[k](c) / scale;
         if (covariance != nullptr) relative_sd(i) = psd_sd[k](c) / scale;
@@ -83,6 +98,7 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
     }
     white_nT(c) = std::sqrt(x(0));
     pink_nT_per_sqrt_hz(c) = std::sqrt(x(1));
+    if (!(x(0) > 0.0) && !(x(1) > 0.0)) all = false;
     if (covariance == nullptr) continue;
     // The unconstrained linear fit's covariance, (A^T A)^-1 A^T diag(sd^2) A (A^T A)^-1, whether or
     // not a level came out at its bound of zero: a level fitted as zero is still uncertain by this.
@@ -232,8 +248,8 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
                   1e3 * out.pink_nT_per_sqrt_hz(2));
   } else {
     std::snprintf(text, sizeof text,
-                  "reference noise not identified by the three-cornered hat with %s (%zu epochs): no bin with a "
-                  "positive estimate (noise shared between instruments?)",
+                  "reference noise not identified by the three-cornered hat with %s (%zu epochs): its bins do not "
+                  "support a positive level on any axis (noise shared between instruments?)",
                   third_name.c_str(), out.samples);
   }
   out.text = text;
@@ -292,7 +308,7 @@ IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readin
   fit_white_and_pink(out.pair.reference_psd, out.pair.reference_psd_sd, out.pair.bin_low_hz, out.pair.bin_high_hz,
                      sample_period_s, out.white_nT, out.pink_nT_per_sqrt_hz, &out.level_covariance);
   out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();
-  if (!out.identified) return refuse("no bin above the band with a positive estimate");
+  if (!out.identified) return refuse("the bins above the band do not support a positive level on any axis");
   std::snprintf(text, sizeof text,
                 "reference noise from the pair above the band (%.3g-%.3g Hz, %zu epochs): white %.3g/%.3g/%.3g pT rms, "
                 "1/f %.3g/%.3g/%.3g pT/sqrt(Hz) at 1 Hz (x/y/z)",
