@@ -79,7 +79,9 @@ void expect_same_report(const nlohmann::json& a, const nlohmann::json& b, double
           for (std::size_t k = 0; k < 3; ++k) {  // a corner applied in both or in neither
             const nlohmann::json &u = x.at("corner_hz").at(k), &v = y.at("corner_hz").at(k);
             ASSERT_EQ(u.is_null(), v.is_null()) << at << ".corner_hz[" << k << "]";
-            if (!u.is_null()) EXPECT_NEAR(u.get<double>(), v.get<double>(), 1e-6 * u.get<double>()) << at;
+            if (!u.is_null()) {
+              EXPECT_NEAR(u.get<double>(), v.get<double>(), 1e-6 * u.get<double>()) << at;
+            }
           }
           return;
         }

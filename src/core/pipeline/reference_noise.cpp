@@ -14,18 +14,18 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-/// min |a x - b| over x >= 0 in two unknowns: the unconstrained solution when both are >= 0,
-/// else the better of the two one-term fits (zero when neither is positive). With one row the
-/// two one-term fits are both exact and the choice between them would fall to rounding: the
-/// first term (white) only.
+/// min |a x - b| over x >= 0 in two unknowns (a has at least one row): the unconstrained
+/// solution when both are >= 0, else the better of the two one-term fits (zero when neither is
+/// positive). With one row the two one-term fits are both exact and the choice between them
+/// would fall to rounding: the first term (white) only.
 Eigen::Vector2d non_negative_fit(const Eigen::MatrixX2d& a, const Eigen::VectorXd& b) {
   Eigen::Vector2d x = Eigen::Vector2d::Zero();
   if (a.rows() == 1) {
     x(0) = std::max(0.0, b(0) / a(0, 0));
     return x;
   }
-  if (a.rows() >= 2) x = a.colPivHouseholderQr().solve(b);
-  if (a.rows() >= 2 && x(0) >= 0.0 && x(1) >= 0.0) return x;
+  x = a.colPivHouseholderQr().solve(b);
+  if (x(0) >= 0.0 && x(1) >= 0.0) return x;
   double best = b.squaredNorm();
   x.setZero();
   for (int j = 0; j < 2; ++j) {
