@@ -373,8 +373,8 @@ int run_wic(const std::string& dir) {
 
 /// Three instruments on one node: reference (white 0.1 nT, x10 the test's), test (0.01 nT) and
 /// a second test (0.05 nT, independent noise). The reference's noise is identified by the
-/// three-cornered hat (cross-spectral, 4 bins, white + 1/f fit: reference_noise.hpp) and given to
-/// the EIV correction. Printed: identified / true noise level per axis (mean over seeds), and the z,
+/// three-cornered hat as calibrate_records --third does (identify_reference_noise: cross-spectral,
+/// bins over the band and above it, white + 1/f fit) and given to the EIV correction. Printed: identified / true noise level per axis (mean over seeds), and the z,
 /// x, y scale-ratio bias in units of its scatter (the "bias below 0.2 standard errors" aim).
 int run_hat(int seeds, double days, std::uint64_t first_seed) {
   std::vector<Eigen::Vector3d> err[2], level;
@@ -387,26 +387,27 @@ int run_hat(int seeds, double days, std::uint64_t first_seed) {
     s.reference_pink_nT_per_sqrt_hz = s.test_pink_nT_per_sqrt_hz = 0.0;
     s.keep_clean_field = true;
     const mic::SimulatedPair pair = mic::simulate_pair(s);
-    const mic::Readings third =
+    mic::VectorRecord third;
+    third.time_s = pair.reference.time_s;
+    third.values_nT =
         mic::co_located_instrument(pair.field_nT, mic::co_located_instrument_matrix(), 0.05, s.seed * 31 + 7);
-    // As calibrate_records --third does it (reference_noise.hpp): the hat in 4 bins over the
-    // band, the reference's bins fitted by white + 1/f noise.
-    const mic::ThreeCorneredHatResult hat =
-        mic::three_cornered_hat(pair.reference.values_nT, pair.test.values_nT, third, s.sample_period_s);
-    Eigen::Vector3d white, pink;
-    mic::fit_white_and_pink(hat.psd_nT2_per_hz[0], hat.bin_low_hz, hat.bin_high_hz, s.sample_period_s, white, pink);
+    // As calibrate_records --third does it (reference_noise.hpp): the hat over the band and above
+    // it, the reference's bins fitted by white + 1/f noise.
+    const mic::EstimatorSettings defaults;
+    const mic::IdentifiedNoise noise = mic::identify_reference_noise(
+        mic::prepare_pair(pair.reference, pair.test, mic::PreprocessSettings{}), pair.reference, third,
+        mic::PreprocessSettings{}, defaults.band_low_hz, defaults.band_high_hz);
+    const Eigen::Vector3d& white = noise.white_nT;
+    const Eigen::Vector3d& pink = noise.pink_nT_per_sqrt_hz;
     // Level: the ASD of the fitted noise over the band against the simulated white level.
-    const double band_low = hat.bin_low_hz.front(), band_high = hat.bin_high_hz.back();
+    const double band_low = defaults.band_low_hz, band_high = defaults.band_high_hz;
     const double inverse_f = std::log(band_high / band_low) / (band_high - band_low);
     const Eigen::Vector3d fitted_psd = 2.0 * s.sample_period_s * white.cwiseAbs2() + inverse_f * pink.cwiseAbs2();
     level.push_back((fitted_psd / (2.0 * s.sample_period_s)).cwiseSqrt() / s.reference_white_nT);
     const Eigen::Vector3d truth = mic::decompose(pair.n_true).scale_ratio;
     for (int m = 0; m < 2; ++m) {
-      mic::EstimatorSettings es;
-      if (m == 1) {  // identified; m == 0: not identified
-        es.robust.reference_white_nT = white;
-        es.robust.reference_pink_nT_per_sqrt_hz = pink;
-      }
+      // m == 1: identified (with its levels' covariance, as the CLI gives it); m == 0: not identified
+      const mic::EstimatorSettings es = m == 1 ? mic::with_identified_noise(defaults, noise, "three-cornered hat") : defaults;
       mic::WindowEstimator estimator(es);
       const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT, pair.test.values_nT, s.sample_period_s);
       err[m].push_back(e.parameters.scale_ratio - truth);

@@ -42,6 +42,9 @@ struct ThreeCorneredHatSettings {
   double band_high_hz = 0.01;   ///< Hz
   int bins = 4;                 ///< log-spaced frequency bins over the band (>= 1)
   ThreeCorneredHatMethod method = ThreeCorneredHatMethod::kCrossSpectral;
+  /// When not empty: the bins' edges, Hz, strictly ascending, at least two (bin k is
+  /// [edges[k], edges[k + 1])); band_low_hz, band_high_hz and bins are then not used.
+  std::vector<double> bin_edges_hz;
 };
 
 struct ThreeCorneredHatResult {
@@ -52,6 +55,12 @@ struct ThreeCorneredHatResult {
   /// kCrossSpectral: the standard deviation of each psd_nT2_per_hz value, same layout and units,
   /// from the scatter of its terms over the bin's harmonics; empty with kResidual.
   std::array<std::vector<Eigen::Vector3d>, 3> psd_sd_nT2_per_hz;
+  /// kCrossSpectral: the part of each estimate's scatter that does not shrink with the
+  /// instrument's own noise, as a PSD (nT^2/Hz, same layout): sqrt(N_y' N_z' / 2), the other
+  /// two instruments' noise as seen in its residuals. Per harmonic the estimate's variance is
+  /// about (N + floor)^2 (N its own PSD): a quiet instrument beside noisy ones scatters by the
+  /// floor. fit_hat_instrument weights the bins by it; empty with kResidual.
+  std::array<std::vector<Eigen::Vector3d>, 3> psd_floor_nT2_per_hz;
   /// Pairwise residual PSDs (ab, ac, bc), same layout: the inputs of the kResidual hat (empty
   /// with kCrossSpectral, which needs no pairwise fit).
   std::array<std::vector<Eigen::Vector3d>, 3> pair_psd_nT2_per_hz;

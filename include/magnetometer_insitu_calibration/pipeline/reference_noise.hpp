@@ -57,25 +57,36 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, cons
 /// The same with each bin's standard deviation (nT^2/Hz), and the covariance of (w^2, p^2) per
 /// axis: that of the unconstrained last pass, (A^T A)^-1 A^T diag(sd^2) A (A^T A)^-1 in the
 /// relative rows, also when a level came out at its bound of zero. Throws
-/// InputError("fit_white_and_pink", ...) when psd_sd does not hold one value per bin.
+/// InputError("fit_white_and_pink", ...) when psd_sd does not hold one value per bin, or
+/// scatter_floor (when given) not one per bin. scatter_floor (nT^2/Hz per bin): a bin's scatter
+/// is taken as (model + floor) / sqrt(harmonics) instead of model / sqrt(harmonics), for an
+/// estimate that scatters by other instruments' noise too (ThreeCorneredHatResult::psd_floor_).
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz,
                         const std::vector<Eigen::Vector3d>& psd_sd_nT2_per_hz, const std::vector<double>& bin_low_hz,
                         const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,
-                        Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance);
+                        Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance,
+                        const std::vector<Eigen::Vector3d>* scatter_floor_nT2_per_hz = nullptr);
+
+/// fit_white_and_pink of one instrument of the hat (0, 1, 2 = a, b, c), its bins weighted by its
+/// own scatter floor; covariance as above (may be null).
+bool fit_hat_instrument(const ThreeCorneredHatResult& hat, std::size_t instrument, double dt, Eigen::Vector3d& white_nT,
+                        Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance = nullptr);
 
 /// The reference and test as already paired for calibration (prepare_pair(reference, test,
 /// preprocess), so they are prepared once) and a third instrument's record (any frame, nearly
 /// aligned), paired with the reference the same way and cut to the longest run of epochs all
-/// three share; the hat over [band_low_hz, band_high_hz] in `bins` log-spaced bins; the
-/// reference's PSD fitted by fit_white_and_pink. Throws InputError("--third", ...) when the third
+/// three share; the hat over [band_low_hz, band_high_hz] in `bins` log-spaced bins and on above
+/// the band to kPairNoiseTopOfNyquist of the Nyquist frequency in kPairNoiseBins more (the
+/// cross-spectral hat cancels the field in every bin; those bins hold most of the harmonics and
+/// fix the white levels); the reference's PSD fitted by fit_hat_instrument. Throws InputError("--third", ...) when the third
 /// does not pair with the reference or the three share fewer than 64 consecutive epochs; the
 /// hat's own errors name "three_cornered_hat".
 IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const VectorRecord& reference,
                                          const VectorRecord& third, const PreprocessSettings& preprocess,
                                          double band_low_hz, double band_high_hz, int bins = 4);
 
-/// `bins` is the most bins used: fewer when the shared run is too short for 16 harmonics in the
-/// lowest one (a 6-hour run over the default band: 2 bins; 1 hour: 1 bin, a white level only).
+/// `bins` is the most bins used over the band: fewer when the shared run is too short for 16
+/// harmonics in the lowest one (a 6-hour run over the default band: 2 bins; 1 hour: 1 bin).
 ///
 /// The same from two records already paired with the reference on one estimation grid of period
 /// sample_period_s (time_s on the grid; NaN = missing, as calibration_node's live windows hold

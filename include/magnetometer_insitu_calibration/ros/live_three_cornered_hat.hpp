@@ -56,7 +56,8 @@ class CoincidentWindows {
 
 /// The worker's estimate of one window with the hat: the reference's noise identified from
 /// `window` and `mate`, each despiked and its short NaN runs (up to 5 epochs) bridged by straight
-/// lines as offline (identify_reference_noise over the estimator's configured band, up to 4 bins;
+/// lines as offline (identify_reference_noise over the estimator's configured band, up to 4 bins,
+/// and 6 bins above it to 0.25 / period;
 /// `mate_name` names the mate in the text); when identified, the window is estimated with it as
 /// the given reference noise (EivCorrection::kGiven; the window's eiv text says "three-cornered
 /// hat with <mate_name>"), else with `estimator` as it is (no correction). `noise` gets the hat's

@@ -66,7 +66,8 @@ std::vector<Eigen::Vector3d> residual_psd(const Readings& ref, const Readings& t
 std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<const Readings*, 3>& records, double dt,
                                                                const std::vector<double>& low,
                                                                const std::vector<double>& high, detail::RealDft& dft,
-                                                               std::array<std::vector<Eigen::Vector3d>, 3>& sd) {
+                                                               std::array<std::vector<Eigen::Vector3d>, 3>& sd,
+                                                               std::array<std::vector<Eigen::Vector3d>, 3>& floor) {
   const std::size_t n = static_cast<std::size_t>(records[0]->rows());
   const double duration = static_cast<double>(n) * dt;
   std::vector<double> column(n);
@@ -102,16 +103,18 @@ std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<
     // 3 of the bin's `count` degrees of freedom from each noise (as a regression's residual
     // does): count - 3 (a level 3 % low over 0.0002-0.01 Hz in a day without it).
     const double scale = 2.0 * dt / (static_cast<double>(n) * static_cast<double>(count - 3));
-    // N_x = diag(S_xx - S_xz S_yz^-1 S_yx). Its standard deviation: the field x noise terms
-    // cancel in the bin's sums (W = S_xz S_yz^-1 is fitted on the same harmonics, as a
-    // regression's residual is orthogonal to its regressors), so per harmonic the estimate holds
-    // conj(e_x) (e_x - d), d the other instrument's noise through W: variance N_x^2 + N_x N_d / 2
-    // (complex Gaussian noise), N_d from the residual r = X - Y W^H = e_x - d, whose mean |r|^2
-    // is N_x + N_d; over count - 3 independent harmonics (no taper).
-    const auto noise = [&](int x, int y, int z) -> Eigen::Vector3d {
-      const Eigen::FullPivLU<Eigen::Matrix3cd> lu(sum[y][z]);
-      const Eigen::Matrix3cd field = sum[x][z] * lu.solve(sum[y][x]);
-      const Eigen::Matrix3cd w_adjoint = (sum[x][z] * lu.inverse()).adjoint();
+    // N_x = diag(S_xx - S_xz S_yz^-1 S_yx). Its standard deviation: with W = S_xz S_yz^-1 fitted
+    // on the same harmonics (the residual r = X - Y W^H is orthogonal to Z, as a regression's
+    // residual is to its instrument), the estimate is sum conj(r) X = sum conj(r) (X - Z), so per
+    // harmonic it holds conj(e_x - e_y') (e_x - e_z'), the others' noises through the fitted
+    // matrices: for complex Gaussian noise the real part's variance is
+    //   (N_x + N_y')(N_x + N_z') / 2 + N_x^2 / 2,
+    // N_x + N_y' the mean |r|^2 and N_x + N_z' the mean |r'|^2 of r' = X - Z W'^H, W' = S_xy S_zy^-1;
+    // over count - 3 independent harmonics (no taper). For the noisiest instrument this is about
+    // N_x^2; for one much quieter than the other two it is N_y' N_z' / 2, which does not vanish
+    // with N_x (session 13: N_x^2 + N_x N_d / 2 before, zero wherever a quiet instrument's
+    // estimate came out negative).
+    const auto residual_power = [&](int x, int y, const Eigen::Matrix3cd& w_adjoint) -> Eigen::Vector3d {
       Eigen::Vector3d r2_sum = Eigen::Vector3d::Zero();
       for (Eigen::Index j = 1; j < harmonics - 1; ++j) {
         const double f = static_cast<double>(j) / duration;
@@ -123,10 +126,19 @@ std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<
         }
         r2_sum += (xr - yr * w_adjoint).cwiseAbs2().transpose();
       }
+      return r2_sum;
+    };
+    const auto noise = [&](int x, int y, int z) -> Eigen::Vector3d {
+      const Eigen::FullPivLU<Eigen::Matrix3cd> lu(sum[y][z]);
+      const Eigen::Matrix3cd field = sum[x][z] * lu.solve(sum[y][x]);
+      const Eigen::Matrix3cd w_adjoint = (sum[x][z] * lu.inverse()).adjoint();
+      const Eigen::Matrix3cd w2_adjoint = (sum[x][y] * Eigen::FullPivLU<Eigen::Matrix3cd>(sum[z][y]).inverse()).adjoint();
       const double dof = static_cast<double>(count - 3);
       const Eigen::Vector3d n_x = ((sum[x][x] - field).diagonal().real() / dof).cwiseMax(0.0);  // per harmonic
-      const Eigen::Vector3d n_d = (r2_sum / dof - n_x).cwiseMax(0.0);
-      const Eigen::Vector3d variance = n_x.cwiseAbs2() + 0.5 * n_x.cwiseProduct(n_d);
+      const Eigen::Vector3d m_y = residual_power(x, y, w_adjoint) / dof, m_z = residual_power(x, z, w2_adjoint) / dof;
+      const Eigen::Vector3d variance = 0.5 * m_y.cwiseProduct(m_z) + 0.5 * n_x.cwiseAbs2();
+      const Eigen::Vector3d others_y = (m_y - n_x).cwiseMax(0.0), others_z = (m_z - n_x).cwiseMax(0.0);
+      floor[static_cast<std::size_t>(x)].push_back((0.5 * others_y.cwiseProduct(others_z)).cwiseSqrt() * (scale * dof));
       sd[static_cast<std::size_t>(x)].push_back((variance / dof).cwiseSqrt() * (scale * dof));
       return (sum[x][x] - field).diagonal().real() * scale;
     };
@@ -144,17 +156,27 @@ ThreeCorneredHatResult three_cornered_hat(const Readings& a, const Readings& b, 
   if (a.rows() != b.rows() || a.rows() != c.rows()) throw InputError("three_cornered_hat", "records of unequal length");
   if (a.rows() < 64) throw InputError("three_cornered_hat", "fewer than 64 samples");
   if (!(dt > 0.0)) throw InputError("three_cornered_hat", "sample period must be > 0 s");
-  if (!(s.band_low_hz > 0.0) || !(s.band_high_hz > s.band_low_hz) || s.bins < 1)
-    throw InputError("three_cornered_hat", "needs 0 < band_low_hz < band_high_hz and bins >= 1");
   ThreeCorneredHatResult out;
-  const double ratio = std::pow(s.band_high_hz / s.band_low_hz, 1.0 / s.bins);
-  for (int k = 0; k < s.bins; ++k) {
-    out.bin_low_hz.push_back(s.band_low_hz * std::pow(ratio, k));
-    out.bin_high_hz.push_back(k + 1 == s.bins ? s.band_high_hz : s.band_low_hz * std::pow(ratio, k + 1));
+  if (!s.bin_edges_hz.empty()) {
+    const std::vector<double>& e = s.bin_edges_hz;
+    bool ascending = e.size() >= 2 && e.front() > 0.0;
+    for (std::size_t k = 1; k < e.size(); ++k) ascending = ascending && e[k] > e[k - 1];
+    if (!ascending) throw InputError("three_cornered_hat", "bin_edges_hz must hold at least 2 positive, strictly ascending edges");
+    out.bin_low_hz.assign(e.begin(), e.end() - 1);
+    out.bin_high_hz.assign(e.begin() + 1, e.end());
+  } else {
+    if (!(s.band_low_hz > 0.0) || !(s.band_high_hz > s.band_low_hz) || s.bins < 1)
+      throw InputError("three_cornered_hat", "needs 0 < band_low_hz < band_high_hz and bins >= 1");
+    const double ratio = std::pow(s.band_high_hz / s.band_low_hz, 1.0 / s.bins);
+    for (int k = 0; k < s.bins; ++k) {
+      out.bin_low_hz.push_back(s.band_low_hz * std::pow(ratio, k));
+      out.bin_high_hz.push_back(k + 1 == s.bins ? s.band_high_hz : s.band_low_hz * std::pow(ratio, k + 1));
+    }
   }
   detail::RealDft dft;
   if (s.method == ThreeCorneredHatMethod::kCrossSpectral) {
-    out.psd_nT2_per_hz = cross_spectral_psd({&a, &b, &c}, dt, out.bin_low_hz, out.bin_high_hz, dft, out.psd_sd_nT2_per_hz);
+    out.psd_nT2_per_hz = cross_spectral_psd({&a, &b, &c}, dt, out.bin_low_hz, out.bin_high_hz, dft, out.psd_sd_nT2_per_hz,
+                                           out.psd_floor_nT2_per_hz);
     return out;
   }
   out.pair_psd_nT2_per_hz[0] = residual_psd(a, b, dt, out.bin_low_hz, out.bin_high_hz, dft);  // ab

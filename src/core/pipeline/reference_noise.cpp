@@ -50,12 +50,15 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
 
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vector<Eigen::Vector3d>& psd_sd,
                         const std::vector<double>& low, const std::vector<double>& high, double dt,
-                        Eigen::Vector3d& white_nT, Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance) {
+                        Eigen::Vector3d& white_nT, Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance,
+                        const std::vector<Eigen::Vector3d>* scatter_floor) {
   white_nT.setZero();
   pink_nT_per_sqrt_hz.setZero();
   if (covariance != nullptr) covariance->fill(Eigen::Matrix2d::Zero());
   if (covariance != nullptr && psd_sd.size() != psd.size())
     throw InputError("fit_white_and_pink", "one standard deviation per bin is needed for the covariance");
+  if (scatter_floor != nullptr && scatter_floor->size() != psd.size())
+    throw InputError("fit_white_and_pink", "one scatter floor per bin is needed");
   bool all = true;
   for (int c = 0; c < 3; ++c) {
     // Every finite bin enters, negative ones too: a bin's estimate scatters about its true value,
@@ -76,11 +79,17 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
       continue;
     }
     common_scale /= static_cast<double>(used.size());
+    double mean_width = 0.0;  // Hz
+    for (const std::size_t k : used) mean_width += (high[k] - low[k]) / static_cast<double>(used.size());
     // Least squares relative to each bin's model value: first with one scale for all bins (the
     // first fit's model is not known yet), then twice relative to the previous fit's model value.
     // Not relative to the bin's own value (session 12): a value near zero would take all the
     // weight, and the levels jumped when one ulp of the input moved it; weighting by the noisy
-    // value itself also favours low bins and biases the level low.
+    // value itself also favours low bins and biases the level low. Each relative row is weighted
+    // by sqrt(bin width): a bin's mean periodogram scatters relative to its value by 1 /
+    // sqrt(harmonics), and its harmonics are its width times the record's duration (session 13:
+    // equal weights let a log-spaced bottom bin of 16 harmonics count as much as a top one of
+    // thousands).
     Eigen::Vector2d x = Eigen::Vector2d::Zero();
     const auto rows = static_cast<Eigen::Index>(used.size());
     Eigen::MatrixX2d a(rows, 2);
@@ -89,7 +98,9 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
       for (Eigen::Index i = 0; i < rows; ++i) {
         const std::size_t k = used[static_cast<std::size_t>(i)];
         const double model = design[static_cast<std::size_t>(i)].dot(x);
-        const double scale = pass == 0 || !(model > 0.0) ? common_scale : model;
+        const double floor = scatter_floor != nullptr && std::isfinite((*scatter_floor)[k](c)) ? (*scatter_floor)[k](c) : 0.0;
+        const double scale = ((pass == 0 || !(model > 0.0) ? common_scale : model) + floor) /
+                             std::sqrt((high[k] - low[k]) / mean_width);
         a.row(i) = design[static_cast<std::size_t>(i)] / scale;
         b(i) = psd[k](c) / scale;
         if (covariance != nullptr) relative_sd(i) = psd_sd[k](c) / scale;
@@ -115,6 +126,15 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
     }
   }
   return all;
+}
+
+bool fit_hat_instrument(const ThreeCorneredHatResult& hat, std::size_t instrument, double dt, Eigen::Vector3d& white_nT,
+                        Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance) {
+  if (instrument > 2) throw InputError("fit_hat_instrument", "instrument must be 0, 1 or 2");
+  const auto& floor = hat.psd_floor_nT2_per_hz[instrument];
+  return fit_white_and_pink(hat.psd_nT2_per_hz[instrument], hat.psd_sd_nT2_per_hz[instrument], hat.bin_low_hz,
+                            hat.bin_high_hz, dt, white_nT, pink_nT_per_sqrt_hz, covariance,
+                            floor.empty() ? nullptr : &floor);
 }
 
 namespace {
@@ -167,6 +187,28 @@ int bins_for(double duration_s, double low_hz, double high_hz, int most) {
     if (last - first + 1 >= kMinHarmonicsPerBin) return b;
   }
   return 1;
+}
+
+/// The hat's bins: bins_for's log-spaced bins over the band, then kPairNoiseBins log-spaced
+/// bins from the band's top to kPairNoiseTopOfNyquist of the Nyquist frequency (none when the
+/// band reaches it). The cross-spectral hat cancels the field in every bin, so the bins above
+/// the band need no gap below them (the pair's noise does); they hold most of the record's
+/// harmonics and so fix the white level, where one day's in-band harmonics (about 850 at 1 s)
+/// leave a quiet instrument's level undetermined beside a noisy one (session 13).
+std::vector<double> hat_bin_edges(double duration_s, double sample_period_s, double band_low_hz, double band_high_hz,
+                                  int bins) {
+  const int in_band = bins_for(duration_s, band_low_hz, band_high_hz, bins);
+  std::vector<double> edges;
+  const double ratio = std::pow(band_high_hz / band_low_hz, 1.0 / in_band);
+  for (int k = 0; k < in_band; ++k) edges.push_back(band_low_hz * std::pow(ratio, k));
+  edges.push_back(band_high_hz);
+  const double top = kPairNoiseTopOfNyquist * 0.5 / sample_period_s;
+  if (top > band_high_hz) {
+    const double above = std::pow(top / band_high_hz, 1.0 / kPairNoiseBins);
+    for (int k = 1; k < kPairNoiseBins; ++k) edges.push_back(band_high_hz * std::pow(above, k));
+    edges.push_back(top);
+  }
+  return edges;
 }
 
 }  // namespace
@@ -224,9 +266,8 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
     c.row(i) = with_third.test_nT.row(rows.second);
   }
   ThreeCorneredHatSettings hs;
-  hs.band_low_hz = band_low_hz;
-  hs.band_high_hz = band_high_hz;
-  hs.bins = bins_for(static_cast<double>(n) * sample_period_s, band_low_hz, band_high_hz, bins);
+  hs.bin_edges_hz = hat_bin_edges(static_cast<double>(n) * sample_period_s, sample_period_s, band_low_hz,
+                                  band_high_hz, bins);
   out.hat = three_cornered_hat(r, t, c, out.sample_period_s, hs);
   char text[320];
   const std::string shared = one_record_twice(out.hat, third_name);
@@ -236,14 +277,13 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
     out.text = text;
     return out;
   }
-  fit_white_and_pink(out.hat.psd_nT2_per_hz[0], out.hat.psd_sd_nT2_per_hz[0], out.hat.bin_low_hz, out.hat.bin_high_hz,
-                     out.sample_period_s, out.white_nT, out.pink_nT_per_sqrt_hz, &out.level_covariance);
+  fit_hat_instrument(out.hat, 0, out.sample_period_s, out.white_nT, out.pink_nT_per_sqrt_hz, &out.level_covariance);
   out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();
   if (out.identified) {
     std::snprintf(text, sizeof text,
-                  "reference noise from the three-cornered hat with %s (%zu epochs, %d bins): white %.3g/%.3g/%.3g pT "
+                  "reference noise from the three-cornered hat with %s (%zu epochs, %zu bins): white %.3g/%.3g/%.3g pT "
                   "rms, 1/f %.3g/%.3g/%.3g pT/sqrt(Hz) at 1 Hz (x/y/z)",
-                  third_name.c_str(), out.samples, hs.bins, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1),
+                  third_name.c_str(), out.samples, out.hat.bin_low_hz.size(), 1e3 * out.white_nT(0), 1e3 * out.white_nT(1),
                   1e3 * out.white_nT(2), 1e3 * out.pink_nT_per_sqrt_hz(0), 1e3 * out.pink_nT_per_sqrt_hz(1),
                   1e3 * out.pink_nT_per_sqrt_hz(2));
   } else {
