@@ -58,9 +58,11 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, cons
 /// axis: that of the unconstrained last pass, (A^T A)^-1 A^T diag(sd^2) A (A^T A)^-1 in the
 /// relative rows, also when a level came out at its bound of zero. Throws
 /// InputError("fit_white_and_pink", ...) when psd_sd does not hold one value per bin, or
-/// scatter_floor (when given) not one per bin. scatter_floor (nT^2/Hz per bin): a bin's scatter
-/// is taken as (model + floor) / sqrt(harmonics) instead of model / sqrt(harmonics), for an
-/// estimate that scatters by other instruments' noise too (ThreeCorneredHatResult::psd_floor_).
+/// scatter_floor (when given) not one per bin. scatter_floor (nT^2/Hz per bin, the hat's
+/// ThreeCorneredHatResult::psd_floor_nT2_per_hz): a bin's scatter is then taken as (model +
+/// floor) / sqrt(harmonics), harmonics from the bin's width; without it every bin counts equally
+/// relative to its model value (the pair's noise, whose top bins carry the test's response
+/// mismatch: B18 in docs/estimator_validation.md).
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz,
                         const std::vector<Eigen::Vector3d>& psd_sd_nT2_per_hz, const std::vector<double>& bin_low_hz,
                         const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,

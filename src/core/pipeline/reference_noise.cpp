@@ -85,11 +85,14 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
     // first fit's model is not known yet), then twice relative to the previous fit's model value.
     // Not relative to the bin's own value (session 12): a value near zero would take all the
     // weight, and the levels jumped when one ulp of the input moved it; weighting by the noisy
-    // value itself also favours low bins and biases the level low. Each relative row is weighted
-    // by sqrt(bin width): a bin's mean periodogram scatters relative to its value by 1 /
-    // sqrt(harmonics), and its harmonics are its width times the record's duration (session 13:
-    // equal weights let a log-spaced bottom bin of 16 harmonics count as much as a top one of
-    // thousands).
+    // value itself also favours low bins and biases the level low. With a scatter floor (the
+    // cross-spectral hat) each row is weighted by its harmonics too, sqrt(bin width) (the width
+    // times the record's duration), relative to model + floor: the hat's estimate scatters by
+    // (N + floor) / sqrt(harmonics), and equal weights let a log-spaced bottom bin of 16 harmonics
+    // count as much as a top one of thousands (session 13). Without one (the pair's noise) every
+    // bin counts equally relative to its model: the pair's top bins carry what a pair cannot
+    // cancel, the test's response mismatch, and weighting them by their harmonics moved the
+    // disturbed records' scale errors by +0.15 standard errors on average (B18).
     Eigen::Vector2d x = Eigen::Vector2d::Zero();
     const auto rows = static_cast<Eigen::Index>(used.size());
     Eigen::MatrixX2d a(rows, 2);
@@ -99,8 +102,8 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
         const std::size_t k = used[static_cast<std::size_t>(i)];
         const double model = design[static_cast<std::size_t>(i)].dot(x);
         const double floor = scatter_floor != nullptr && std::isfinite((*scatter_floor)[k](c)) ? (*scatter_floor)[k](c) : 0.0;
-        const double scale = ((pass == 0 || !(model > 0.0) ? common_scale : model) + floor) /
-                             std::sqrt((high[k] - low[k]) / mean_width);
+        const double harmonics = scatter_floor != nullptr ? std::sqrt((high[k] - low[k]) / mean_width) : 1.0;
+        const double scale = ((pass == 0 || !(model > 0.0) ? common_scale : model) + floor) / harmonics;
         a.row(i) = design[static_cast<std::size_t>(i)] / scale;
         b(i) = psd[k](c) / scale;
         if (covariance != nullptr) relative_sd(i) = psd_sd[k](c) / scale;
