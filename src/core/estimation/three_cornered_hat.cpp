@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/frequency_bins.hpp"
 #include "spectral_tools.hpp"
 
 #include <Eigen/LU>
@@ -162,17 +163,14 @@ ThreeCorneredHatResult three_cornered_hat(const Readings& a, const Readings& b, 
     bool ascending = e.size() >= 2 && e.front() > 0.0;
     for (std::size_t k = 1; k < e.size(); ++k) ascending = ascending && e[k] > e[k - 1];
     if (!ascending) throw InputError("three_cornered_hat", "bin_edges_hz must hold at least 2 positive, strictly ascending edges");
-    out.bin_low_hz.assign(e.begin(), e.end() - 1);
-    out.bin_high_hz.assign(e.begin() + 1, e.end());
   } else {
     if (!(s.band_low_hz > 0.0) || !(s.band_high_hz > s.band_low_hz) || s.bins < 1)
       throw InputError("three_cornered_hat", "needs 0 < band_low_hz < band_high_hz and bins >= 1");
-    const double ratio = std::pow(s.band_high_hz / s.band_low_hz, 1.0 / s.bins);
-    for (int k = 0; k < s.bins; ++k) {
-      out.bin_low_hz.push_back(s.band_low_hz * std::pow(ratio, k));
-      out.bin_high_hz.push_back(k + 1 == s.bins ? s.band_high_hz : s.band_low_hz * std::pow(ratio, k + 1));
-    }
   }
+  const std::vector<double> edges =
+      s.bin_edges_hz.empty() ? log_spaced_bin_edges(s.band_low_hz, s.band_high_hz, s.bins) : s.bin_edges_hz;
+  out.bin_low_hz.assign(edges.begin(), edges.end() - 1);
+  out.bin_high_hz.assign(edges.begin() + 1, edges.end());
   detail::RealDft dft;
   if (s.method == ThreeCorneredHatMethod::kCrossSpectral) {
     out.psd_nT2_per_hz = cross_spectral_psd({&a, &b, &c}, dt, out.bin_low_hz, out.bin_high_hz, dft, out.psd_sd_nT2_per_hz,

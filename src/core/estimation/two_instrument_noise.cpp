@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/estimation/two_instrument_noise.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/frequency_bins.hpp"
 #include "spectral_tools.hpp"
 
 #include <Eigen/LU>
@@ -40,10 +41,10 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
   }
   const Eigen::Matrix3d n_inverse = n.inverse();
   TwoInstrumentNoise out;
-  const double ratio = std::pow(high_hz / low_hz, 1.0 / bins);
+  const std::vector<double> edges = log_spaced_bin_edges(low_hz, high_hz, bins);
   const Eigen::Index harmonics = spectra[0].size();
   for (int k = 0; k < bins; ++k) {
-    const double lo = low_hz * std::pow(ratio, k), hi = k + 1 == bins ? high_hz : low_hz * std::pow(ratio, k + 1);
+    const double lo = edges[static_cast<std::size_t>(k)], hi = edges[static_cast<std::size_t>(k) + 1];
     // Per harmonic and axis, the reference's noise term z = Re(conj(R_c) (R - T diag(H)^-1 n^-1)_c):
     // its sum over the bin is diag(S_RR - S_RT diag(H)^-1 n^-1), the estimate (the field cancels),
     // its scatter the estimate's spread; |R_c|^2 - z is the field's part, diag(P).

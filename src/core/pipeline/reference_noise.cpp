@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/frequency_bins.hpp"
 
 #include <Eigen/Dense>
 
@@ -200,16 +201,12 @@ int bins_for(double duration_s, double low_hz, double high_hz, int most) {
 /// leave a quiet instrument's level undetermined beside a noisy one (session 13).
 std::vector<double> hat_bin_edges(double duration_s, double sample_period_s, double band_low_hz, double band_high_hz,
                                   int bins) {
-  const int in_band = bins_for(duration_s, band_low_hz, band_high_hz, bins);
-  std::vector<double> edges;
-  const double ratio = std::pow(band_high_hz / band_low_hz, 1.0 / in_band);
-  for (int k = 0; k < in_band; ++k) edges.push_back(band_low_hz * std::pow(ratio, k));
-  edges.push_back(band_high_hz);
+  std::vector<double> edges =
+      log_spaced_bin_edges(band_low_hz, band_high_hz, bins_for(duration_s, band_low_hz, band_high_hz, bins));
   const double top = kPairNoiseTopOfNyquist * 0.5 / sample_period_s;
   if (top > band_high_hz) {
-    const double above = std::pow(top / band_high_hz, 1.0 / kPairNoiseBins);
-    for (int k = 1; k < kPairNoiseBins; ++k) edges.push_back(band_high_hz * std::pow(above, k));
-    edges.push_back(top);
+    const std::vector<double> above = log_spaced_bin_edges(band_high_hz, top, kPairNoiseBins);
+    edges.insert(edges.end(), above.begin() + 1, above.end());  // band_high_hz once
   }
   return edges;
 }
