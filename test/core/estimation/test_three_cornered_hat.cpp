@@ -3,6 +3,7 @@
 // 2 sigma^2 dt for white noise of rms sigma per sample, must come back from the pairwise
 // residuals alone.
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/frequency_bins.hpp"
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
 #include "magnetometer_insitu_calibration/simulation/co_located_instrument.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
@@ -105,4 +106,30 @@ TEST(ThreeCorneredHat, BadInputIsNamed) {
   mic::ThreeCorneredHatSettings hs;
   hs.bins = 0;
   EXPECT_THROW(mic::three_cornered_hat(a, a, a, 1.0, hs), mic::InputError);
+  // Explicit edges that do not ascend (or one edge only) are refused, naming the hat.
+  for (const std::vector<double>& edges : {std::vector<double>{0.01, 0.001}, std::vector<double>{0.01},
+                                           std::vector<double>{0.0, 0.01}}) {
+    mic::ThreeCorneredHatSettings bad;
+    bad.bin_edges_hz = edges;
+    try {
+      mic::three_cornered_hat(a, a, a, 1.0, bad);
+      ADD_FAILURE() << "edges accepted";
+    } catch (const mic::InputError& e) {
+      EXPECT_EQ(e.where(), "three_cornered_hat") << e.what();
+    }
+  }
+}
+
+TEST(LogSpacedBinEdges, AreTheBandsEndsAndEqualRatiosBetween) {
+  // Worked by hand: 0.001-0.1 Hz in 2 bins is 0.001, 0.01, 0.1 Hz; the top edge is the band's
+  // own value, not a rounded power.
+  const std::vector<double> two = mic::log_spaced_bin_edges(0.001, 0.1, 2);
+  ASSERT_EQ(two.size(), 3u);
+  EXPECT_DOUBLE_EQ(two[0], 0.001);
+  EXPECT_NEAR(two[1], 0.01, 1e-15);
+  EXPECT_EQ(two[2], 0.1);
+  const std::vector<double> six = mic::log_spaced_bin_edges(0.01, 0.25, 6);
+  ASSERT_EQ(six.size(), 7u);
+  for (std::size_t k = 1; k + 1 < six.size(); ++k) EXPECT_NEAR(six[k] / six[k - 1], std::pow(25.0, 1.0 / 6.0), 1e-12);
+  EXPECT_EQ(six.back(), 0.25);
 }
