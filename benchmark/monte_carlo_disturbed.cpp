@@ -3,8 +3,10 @@
 // its figures are quoted in docs/accuracy.md.
 //
 //   monte_carlo_disturbed disturbed [seeds=50] [days=5] [first_seed=1000]
-//                                                       disturbed station, both estimators
-//                                                       (MC_ROBUST_ONLY=1: robust only)
+//                                                       disturbed station: plain Eq. 2, the robust
+//                                                       estimator alone, the default pipeline
+//                                                       (MC_ROBUST_ONLY=1: no plain; MC_PIPELINE=0:
+//                                                       no pipeline)
 //   monte_carlo_disturbed eiv [seeds=200] [days=1]        quiet station, reference noise x10
 //   monte_carlo_disturbed wic [data_dir=data]             real pair, 4 intervals + the day
 //
@@ -118,8 +120,8 @@ int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
               static_cast<unsigned long long>(first_seed), days);
   std::printf("# seed  method  dscale_x%%  dscale_y%%  dscale_z%%  max|dangle|deg  covered/9  delay_ms  screened%%\n");
   mic::CalibrationSettings base;
-  std::vector<double> max_scale[2], max_angle[2];
-  int covered[2] = {0, 0}, checked[2] = {0, 0}, within_aim[2] = {0, 0};
+  std::vector<double> max_scale[3], max_angle[3];
+  int covered[3] = {0, 0, 0}, checked[3] = {0, 0, 0}, within_aim[3] = {0, 0, 0};
   int variant_covered[5] = {0, 0, 0, 0, 0}, variant_checked = 0;
   std::mt19937_64 rng(2025);
   const auto start = std::chrono::steady_clock::now();
@@ -133,8 +135,12 @@ int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
                   report.max_vehicle_reference_nT, report.max_vehicle_test_nT);
     }
     const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, base.preprocess);
-    for (int m = 0; m < 2; ++m) {
+    // m: 0 plain Eq. 2, 1 the robust estimator alone (no identified noise: no EIV correction),
+    // 2 the default pipeline (calibrate_prepared: the reference's noise from the pair above the
+    // band, the response model), as calibrate_records runs it; MC_PIPELINE=0 skips it.
+    for (int m = 0; m < 3; ++m) {
       if (m == 0 && knob("MC_ROBUST_ONLY", 0) > 0) continue;
+      if (m == 2 && knob("MC_PIPELINE", 1) == 0) continue;
       mic::EstimatorSettings es = base.estimator;
       es.method = m == 0 ? mic::EstimatorMethod::kPlain : mic::EstimatorMethod::kRobust;
       es.robust.screen_baseline_s = knob("MC_BASELINE", es.robust.screen_baseline_s);
@@ -142,17 +148,20 @@ int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
       es.robust.section_s = knob("MC_SECTION", es.robust.section_s);
       es.robust.huber_k = knob("MC_HUBER", es.robust.huber_k);
       mic::WindowEstimator estimator(es);
+      mic::CalibrationSettings pipeline = base;
+      pipeline.estimator = es;
       const mic::WindowEstimate e =
-          estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
+          m == 2 ? mic::calibrate_prepared(prepared, pipeline).back().estimate
+                 : estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
       const Errors err = errors_of(e, pair.n_true);
-      if (knob("MC_DEBUG", 0) > 0 && estimator.robust_diagnostics() != nullptr) {
+      if (m == 1 && knob("MC_DEBUG", 0) > 0 && estimator.robust_diagnostics() != nullptr) {
         const auto* d = estimator.robust_diagnostics();
         std::printf("  sections %zu cells %zu iterations %d eiv %d delay_corrected %d weights:", d->sections, d->cells,
                     d->iterations, d->eiv_applied, d->delay_corrected);
         for (double w : d->section_weights) std::printf(" %.2f", w);
         std::printf("\n  downweighted %.3f\n", e.downweighted_fraction);
       }
-      if (const auto* d = estimator.robust_diagnostics()) {
+      if (const auto* d = m == 1 ? estimator.robust_diagnostics() : nullptr) {
         // Coverage the other covariance choices would give (sandwich, jackknife, jackknife
         // with Student-t width, per-entry max of the sandwich and the (t-scaled) jackknife).
         const mic::Matrix9d& sw = d->covariance_sandwich;
@@ -191,7 +200,7 @@ int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
       checked[m] += err.checked;
       within_aim[m] += err.max_scale_pct() <= 0.05 && err.max_angle_deg() <= 0.03;
       std::printf("seed %4llu %-6s %9.4f %9.4f %9.4f %10.4f %5d %9.2f %7.2f\n", static_cast<unsigned long long>(seed),
-                  e.method.c_str(), err.scale_pct(0), err.scale_pct(1), err.scale_pct(2), err.max_angle_deg(),
+                  m == 2 ? "default" : e.method.c_str(), err.scale_pct(0), err.scale_pct(1), err.scale_pct(2), err.max_angle_deg(),
                   err.covered, e.delay_s * 1e3, 100.0 * e.screened_fraction);
       std::fflush(stdout);
     }
@@ -199,9 +208,9 @@ int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf("\n| estimator | 95th pct max scale-ratio error | 95th pct max angle error | seeds within 0.05 %% and 0.03 deg | median max scale error | median max angle error | interval coverage (9 parameters x seeds) |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
-  for (int m = 0; m < 2; ++m) {
+  for (int m = 0; m < 3; ++m) {
     if (max_scale[m].empty()) continue;
-    std::printf("| %s | %.4f %% | %.4f deg | %d / %d | %.4f %% | %.4f deg | %.1f %% |\n", m == 0 ? "plain Eq. 2" : "robust (default)",
+    std::printf("| %s | %.4f %% | %.4f deg | %d / %d | %.4f %% | %.4f deg | %.1f %% |\n", m == 0 ? "plain Eq. 2" : (m == 1 ? "robust estimator alone" : "default (pipeline: pair's noise, response model)"),
                 percentile(max_scale[m], 0.95), percentile(max_angle[m], 0.95), within_aim[m], seeds,
                 percentile(max_scale[m], 0.5), percentile(max_angle[m], 0.5), 100.0 * covered[m] / std::max(1, checked[m]));
   }
