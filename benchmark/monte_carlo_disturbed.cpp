@@ -148,10 +148,13 @@ int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
       es.robust.section_s = knob("MC_SECTION", es.robust.section_s);
       es.robust.huber_k = knob("MC_HUBER", es.robust.huber_k);
       mic::WindowEstimator estimator(es);
-      mic::CalibrationSettings pipeline = base;
-      pipeline.estimator = es;
+      const auto pipeline_estimate = [&] {
+        mic::CalibrationSettings pipeline = base;
+        pipeline.estimator = es;
+        return mic::calibrate_prepared(prepared, pipeline).back().estimate;
+      };
       const mic::WindowEstimate e =
-          m == 2 ? mic::calibrate_prepared(prepared, pipeline).back().estimate
+          m == 2 ? pipeline_estimate()
                  : estimator.estimate(prepared.paired.reference_nT, prepared.paired.test_nT, prepared.sample_period_s);
       const Errors err = errors_of(e, pair.n_true);
       if (m == 1 && knob("MC_DEBUG", 0) > 0 && estimator.robust_diagnostics() != nullptr) {

@@ -33,6 +33,7 @@
 // MC_PRINT_MODEL=1 adds, after each pipeline line, the window's response model and its
 // reference-noise-from-the-pair line ("#   ...").
 #include "bias_scatter.hpp"
+#include "window_agreement.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
@@ -46,6 +47,7 @@
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -342,22 +344,9 @@ int run_wic(const std::string& dir) {
     // ASD sqrt(1 / (2 dt)) at dt = 1 s.
     settings.estimator.robust.reference_white_nT.setConstant(knob("MC_WIC_WHITE_PT", 0.0) / 1000.0 / std::sqrt(2.0));
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
-    double chi[6];
-    for (int p = 0; p < 6; ++p) {
-      double sw = 0, swx = 0;
-      std::vector<double> x, se;
-      for (int w = 0; w < 4; ++w) {
-        const auto& q = result.windows[static_cast<std::size_t>(w)].estimate.parameters;
-        x.push_back(p < 3 ? q.scale_ratio(p) : q.nonorthogonality_deg(p - 3));
-        se.push_back((p < 3 ? q.scale_ratio_ci95(p) : q.nonorthogonality_ci95_deg(p - 3)) / 1.959964);
-        sw += 1 / (se.back() * se.back());
-        swx += x.back() / (se.back() * se.back());
-      }
-      const double mean = swx / sw;
-      double chi2 = 0;
-      for (int w = 0; w < 4; ++w) chi2 += (x[w] - mean) * (x[w] - mean) / (se[w] * se[w]);
-      chi[p] = std::sqrt(chi2 / 3.0);
-    }
+    std::vector<monte_carlo::SixParameters> quarters;
+    for (std::size_t w = 0; w < 4; ++w) quarters.push_back(monte_carlo::six_parameters(result.windows[w]));
+    const std::array<double, 6> chi = monte_carlo::quarters_scatter(quarters);
     const auto& day = result.windows.back().estimate;
     const auto& q = day.parameters;
     std::printf("| %s | %.2f, %.2f, %.2f; %.2f, %.2f, %.2f | %.5f+-%.5f, %.5f+-%.5f, %.5f+-%.5f | %s |\n",

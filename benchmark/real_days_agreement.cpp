@@ -13,6 +13,8 @@
 //
 // Files in any format `calibrate_records` reads (IAGA-2002, MagPy CDF, ...). Parameters: the
 // scale ratios x, y, z (H, E, Z for WIC) and the non-orthogonalities xy, xz, yz (deg).
+#include "window_agreement.hpp"
+
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
@@ -25,44 +27,12 @@
 #include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
+using monte_carlo::kZ95;
+using monte_carlo::quarters_scatter;
+using monte_carlo::six_parameters;
+using Six = monte_carlo::SixParameters;
 
 namespace {
-
-constexpr double kZ95 = 1.959964;  // ci95 half-width / standard error
-
-/// The six parameters of one window and their standard errors.
-struct Six {
-  std::array<double, 6> value{}, se{};
-};
-
-Six six_of(const mic::CalibrationWindow& w) {
-  const auto& p = w.estimate.parameters;
-  Six s;
-  for (int k = 0; k < 3; ++k) {
-    s.value[k] = p.scale_ratio(k);
-    s.se[k] = p.scale_ratio_ci95(k) / kZ95;
-    s.value[k + 3] = p.nonorthogonality_deg(k);
-    s.se[k + 3] = p.nonorthogonality_ci95_deg(k) / kZ95;
-  }
-  return s;
-}
-
-/// sqrt(chi2 / (Q - 1)) of the quarters around their weighted mean, per parameter.
-std::array<double, 6> quarters_scatter(const std::vector<Six>& quarters) {
-  std::array<double, 6> out{};
-  for (int k = 0; k < 6; ++k) {
-    double sw = 0.0, swx = 0.0;
-    for (const auto& q : quarters) {
-      sw += 1.0 / (q.se[k] * q.se[k]);
-      swx += q.value[k] / (q.se[k] * q.se[k]);
-    }
-    const double mean = swx / sw;
-    double chi2 = 0.0;
-    for (const auto& q : quarters) chi2 += std::pow((q.value[k] - mean) / q.se[k], 2);
-    out[k] = std::sqrt(chi2 / static_cast<double>(quarters.size() - 1));
-  }
-  return out;
-}
 
 struct Estimator {
   const char* name;
@@ -116,8 +86,8 @@ int main(int argc, char** argv) {
       for (std::size_t d = 0; d < days.size(); ++d) {
         const mic::PairCalibration result = mic::calibrate_records(days[d].first, days[d].second, e.settings);
         std::vector<Six> quarters;
-        for (std::size_t w = 0; w + 1 < result.windows.size(); ++w) quarters.push_back(six_of(result.windows[w]));
-        whole.push_back(six_of(result.windows.back()));
+        for (std::size_t w = 0; w + 1 < result.windows.size(); ++w) quarters.push_back(six_parameters(result.windows[w]));
+        whole.push_back(six_parameters(result.windows.back()));
         const std::string tag = "day " + std::to_string(d + 1) + " " + mic::format_iso8601(result.windows.back().start_s).substr(0, 10);
         print_row((tag + ": value").c_str(), whole.back().value, " %10.5f");
         print_row("  ci95", [&] {

@@ -8,14 +8,32 @@
 
 #include <Eigen/LU>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <complex>
+#include <utility>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
 
 namespace {
+
+/// The harmonics j of [1, harmonics - 1) whose frequency j / duration_s lies in [low_hz, high_hz),
+/// as [first, end): a contiguous run, found from the bin's edges instead of a scan of every
+/// harmonic (the same set as the test f >= low && f < high on each j).
+std::pair<Eigen::Index, Eigen::Index> bin_harmonics(double low_hz, double high_hz, double duration_s,
+                                                    Eigen::Index harmonics) {
+  const Eigen::Index last = harmonics - 1;  // exclusive
+  const auto first_at_or_above = [&](double f_hz) {
+    Eigen::Index j = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(std::ceil(f_hz * duration_s)), 1, last);
+    while (j > 1 && static_cast<double>(j - 1) / duration_s >= f_hz) --j;
+    while (j < last && static_cast<double>(j) / duration_s < f_hz) ++j;
+    return j;
+  };
+  const Eigen::Index first = first_at_or_above(low_hz);
+  return {first, std::max(first, first_at_or_above(high_hz))};
+}
 
 /// Mean one-sided periodogram (nT^2/Hz) per axis of T_test - T_ref n over each bin.
 std::vector<Eigen::Vector3d> residual_psd(const Readings& ref, const Readings& test, double dt,
@@ -86,12 +104,11 @@ std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<
     Eigen::Matrix3cd sum[3][3];
     for (auto& row : sum)
       for (auto& m : row) m.setZero();
-    int count = 0;
+    const std::pair<Eigen::Index, Eigen::Index> range = bin_harmonics(low[k], high[k], duration, harmonics);
+    const Eigen::Index first = range.first, end = range.second;
+    const int count = static_cast<int>(end - first);
     Eigen::Matrix3cd row_spectra;  // row r: record r's three axes at harmonic j
-    for (Eigen::Index j = 1; j < harmonics - 1; ++j) {
-      const double f = static_cast<double>(j) / duration;
-      if (f < low[k] || f >= high[k]) continue;
-      ++count;
+    for (Eigen::Index j = first; j < end; ++j) {
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) row_spectra(r, c) = spectra[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)](j);
       for (int u = 0; u < 3; ++u)
@@ -117,9 +134,7 @@ std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<
     // estimate came out negative).
     const auto residual_power = [&](int x, int y, const Eigen::Matrix3cd& w_adjoint) -> Eigen::Vector3d {
       Eigen::Vector3d r2_sum = Eigen::Vector3d::Zero();
-      for (Eigen::Index j = 1; j < harmonics - 1; ++j) {
-        const double f = static_cast<double>(j) / duration;
-        if (f < low[k] || f >= high[k]) continue;
+      for (Eigen::Index j = first; j < end; ++j) {
         Eigen::RowVector3cd xr, yr;
         for (int c = 0; c < 3; ++c) {
           xr(c) = spectra[static_cast<std::size_t>(x)][static_cast<std::size_t>(c)](j);

@@ -103,8 +103,9 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
         const std::size_t k = used[static_cast<std::size_t>(i)];
         const double model = design[static_cast<std::size_t>(i)].dot(x);
         const double floor = scatter_floor != nullptr && std::isfinite((*scatter_floor)[k](c)) ? (*scatter_floor)[k](c) : 0.0;
-        const double harmonics = scatter_floor != nullptr ? std::sqrt((high[k] - low[k]) / mean_width) : 1.0;
-        const double scale = ((pass == 0 || !(model > 0.0) ? common_scale : model) + floor) / harmonics;
+        // sqrt of the bin's harmonics relative to the mean bin's (bin widths in Hz)
+        const double sqrt_harmonics = scatter_floor != nullptr ? std::sqrt((high[k] - low[k]) / mean_width) : 1.0;
+        const double scale = ((pass == 0 || !(model > 0.0) ? common_scale : model) + floor) / sqrt_harmonics;
         a.row(i) = design[static_cast<std::size_t>(i)] / scale;
         b(i) = psd[k](c) / scale;
         if (covariance != nullptr) relative_sd(i) = psd_sd[k](c) / scale;
