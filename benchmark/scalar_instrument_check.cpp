@@ -1,31 +1,35 @@
-// Held-out real check of the reference noise that the default identifies from
-// the pair (B14), by an absolute scalar magnetometer recording beside the pair
-// (docs/estimator_validation.md B21).
+// Held-out real check of the reference noise that the default identifies from the pair (B14), by
+// an absolute scalar magnetometer recording beside the pair (docs/estimator_validation.md B21).
 //
-// The pair identifies the reference's noise above the band, 0.03-0.25 Hz at 1
-// s, where the test's response is not known, and extrapolates it into the band
-// by a white + 1/f fit. A scalar instrument (proton, Overhauser or optically
-// pumped: at every INTERMAGNET observatory) records F, whose variations are p .
-// B for the unit vector p of the main field. With the reference R, the test
-// mapped into the reference's frame, G = T n^-1, and F, the cross-spectral
-// three-cornered hat on the three series R p, G p and F gives each one's own
-// noise along p:
-//   N_R(p) = S_RR - Re(S_RF S_GR / S_GF)     (S_uv: bin means of U V^*,
-//   one-sided, nT^2/Hz)
-// Any gain, delay or filter of the test or of the scalar cancels in the ratio,
-// and F's own noise does not enter N_R's mean. So N_R along p is measured in
-// and above the band, independently of the pair's model and of the test's
-// response. p is where the scalar sees the field: the in-band Eq. 2 fit of F on
-// the reference (F = R c + trend), normalised; |c| is the reference's gain
-// along the field against the absolute instrument (1 when both are right).
+// The pair identifies the reference's noise above the band, 0.03-0.25 Hz at 1 s, where the test's
+// response is not known, and extrapolates it into the band by a white + 1/f fit. A scalar
+// instrument (proton, Overhauser or optically pumped: at every INTERMAGNET observatory) records
+// F, whose variations are p . B for the unit vector p of the main field. With the reference R,
+// the test mapped into the reference's frame, G = T n^-1, and F, the cross-spectral
+// three-cornered hat on the three series R p, G p and F gives each one's own noise along p:
+//   N_R(p) = S_RR - Re(S_RF S_GR / S_GF)     (S_uv: bin means of U V^*, one-sided, nT^2/Hz)
+// Any gain, delay or filter of the test or of the scalar cancels in the ratio, and F's own noise
+// does not enter N_R's mean. So N_R along p is measured in and above the band, independently of
+// the pair's model and of the test's response. p is where the scalar sees the field: the in-band
+// Eq. 2 fit of F on the reference (F = R c + trend), normalised; |c| is the reference's gain along
+// the field against the absolute instrument (1 when both are right).
 //
 //   scalar_instrument_check REF TEST SCALAR [REF TEST SCALAR ...]
 //
-// REF and TEST in any format `calibrate_records` reads; SCALAR a MagPy CDF file
-// holding `f` (nT) on its DEPEND_0 time variable (else Epoch), interpolated
-// linearly onto the pair's epochs (a scalar magnetometer's stamps are often not
-// on whole seconds). A program, not a test: the scalar record of the second day
-// is not shipped (B19, B21 say where the records come from).
+// REF and TEST in any format `calibrate_records` reads; SCALAR a MagPy CDF file holding `f` (nT)
+// on its DEPEND_0 time variable (else Epoch), interpolated linearly onto the pair's epochs (a
+// scalar magnetometer's stamps are often not on whole seconds). A program, not a test: the
+// scalar record of the second day is not shipped (B19, B21 say where the records come from).
+#include "window_agreement.hpp"
+
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_file.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
+
 #include <fftw3.h>
 
 #include <Eigen/Dense>
@@ -38,15 +42,6 @@
 #include <string>
 #include <vector>
 
-#include "magnetometer_insitu_calibration/common/time_format.hpp"
-#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
-#include "magnetometer_insitu_calibration/formats/cdf_file.hpp"
-#include "magnetometer_insitu_calibration/formats/record_file.hpp"
-#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
-#include "window_agreement.hpp"
-
 namespace mic = magnetometer_insitu_calibration;
 using cd = std::complex<double>;
 
@@ -57,14 +52,14 @@ constexpr double kPi = 3.14159265358979323846;
 /// The scalar record's F (nT) at the given UNIX epochs, linear between its own
 /// samples; NaN where its neighbours are more than 2 s apart or outside the
 /// record.
-Eigen::VectorXd scalar_on_epochs(const std::string &path, const std::vector<double> &epochs_s) {
+Eigen::VectorXd scalar_on_epochs(const std::string& path, const std::vector<double>& epochs_s) {
   const mic::CdfFile file = mic::CdfFile::open(path);
-  const mic::CdfVariable *f = file.find("f");
+  const mic::CdfVariable* f = file.find("f");
   if (!f) throw std::runtime_error(path + ": no variable 'f' (a MagPy CDF scalar record)");
   std::string time_name = "Epoch";
-  for (const auto &a : f->attributes)
+  for (const auto& a : f->attributes)
     if (a.first == "DEPEND_0" && !a.second.text.empty()) time_name = a.second.text;
-  const mic::CdfVariable *t = file.find(time_name);
+  const mic::CdfVariable* t = file.find(time_name);
   if (!t || t->data_type != mic::kCdfTimeTt2000)
     throw std::runtime_error(path + ": no TT2000 time variable " + time_name);
   const std::vector<std::int64_t> tt = file.read_int64(*t);
@@ -85,7 +80,7 @@ Eigen::VectorXd scalar_on_epochs(const std::string &path, const std::vector<doub
 
 /// Hann-windowed DFT of x less its straight line, scaled so that 2 dt |X_j|^2
 /// is the one-sided PSD (nT^2/Hz). Bins 0 .. N/2.
-std::vector<cd> spectrum(const Eigen::VectorXd &x, double dt) {
+std::vector<cd> spectrum(const Eigen::VectorXd& x, double dt) {
   const long n = x.size();
   const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(n, -1.0, 1.0);
   const double slope = t.dot(x) / t.squaredNorm(), mean = x.mean();
@@ -100,7 +95,7 @@ std::vector<cd> spectrum(const Eigen::VectorXd &x, double dt) {
   fftw_plan plan;
   {
     std::lock_guard<std::mutex> lock(mic::fftw_planner_lock());
-    plan = fftw_plan_dft_r2c_1d(static_cast<int>(n), in.data(), reinterpret_cast<fftw_complex *>(out.data()),
+    plan = fftw_plan_dft_r2c_1d(static_cast<int>(n), in.data(), reinterpret_cast<fftw_complex*>(out.data()),
                                 FFTW_ESTIMATE);
   }
   fftw_execute(plan);
@@ -109,23 +104,22 @@ std::vector<cd> spectrum(const Eigen::VectorXd &x, double dt) {
     fftw_destroy_plan(plan);
   }
   const double scale = std::sqrt(dt / w2);
-  for (cd &v : out) v *= scale;
+  for (cd& v : out) v *= scale;
   return out;
 }
 
 struct HatBin {
   double low_hz, high_hz;
   long harmonics;
-  double noise[3],
-      sd[3];  ///< reference, test, scalar: one-sided PSD along p, nT^2/Hz
+  double noise[3], sd[3];  ///< reference, test, scalar: one-sided PSD along p, nT^2/Hz
 };
 
 /// The cross-spectral hat on three scalar series over [low, high) Hz; each
 /// noise's standard deviation by a delete-one-block jackknife over 10
 /// contiguous blocks of the bin's harmonics. (Interleaved groups, every 10th
-/// harmonic, gave 0.6-0.8 of the scatter of 40 simulated days: the Hann window
+/// harmonic, gave 0.57-0.87 of the scatter of 40 simulated days: the Hann window
 /// ties neighbouring harmonics; contiguous blocks gave 0.99-1.13 of it.)
-HatBin hat_bin(const std::vector<cd> &r, const std::vector<cd> &g, const std::vector<cd> &f, double df, double low,
+HatBin hat_bin(const std::vector<cd>& r, const std::vector<cd>& g, const std::vector<cd>& f, double df, double low,
                double high) {
   const long j0 = static_cast<long>(std::ceil(low / df)), j1 = static_cast<long>(std::ceil(high / df));
   constexpr int kGroups = 10;
@@ -168,10 +162,10 @@ double asd_pT(double psd) { return (psd < 0 ? -1.0 : 1.0) * 1000.0 * std::sqrt(s
 /// does not give along p put on z (81 % of p at WIC; the vertical is the weak
 /// axis), and the day and its quarters estimated again by the default with
 /// those levels given (their own uncertainty not propagated).
-void what_if(const mic::PreparedPair &prepared, mic::CalibrationSettings settings, const mic::IdentifiedNoise &pair,
-             const Eigen::Vector3d &p, const std::vector<Eigen::Vector3d> &along_p,
-             const std::vector<Eigen::Vector3d> &along_p_sd, const std::vector<double> &lows,
-             const std::vector<double> &highs) {
+void what_if(const mic::PreparedPair& prepared, mic::CalibrationSettings settings, const mic::IdentifiedNoise& pair,
+             const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& along_p,
+             const std::vector<Eigen::Vector3d>& along_p_sd, const std::vector<double>& lows,
+             const std::vector<double>& highs) {
   const double dt = prepared.sample_period_s;
   Eigen::Vector3d white, pink;
   if (!mic::fit_white_and_pink(along_p, along_p_sd, lows, highs, dt, white, pink, nullptr)) {
@@ -179,7 +173,7 @@ void what_if(const mic::PreparedPair &prepared, mic::CalibrationSettings setting
     return;
   }
   mic::IdentifiedNoise scalar = pair;
-  auto z_level = [&](double along, const Eigen::Vector3d &levels) {
+  auto z_level = [&](double along, const Eigen::Vector3d& levels) {
     const double rest = p(0) * p(0) * levels(0) * levels(0) + p(1) * p(1) * levels(1) * levels(1);
     return std::sqrt(std::max(0.0, along * along - rest) / (p(2) * p(2)));
   };
@@ -195,24 +189,24 @@ void what_if(const mic::PreparedPair &prepared, mic::CalibrationSettings setting
   mic::CalibrationSettings given = settings;
   given.estimator = mic::with_identified_noise(settings.estimator, scalar, "scalar what-if");
   given.pair_noise = false;
-  for (const auto &run : {std::make_pair("default", settings), std::make_pair("scalar's z level", given)}) {
+  for (const auto& run : {std::make_pair("default", settings), std::make_pair("scalar's z level", given)}) {
     const std::vector<mic::CalibrationWindow> windows = mic::calibrate_prepared(prepared, run.second);
     std::vector<monte_carlo::SixParameters> quarters;
     for (std::size_t w = 0; w + 1 < windows.size(); ++w) quarters.push_back(monte_carlo::six_parameters(windows[w]));
     const monte_carlo::SixParameters day = monte_carlo::six_parameters(windows.back());
     std::printf("  %-17s scale z %.5f +- %.5f; quarters' z", run.first, day.value[2], monte_carlo::kZ95 * day.se[2]);
-    for (const auto &q : quarters) std::printf(" %.5f", q.value[2]);
+    for (const auto& q : quarters) std::printf(" %.5f", q.value[2]);
     const std::array<double, 6> scatter = monte_carlo::quarters_scatter(quarters);
     std::printf("; sqrt(chi2/3) %.2f %.2f %.2f; %.2f %.2f %.2f\n", scatter[0], scatter[1], scatter[2], scatter[3],
                 scatter[4], scatter[5]);
   }
 }
 
-void check_day(const std::string &ref_path, const std::string &test_path, const std::string &scalar_path) {
+void check_day(const std::string& ref_path, const std::string& test_path, const std::string& scalar_path) {
   const mic::VectorRecord ref_record = mic::read_record(ref_path), test_record = mic::read_record(test_path);
   mic::CalibrationSettings settings;  // the package's default
   const mic::PreparedPair prepared = mic::prepare_pair(ref_record, test_record, settings.preprocess);
-  const auto &paired = prepared.paired;
+  const auto& paired = prepared.paired;
   const double dt = prepared.sample_period_s;
   const mic::CalibrationWindow day = mic::calibrate_prepared(prepared, settings).back();
   mic::CalibrationSettings first_settings = settings;  // the pair's first estimate, as the pipeline makes it
@@ -294,7 +288,7 @@ void check_day(const std::string &ref_path, const std::string &test_path, const 
 
 }  // namespace
 
-int main(int argc, char **argv) {
+int main(int argc, char** argv) {
   if (argc < 4 || (argc - 1) % 3 != 0) {
     std::fprintf(stderr,
                  "usage: scalar_instrument_check REF TEST SCALAR [REF "
@@ -310,7 +304,7 @@ int main(int argc, char **argv) {
         "# maker's figure (LEMI-036: < 10 pT/sqrt(Hz)); the test's and "
         "the scalar's with their sd\n");
     for (int a = 1; a + 2 < argc; a += 3) check_day(argv[a], argv[a + 1], argv[a + 2]);
-  } catch (const std::exception &ex) {
+  } catch (const std::exception& ex) {
     std::fprintf(stderr, "scalar_instrument_check: %s\n", ex.what());
     return 1;
   }
