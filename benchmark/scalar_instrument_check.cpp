@@ -20,16 +20,6 @@
 // on its DEPEND_0 time variable (else Epoch), interpolated linearly onto the pair's epochs (a
 // scalar magnetometer's stamps are often not on whole seconds). A program, not a test: the
 // scalar record of the second day is not shipped (B19, B21 say where the records come from).
-#include "window_agreement.hpp"
-
-#include "magnetometer_insitu_calibration/common/time_format.hpp"
-#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
-#include "magnetometer_insitu_calibration/formats/cdf_file.hpp"
-#include "magnetometer_insitu_calibration/formats/record_file.hpp"
-#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
-
 #include <fftw3.h>
 
 #include <Eigen/Dense>
@@ -42,6 +32,16 @@
 #include <string>
 #include <vector>
 
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
+#include "magnetometer_insitu_calibration/formats/cdf_file.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
+#include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
+#include "window_agreement.hpp"
+
 namespace mic = magnetometer_insitu_calibration;
 using cd = std::complex<double>;
 
@@ -49,9 +49,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-/// The scalar record's F (nT) at the given UNIX epochs, linear between its own
-/// samples; NaN where its neighbours are more than 2 s apart or outside the
-/// record.
+/// The scalar record's F (nT) at the given UNIX epochs, linear between its own samples
+/// (interpolate_channel, as the temperature channel); NaN where its neighbours are more than 2 s
+/// apart or outside the record.
 Eigen::VectorXd scalar_on_epochs(const std::string& path, const std::vector<double>& epochs_s) {
   const mic::CdfFile file = mic::CdfFile::open(path);
   const mic::CdfVariable* f = file.find("f");
@@ -63,19 +63,15 @@ Eigen::VectorXd scalar_on_epochs(const std::string& path, const std::vector<doub
   if (!t || t->data_type != mic::kCdfTimeTt2000)
     throw std::runtime_error(path + ": no TT2000 time variable " + time_name);
   const std::vector<std::int64_t> tt = file.read_int64(*t);
-  const std::vector<double> values = file.read_real(*f);
-  std::vector<double> time_s(tt.size());
-  for (std::size_t i = 0; i < tt.size(); ++i)
-    if (mic::tt2000_to_unix(tt[i], time_s[i]) != mic::Tt2000Status::kOk) time_s[i] = std::nan("");
-  Eigen::VectorXd out(epochs_s.size());
-  std::size_t k = 0;
-  for (std::size_t i = 0; i < epochs_s.size(); ++i) {
-    while (k + 2 < time_s.size() && time_s[k + 1] <= epochs_s[i]) ++k;
-    const double t0 = time_s[k], t1 = time_s[k + 1], s = epochs_s[i];
-    out(i) = (s >= t0 && s <= t1 && t1 - t0 <= 2.0) ? values[k] + (s - t0) / (t1 - t0) * (values[k + 1] - values[k])
-                                                    : std::nan("");
+  std::vector<double> values = file.read_real(*f), time_s;
+  for (std::size_t i = 0; i < tt.size(); ++i) {
+    double unix_s = 0.0;
+    if (mic::tt2000_to_unix(tt[i], unix_s) != mic::Tt2000Status::kOk) continue;
+    time_s.push_back(unix_s);
+    values[time_s.size() - 1] = values[i];
   }
-  return out;
+  values.resize(time_s.size());
+  return mic::interpolate_channel(time_s, values, epochs_s, 2.0);
 }
 
 /// Hann-windowed DFT of x less its straight line, scaled so that 2 dt |X_j|^2
@@ -132,11 +128,11 @@ HatBin hat_bin(const std::vector<cd>& r, const std::vector<cd>& g, const std::ve
       srr += std::norm(r[j]), sgg += std::norm(g[j]), sff += std::norm(f[j]);
       srf += r[j] * std::conj(f[j]), sgr += g[j] * std::conj(r[j]), sgf += g[j] * std::conj(f[j]);
     }
-    // Each series' noise is its power less the field's part, from the other two
-    // cross-spectra.
-    out[0] = (srr - srf * sgr / sgf).real();
-    out[1] = (sgg - sgr * sgf / srf).real();
-    out[2] = (sff - std::conj(sgf) * std::conj(srf) / std::conj(sgr)).real();
+    // Each series' noise is its power less the field's part, |H|^2 S for its transfer H, from the
+    // cross-spectra with the other two (S_uv = sum U V^*; S_vu = conj(S_uv)).
+    out[0] = (srr - srf * sgr / sgf).real();                        // S_RF S_GR / S_GF
+    out[1] = (sgg - sgr * std::conj(sgf) / std::conj(srf)).real();  // S_GR S_FG / S_FR
+    out[2] = (sff - std::conj(srf) * sgf / sgr).real();             // S_FR S_GF / S_GR
     for (int k = 0; k < 3; ++k) out[k] *= 2.0 / static_cast<double>(used);
   };
   HatBin bin{low, high, j1 - j0, {}, {}};
@@ -162,10 +158,10 @@ double asd_pT(double psd) { return (psd < 0 ? -1.0 : 1.0) * 1000.0 * std::sqrt(s
 /// does not give along p put on z (81 % of p at WIC; the vertical is the weak
 /// axis), and the day and its quarters estimated again by the default with
 /// those levels given (their own uncertainty not propagated).
-void what_if(const mic::PreparedPair& prepared, mic::CalibrationSettings settings, const mic::IdentifiedNoise& pair,
-             const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& along_p,
-             const std::vector<Eigen::Vector3d>& along_p_sd, const std::vector<double>& lows,
-             const std::vector<double>& highs) {
+void what_if(const mic::PreparedPair& prepared, const std::vector<mic::CalibrationWindow>& default_windows,
+             mic::CalibrationSettings settings, const mic::IdentifiedNoise& pair, const Eigen::Vector3d& p,
+             const std::vector<Eigen::Vector3d>& along_p, const std::vector<Eigen::Vector3d>& along_p_sd,
+             const std::vector<double>& lows, const std::vector<double>& highs) {
   const double dt = prepared.sample_period_s;
   Eigen::Vector3d white, pink;
   if (!mic::fit_white_and_pink(along_p, along_p_sd, lows, highs, dt, white, pink, nullptr)) {
@@ -181,16 +177,15 @@ void what_if(const mic::PreparedPair& prepared, mic::CalibrationSettings setting
   scalar.pink_nT_per_sqrt_hz(2) = z_level(pink(0), pair.pink_nT_per_sqrt_hz);
   scalar.level_covariance = {Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
   std::printf(
-      "  along p, fitted: white %.1f pT rms, 1/f %.2f pT/sqrt(Hz) at 1 "
-      "Hz; given on z: %.1f pT rms, %.2f "
-      "pT/sqrt(Hz)\n",
+      "  along p, fitted: white %.1f pT rms, 1/f %.2f pT/sqrt(Hz) at 1 Hz; given on z: %.1f pT rms, %.2f pT/sqrt(Hz)\n",
       1000 * white(0), 1000 * pink(0), 1000 * scalar.white_nT(2), 1000 * scalar.pink_nT_per_sqrt_hz(2));
-  settings.windows.intervals = 4;
   mic::CalibrationSettings given = settings;
   given.estimator = mic::with_identified_noise(settings.estimator, scalar, "scalar what-if");
   given.pair_noise = false;
-  for (const auto& run : {std::make_pair("default", settings), std::make_pair("scalar's z level", given)}) {
-    const std::vector<mic::CalibrationWindow> windows = mic::calibrate_prepared(prepared, run.second);
+  const std::vector<mic::CalibrationWindow> given_windows = mic::calibrate_prepared(prepared, given);
+  for (const auto& run :
+       {std::make_pair("default", &default_windows), std::make_pair("scalar's z level", &given_windows)}) {
+    const std::vector<mic::CalibrationWindow>& windows = *run.second;
     std::vector<monte_carlo::SixParameters> quarters;
     for (std::size_t w = 0; w + 1 < windows.size(); ++w) quarters.push_back(monte_carlo::six_parameters(windows[w]));
     const monte_carlo::SixParameters day = monte_carlo::six_parameters(windows.back());
@@ -204,19 +199,21 @@ void what_if(const mic::PreparedPair& prepared, mic::CalibrationSettings setting
 
 void check_day(const std::string& ref_path, const std::string& test_path, const std::string& scalar_path) {
   const mic::VectorRecord ref_record = mic::read_record(ref_path), test_record = mic::read_record(test_path);
-  mic::CalibrationSettings settings;  // the package's default
+  mic::CalibrationSettings settings;  // the package's default, four quarters and the day
+  settings.windows.intervals = 4;
   const mic::PreparedPair prepared = mic::prepare_pair(ref_record, test_record, settings.preprocess);
   const auto& paired = prepared.paired;
   const double dt = prepared.sample_period_s;
-  const mic::CalibrationWindow day = mic::calibrate_prepared(prepared, settings).back();
+  const std::vector<mic::CalibrationWindow> windows = mic::calibrate_prepared(prepared, settings);
+  const mic::CalibrationWindow& day = windows.back();
   mic::CalibrationSettings first_settings = settings;  // the pair's first estimate, as the pipeline makes it
   first_settings.pair_noise = false;
+  first_settings.windows.intervals = 0;
   const mic::CalibrationWindow first = mic::calibrate_prepared(prepared, first_settings).back();
   const mic::IdentifiedNoise pair = mic::identify_reference_noise_from_pair(
       paired.reference_nT, paired.test_nT, dt, first.estimate, first.response_model, settings.estimator.band_high_hz);
 
-  // The pair's epochs that the scalar record covers (its first stamp may fall
-  // after the pair's).
+  // The pair's epochs that the scalar record covers (its first stamp may fall after the pair's).
   const Eigen::VectorXd f_all = scalar_on_epochs(scalar_path, paired.time_s);
   long first_i = 0, last_i = f_all.size() - 1;
   while (first_i < f_all.size() && !std::isfinite(f_all(first_i))) ++first_i;
@@ -231,8 +228,7 @@ void check_day(const std::string& ref_path, const std::string& test_path, const 
   const mic::Readings reference = paired.reference_nT.middleRows(first_i, count);
   const mic::Readings test = paired.test_nT.middleRows(first_i, count);
 
-  // c: Eq. 2 of F (as all three test columns) on the reference, over the
-  // default band.
+  // c: Eq. 2 of F (as all three test columns) on the reference, over the default band.
   mic::Readings f3(scalar.size(), 3);
   f3.col(0) = f3.col(1) = f3.col(2) = scalar;
   mic::FdWlseEstimator plain{mic::EstimatorSettings{}};
@@ -248,19 +244,17 @@ void check_day(const std::string& ref_path, const std::string& test_path, const 
   const double df = 1.0 / (static_cast<double>(r_p.size()) * dt);
 
   std::printf("\n## %s, %ld epochs\n", mic::format_iso8601(paired.time_s[first_i]).substr(0, 10).c_str(), count);
-  std::printf(
-      "  F on the reference over %.4f-%.3f Hz: c = %.5f %.5f %.5f (se "
-      "%.5f %.5f %.5f), |c| = %.5f\n",
-      settings.estimator.band_low_hz, settings.estimator.band_high_hz, c(0), c(1), c(2), c_se(0), c_se(1), c_se(2),
-      c.norm());
+  std::printf("  F on the reference over %.4f-%.3f Hz: c = %.5f %.5f %.5f (se %.5f %.5f %.5f), |c| = %.5f\n",
+              settings.estimator.band_low_hz, settings.estimator.band_high_hz, c(0), c(1), c(2), c_se(0), c_se(1),
+              c_se(2), c.norm());
   std::printf("  pair's reference noise (%s)\n", pair.text.c_str());
   std::printf("  %-15s %6s | %-21s %9s %9s | %-17s %-17s\n", "bin, Hz", "harm.", "reference along p", "pair", "maker",
               "test along p", "scalar");
   std::vector<double> edges;
   for (int k = 0; k <= 5; ++k) edges.push_back(0.0002 * std::pow(50.0, k / 5.0));  // the band, 0.0002-0.01 Hz
   for (int k = 1; k <= 6; ++k) edges.push_back(0.01 * std::pow(25.0, k / 6.0));    // above it, to 0.25 Hz
-  std::vector<Eigen::Vector3d> along_p,
-      along_p_sd;  // the reference's, on each axis (the fit is per axis)
+  // The reference's along p, put on every axis: fit_white_and_pink fits per axis.
+  std::vector<Eigen::Vector3d> along_p, along_p_sd;
   std::vector<double> lows, highs;
   for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
     const HatBin bin = hat_bin(sr, sg, sf, df, edges[b], edges[b + 1]);
@@ -268,41 +262,33 @@ void check_day(const std::string& ref_path, const std::string& test_path, const 
     along_p_sd.push_back(Eigen::Vector3d::Constant(bin.sd[0]));
     lows.push_back(bin.low_hz);
     highs.push_back(bin.high_hz);
-    // The pair's model along p (axes' noises independent), averaged over the
-    // bin.
+    // The pair's model along p (axes' noises independent), averaged over the bin.
     const double mean_inv_f = std::log(bin.high_hz / bin.low_hz) / (bin.high_hz - bin.low_hz);
     double model = 0.0;
     for (int i = 0; i < 3; ++i)
       model += p(i) * p(i) *
                (2.0 * pair.white_nT(i) * pair.white_nT(i) * dt +
                 pair.pink_nT_per_sqrt_hz(i) * pair.pink_nT_per_sqrt_hz(i) * mean_inv_f);
-    std::printf(
-        "  %.4f-%.4f %6ld | %7.1f (%6.1f-%6.1f) %9.1f %9.1f | %7.1f +- "
-        "%6.1f %7.1f +- %6.1f\n",
-        bin.low_hz, bin.high_hz, bin.harmonics, asd_pT(bin.noise[0]), asd_pT(bin.noise[0] - bin.sd[0]),
-        asd_pT(bin.noise[0] + bin.sd[0]), asd_pT(model), 10.0, asd_pT(bin.noise[1]), asd_pT(bin.sd[1]),
-        asd_pT(bin.noise[2]), asd_pT(bin.sd[2]));
+    std::printf("  %.4f-%.4f %6ld | %7.1f (%6.1f-%6.1f) %9.1f %9.1f | %7.1f +- %6.1f %7.1f +- %6.1f\n", bin.low_hz,
+                bin.high_hz, bin.harmonics, asd_pT(bin.noise[0]), asd_pT(bin.noise[0] - bin.sd[0]),
+                asd_pT(bin.noise[0] + bin.sd[0]), asd_pT(model), 10.0, asd_pT(bin.noise[1]), asd_pT(bin.sd[1]),
+                asd_pT(bin.noise[2]), asd_pT(bin.sd[2]));
   }
-  what_if(prepared, settings, pair, p, along_p, along_p_sd, lows, highs);
+  what_if(prepared, windows, settings, pair, p, along_p, along_p_sd, lows, highs);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 4 || (argc - 1) % 3 != 0) {
-    std::fprintf(stderr,
-                 "usage: scalar_instrument_check REF TEST SCALAR [REF "
-                 "TEST SCALAR ...]\n");
+    std::fprintf(stderr, "usage: scalar_instrument_check REF TEST SCALAR [REF TEST SCALAR ...]\n");
     return 2;
   }
   try {
     std::printf(
-        "# ASD in pT/sqrt(Hz) along p, the field's direction in the "
-        "reference's frame; the reference's\n"
-        "# as the hat's estimate (its estimate -+ one jackknife sd), "
-        "the pair's white + 1/f model, the\n"
-        "# maker's figure (LEMI-036: < 10 pT/sqrt(Hz)); the test's and "
-        "the scalar's with their sd\n");
+        "# ASD in pT/sqrt(Hz) along p, the field's direction in the reference's frame; the reference's\n"
+        "# as the hat's estimate (its estimate -+ one jackknife sd), the pair's white + 1/f model, the\n"
+        "# maker's figure (LEMI-036: < 10 pT/sqrt(Hz)); the test's and the scalar's with their sd\n");
     for (int a = 1; a + 2 < argc; a += 3) check_day(argv[a], argv[a + 1], argv[a + 2]);
   } catch (const std::exception& ex) {
     std::fprintf(stderr, "scalar_instrument_check: %s\n", ex.what());
