@@ -344,9 +344,7 @@ int run_wic(const std::string& dir) {
     // ASD sqrt(1 / (2 dt)) at dt = 1 s.
     settings.estimator.robust.reference_white_nT.setConstant(knob("MC_WIC_WHITE_PT", 0.0) / 1000.0 / std::sqrt(2.0));
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings);
-    std::vector<monte_carlo::SixParameters> quarters;
-    for (std::size_t w = 0; w < 4; ++w) quarters.push_back(monte_carlo::six_parameters(result.windows[w]));
-    const std::array<double, 6> chi = monte_carlo::quarters_scatter(quarters);
+    const std::array<double, 6> chi = monte_carlo::quarters_scatter(result.windows);
     const auto& day = result.windows.back().estimate;
     const auto& q = day.parameters;
     std::printf("| %s | %.2f, %.2f, %.2f; %.2f, %.2f, %.2f | %.5f+-%.5f, %.5f+-%.5f, %.5f+-%.5f | %s |\n",

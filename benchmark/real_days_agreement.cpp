@@ -85,8 +85,6 @@ int main(int argc, char** argv) {
       int z_count = 0;
       for (std::size_t d = 0; d < days.size(); ++d) {
         const mic::PairCalibration result = mic::calibrate_records(days[d].first, days[d].second, e.settings);
-        std::vector<Six> quarters;
-        for (std::size_t w = 0; w + 1 < result.windows.size(); ++w) quarters.push_back(six_parameters(result.windows[w]));
         whole.push_back(six_parameters(result.windows.back()));
         const std::string tag = "day " + std::to_string(d + 1) + " " + mic::format_iso8601(result.windows.back().start_s).substr(0, 10);
         print_row((tag + ": value").c_str(), whole.back().value, " %10.5f");
@@ -95,7 +93,7 @@ int main(int argc, char** argv) {
           for (int k = 0; k < 6; ++k) c[k] = kZ95 * whole.back().se[k];
           return c;
         }(), " %10.5f");
-        print_row("  quarters' sqrt(chi2/3)", quarters_scatter(quarters), " %10.2f");
+        print_row("  quarters' sqrt(chi2/3)", quarters_scatter(result.windows), " %10.2f");
         std::printf("  EIV: %s\n", result.windows.back().estimate.eiv.c_str());
       }
       for (std::size_t a = 0; a < whole.size(); ++a)

@@ -191,7 +191,7 @@ void what_if(const mic::PreparedPair& prepared, const std::vector<mic::Calibrati
     const monte_carlo::SixParameters day = monte_carlo::six_parameters(windows.back());
     std::printf("  %-17s scale z %.5f +- %.5f; quarters' z", run.first, day.value[2], monte_carlo::kZ95 * day.se[2]);
     for (const auto& q : quarters) std::printf(" %.5f", q.value[2]);
-    const std::array<double, 6> scatter = monte_carlo::quarters_scatter(quarters);
+    const std::array<double, 6> scatter = monte_carlo::quarters_scatter(windows);
     std::printf("; sqrt(chi2/3) %.2f %.2f %.2f; %.2f %.2f %.2f\n", scatter[0], scatter[1], scatter[2], scatter[3],
                 scatter[4], scatter[5]);
   }

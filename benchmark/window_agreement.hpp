@@ -3,6 +3,7 @@
 // and the quarters' scatter around their weighted mean in units of their intervals.
 #pragma once
 
+#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 
 #include <array>
@@ -32,22 +33,17 @@ inline SixParameters six_parameters(const magnetometer_insitu_calibration::Calib
   return s;
 }
 
-/// Per parameter, sqrt(chi2 / (Q - 1)) of Q windows around their inverse-variance weighted mean
-/// (issue 13 asks <= 1.3 for the four 6-hour quarters of the WIC day; at or below it with
-/// probability 0.83 each when the intervals are right, chi^2_3 <= 5.07). Needs Q >= 2.
-inline std::array<double, 6> quarters_scatter(const std::vector<SixParameters>& quarters) {
+/// Per parameter (scale x, y, z; non-orthogonality xy, xz, yz), sqrt(chi2 / (Q - 1)) of the Q
+/// disjoint windows of a calibration (the quarters, not the day) around their inverse-variance
+/// weighted mean, as calibrate_records reports it (estimation/window_agreement.hpp). Issue 13 asks
+/// <= 1.3 for the four 6-hour quarters of the WIC day; at or below it with probability 0.83 each
+/// when the intervals are right (chi^2_3 <= 5.07). NaN when not assessed.
+inline std::array<double, 6> quarters_scatter(
+    const std::vector<magnetometer_insitu_calibration::CalibrationWindow>& windows) {
+  namespace mic = magnetometer_insitu_calibration;
+  const mic::WindowAgreement a = mic::check_window_agreement(mic::disjoint_window_estimates(windows));
   std::array<double, 6> out{};
-  for (int k = 0; k < 6; ++k) {
-    double sw = 0.0, swx = 0.0;
-    for (const auto& q : quarters) {
-      sw += 1.0 / (q.se[k] * q.se[k]);
-      swx += q.value[k] / (q.se[k] * q.se[k]);
-    }
-    const double mean = swx / sw;
-    double chi2 = 0.0;
-    for (const auto& q : quarters) chi2 += (q.value[k] - mean) * (q.value[k] - mean) / (q.se[k] * q.se[k]);
-    out[k] = std::sqrt(chi2 / static_cast<double>(quarters.size() - 1));
-  }
+  for (int k = 0; k < 6; ++k) out[k] = a.assessed ? a.parameters[k].birge_ratio : std::nan("");
   return out;
 }
 

@@ -70,7 +70,7 @@ setup="$ws/install/setup.bash"
 clean_env "$setup" 'pkg=$(rospack find magnetometer_insitu_calibration) && echo "rospack find: $pkg" &&
   case "$pkg" in */install/share/magnetometer_insitu_calibration) ;; *) echo "not the install space" >&2; exit 1;; esac &&
   rosrun magnetometer_insitu_calibration calibrate_records --reference "$pkg/data/wic20250514_lemi036.sec.gz" \
-    --test "$pkg/data/wic20250514_fge.sec.gz" --intervals 4 --eiv-ratio 0.03 --json "'"$tmp/wic.json"'"' \
+    --test "$pkg/data/wic20250514_fge.sec.gz" --intervals 4 --json "'"$tmp/wic.json"'"' \
   >"$log/calibrate_records.log" 2>&1 || { tail -n 40 "$log/calibrate_records.log" >&2; exit 1; }
 /usr/bin/python3 - "$tmp/wic.json" <<'PY'
 import json, sys
@@ -78,7 +78,10 @@ report = json.load(open(sys.argv[1]))
 windows = report.get("windows") or report.get("intervals") or []
 if len(windows) != 5:
     sys.exit("check_catkin_workspace: the WIC report holds %d windows, not 5" % len(windows))
-print("check_catkin_workspace: WIC report, %d windows" % len(windows))
+agreement = report.get("window_agreement")
+if not agreement or agreement.get("windows") != 4:
+    sys.exit("check_catkin_workspace: the WIC report has no agreement of its 4 intervals: %r" % agreement)
+print("check_catkin_workspace: WIC report, %d windows; %s" % (len(windows), agreement["text"]))
 PY
 phase "rosrun calibrate_records on the WIC demo"
 

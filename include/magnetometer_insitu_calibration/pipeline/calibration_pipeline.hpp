@@ -141,6 +141,11 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared,
 PairCalibration calibrate_records(const VectorRecord& reference, const VectorRecord& test,
                                   const CalibrationSettings& settings);
 
+/// The estimates whose agreement the reports assess (window_agreement.hpp): the K intervals of
+/// the paper's layout, or sliding windows that do not overlap (step >= window), in order. Empty
+/// for a single window or overlapping windows, whose estimates are not independent.
+std::vector<WindowEstimate> disjoint_window_estimates(const std::vector<CalibrationWindow>& windows);
+
 /// Median step of a record's stamps, s (throws InputError(record.source) with < 2 samples).
 double median_sample_period(const VectorRecord& record);
 

@@ -234,6 +234,23 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
   return out;
 }
 
+std::vector<WindowEstimate> disjoint_window_estimates(const std::vector<CalibrationWindow>& windows) {
+  std::vector<const CalibrationWindow*> parts;
+  for (const CalibrationWindow& w : windows) {
+    if (w.label != "whole record") parts.push_back(&w);
+  }
+  std::sort(parts.begin(), parts.end(), [](const CalibrationWindow* a, const CalibrationWindow* b) {
+    return a->first_index < b->first_index;
+  });
+  std::vector<WindowEstimate> out;
+  if (parts.size() < 2) return out;
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
+    if (parts[i]->first_index + parts[i]->estimate.samples > parts[i + 1]->first_index) return out;
+  }
+  for (const CalibrationWindow* w : parts) out.push_back(w->estimate);
+  return out;
+}
+
 PairCalibration calibrate_records(const VectorRecord& reference, const VectorRecord& test,
                                   const CalibrationSettings& settings) {
   settings.validate();

@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -119,6 +120,30 @@ json window_to_json(const CalibrationWindow& w) {
   };
 }
 
+json window_agreement_to_json(const std::vector<CalibrationWindow>& windows) {
+  const std::vector<WindowEstimate> parts = disjoint_window_estimates(windows);
+  if (parts.empty()) return json(nullptr);
+  const WindowAgreement a = check_window_agreement(parts);
+  json parameters = json::object();
+  for (int k = 0; k < 9; ++k) {
+    const ParameterAgreement& p = a.parameters[k];
+    parameters[WindowAgreement::kParameterNames[k]] =
+        a.assessed ? json{{"weighted_mean", number(p.weighted_mean)},
+                          {"chi2", number(p.chi2)},
+                          {"sqrt_chi2_per_dof", number(p.birge_ratio)},
+                          {"p_value", number(p.p_value)}}
+                   : json(nullptr);
+  }
+  return json{{"assessed", a.assessed},
+              {"agree", a.assessed ? json(a.agree) : json(nullptr)},
+              {"windows", a.windows},
+              {"joint_chi2", a.assessed ? number(a.joint_chi2) : json(nullptr)},
+              {"joint_dof", a.joint_dof},
+              {"joint_p_value", a.assessed ? number(a.joint_p_value) : json(nullptr)},
+              {"parameters", parameters},
+              {"text", a.text}};
+}
+
 json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s, const ReportInputs& inputs) {
   const PreprocessReport& r = c.report;
   json windows = json::array();
@@ -165,6 +190,7 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s,
         {"long_gaps", r.long_gaps},
         {"temperature_channel", r.temperature_channel.empty() ? json(nullptr) : json(r.temperature_channel)}}},
       {"windows", windows},
+      {"window_agreement", window_agreement_to_json(c.windows)},
   };
 }
 
@@ -334,6 +360,8 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
       out << line;
     }
   }
+  const std::vector<WindowEstimate> parts = disjoint_window_estimates(c.windows);
+  if (!parts.empty()) out << "agreement of the windows: " << check_window_agreement(parts).text << "\n";
   return out.str();
 }
 

@@ -76,6 +76,16 @@ TEST(CalibrationPipeline, IntervalsThenWholeRecordAreConsistent) {
   }
   // The whole day is more precise than any of its quarters.
   EXPECT_LT(result.windows[4].estimate.n_stderr().maxCoeff(), result.windows[0].estimate.n_stderr().maxCoeff());
+  // The quarters' agreement is assessed over the four quarters, not the day that holds them.
+  const std::vector<mic::WindowEstimate> quarters = mic::disjoint_window_estimates(result.windows);
+  ASSERT_EQ(quarters.size(), 4u);
+  EXPECT_EQ(quarters[3].n, result.windows[3].estimate.n);
+  const nlohmann::json j = mic::calibration_to_json(result, settings, {"ref", "test"});
+  EXPECT_EQ(j["window_agreement"]["windows"], 4);
+  EXPECT_EQ(j["window_agreement"]["joint_dof"], 27);
+  EXPECT_EQ(j["window_agreement"]["parameters"].size(), 9u);
+  EXPECT_NE(mic::format_calibration_table(result, {"ref", "test"}).find("agreement of the windows: 4 windows"),
+            std::string::npos);
 }
 
 TEST(CalibrationPipeline, SwappedRolesGiveTheInverseMatrix) {
@@ -143,6 +153,15 @@ TEST(CalibrationPipeline, SlidingWindowsAndJsonReport) {
                    result.windows[1].estimate.parameters.nonorthogonality_deg(2));
   EXPECT_EQ(w["quality"], "ok");
   EXPECT_EQ(j["settings"]["band_hz"][1], 0.01);
+  // Overlapping windows are not independent: no agreement is assessed.
+  EXPECT_TRUE(mic::disjoint_window_estimates(result.windows).empty());
+  EXPECT_TRUE(j["window_agreement"].is_null());
+  // Windows end to end are.
+  settings.windows.step_s = 6 * 3600.0;
+  const auto disjoint = mic::calibrate_records(pair.reference, pair.test, settings);
+  ASSERT_EQ(disjoint.windows.size(), 2u);
+  EXPECT_EQ(mic::disjoint_window_estimates(disjoint.windows).size(), 2u);
+  EXPECT_EQ(mic::calibration_to_json(disjoint, settings, {"ref", "test"})["window_agreement"]["joint_dof"], 9);
 }
 
 TEST(CalibrationPipeline, ImpossibleLayoutsAreRejectedByName) {

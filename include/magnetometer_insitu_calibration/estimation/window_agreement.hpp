@@ -1,0 +1,64 @@
+// Do disjoint windows of one record agree within their intervals? With one n through the record
+// and honest intervals, the windows' estimates scatter about a common value as their standard
+// errors say (the paper's layout: K intervals, then the whole record).
+//
+// Per parameter p (scale ratios x, y, z; non-orthogonality xy, xz, yz; misalignment about x, y,
+// z), with values v_k and standard errors s_k = ci95_k / 1.959964 of the K windows:
+//   m = sum(v_k / s_k^2) / sum(1 / s_k^2)      (inverse-variance weighted mean)
+//   chi2 = sum(((v_k - m) / s_k)^2)            (~ chi^2 with K - 1 dof when the windows agree)
+//   birge_ratio = sqrt(chi2 / (K - 1))         (the factor the intervals would need to grow by to
+//                                               hold the scatter; <= 1.3 with probability 0.83
+//                                               for K = 4 when they are right)
+// Jointly, over the nine entries of n with each window's 9x9 covariance C_k:
+//   m = (sum C_k^-1)^-1 sum C_k^-1 vec(n_k),   chi2 = sum (vec(n_k) - m)^T C_k^-1 (vec(n_k) - m),
+// 9 (K - 1) dof. The windows disagree when the joint tail probability is below `significance`, or
+// a parameter's is below significance / 9 (Bonferroni over the nine parameters): a false alarm
+// rate of at most 2 x significance when n is constant and the intervals honest.
+//
+// A disagreement means that n is not one matrix through the record (a real change, or a relation
+// that depends on the field's frequencies or directions, which change through a day) or that the
+// windows' intervals are too narrow; either way the whole record's interval is then optimistic,
+// by up to the largest Birge ratio. Windows whose quality is not ok are left out.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+
+namespace magnetometer_insitu_calibration {
+
+struct ParameterAgreement {
+  double weighted_mean = 0.0;  ///< the parameter's unit (ratio or degrees)
+  double chi2 = 0.0;           ///< K - 1 degrees of freedom
+  double birge_ratio = 0.0;    ///< sqrt(chi2 / (K - 1))
+  double p_value = 1.0;        ///< upper tail probability of chi2
+};
+
+struct WindowAgreement {
+  bool assessed = false;  ///< false: fewer than two ok windows, or an unusable interval
+  bool agree = true;      ///< meaningful when assessed
+  int windows = 0;        ///< ok windows compared
+  /// scale ratio x, y, z; non-orthogonality xy, xz, yz; misalignment x, y, z (kParameterNames).
+  std::array<ParameterAgreement, 9> parameters{};
+  double joint_chi2 = 0.0;  ///< NaN when a covariance is not positive definite
+  int joint_dof = 0;
+  double joint_p_value = 1.0;
+  std::string text;  ///< one line: the verdict and the largest Birge ratio, or why not assessed
+
+  static const std::array<const char*, 9> kParameterNames;  ///< "scale x", ..., "misalignment z"
+};
+
+struct WindowAgreementSettings {
+  double significance = 0.01;  ///< of the joint test, and x 1/9 of each parameter's
+
+  void validate() const;  ///< throws InputError naming the field
+};
+
+/// The agreement of `windows` (disjoint windows of one record; the caller leaves out the whole
+/// record and overlapping windows). Windows whose quality is not ok are not compared.
+WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& windows,
+                                       const WindowAgreementSettings& settings = {});
+
+}  // namespace magnetometer_insitu_calibration

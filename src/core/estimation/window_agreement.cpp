@@ -1,0 +1,136 @@
+// Agreement of disjoint windows within their intervals: see window_agreement.hpp.
+#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
+
+namespace magnetometer_insitu_calibration {
+
+const std::array<const char*, 9> WindowAgreement::kParameterNames = {"scale x",
+                                                                     "scale y",
+                                                                     "scale z",
+                                                                     "nonorthogonality xy",
+                                                                     "nonorthogonality xz",
+                                                                     "nonorthogonality yz",
+                                                                     "misalignment x",
+                                                                     "misalignment y",
+                                                                     "misalignment z"};
+
+void WindowAgreementSettings::validate() const {
+  if (!(significance > 0.0 && significance < 0.5)) throw InputError("significance", "must be in (0, 0.5)");
+}
+
+namespace {
+
+constexpr double kZ95 = 1.959964;  // ci95 half-width / standard error
+
+/// Value and standard error of parameter k (WindowAgreement::kParameterNames order).
+void parameter_of(const CalibrationParameters& p, int k, double& value, double& se) {
+  const int c = k % 3;
+  if (k < 3) {
+    value = p.scale_ratio(c);
+    se = p.scale_ratio_ci95(c) / kZ95;
+  } else if (k < 6) {
+    value = p.nonorthogonality_deg(c);
+    se = p.nonorthogonality_ci95_deg(c) / kZ95;
+  } else {
+    value = p.misalignment_deg(c);
+    se = p.misalignment_ci95_deg(c) / kZ95;
+  }
+}
+
+/// The joint chi2 of vec(n) about its generalised least squares mean; NaN when a covariance is
+/// not positive definite.
+double joint_chi2(const std::vector<const WindowEstimate*>& ok) {
+  using Vector9d = Eigen::Matrix<double, 9, 1>;
+  std::vector<Matrix9d> inverses;
+  Matrix9d information = Matrix9d::Zero();
+  Vector9d weighted = Vector9d::Zero();
+  std::vector<Vector9d> values;
+  for (const WindowEstimate* w : ok) {
+    const Eigen::LDLT<Matrix9d> ldlt(w->n_covariance);
+    if (!w->n_covariance.allFinite() || ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
+        !(ldlt.vectorD().minCoeff() > 0.0)) {
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    Vector9d v;
+    for (int k = 0; k < 9; ++k) v(k) = w->n(k / 3, k % 3);
+    inverses.push_back(ldlt.solve(Matrix9d::Identity()));
+    information += inverses.back();
+    weighted += inverses.back() * v;
+    values.push_back(v);
+  }
+  const Vector9d mean = information.ldlt().solve(weighted);
+  double chi2 = 0.0;
+  for (std::size_t i = 0; i < values.size(); ++i) chi2 += (values[i] - mean).dot(inverses[i] * (values[i] - mean));
+  return chi2;
+}
+
+}  // namespace
+
+WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& windows,
+                                       const WindowAgreementSettings& settings) {
+  settings.validate();
+  WindowAgreement out;
+  std::vector<const WindowEstimate*> ok;
+  for (const WindowEstimate& w : windows) {
+    if (w.quality == Quality::kOk) ok.push_back(&w);
+  }
+  out.windows = static_cast<int>(ok.size());
+  std::ostringstream text;
+  text << std::setprecision(3);
+  if (ok.size() < 2) {
+    text << "not assessed: " << ok.size() << " of " << windows.size() << " windows ok (2 needed)";
+    out.text = text.str();
+    return out;
+  }
+  const int dof = out.windows - 1;
+  int largest = 0;
+  bool parameter_disagrees = false;
+  for (int k = 0; k < 9; ++k) {
+    double sw = 0.0, swx = 0.0;
+    std::vector<double> value(ok.size()), se(ok.size());
+    for (std::size_t i = 0; i < ok.size(); ++i) {
+      parameter_of(ok[i]->parameters, k, value[i], se[i]);
+      if (!(se[i] > 0.0) || !std::isfinite(se[i]) || !std::isfinite(value[i])) {
+        text << "not assessed: window " << i + 1 << " of the ok windows has no usable interval for "
+             << WindowAgreement::kParameterNames[k];
+        out.text = text.str();
+        return out;
+      }
+      sw += 1.0 / (se[i] * se[i]);
+      swx += value[i] / (se[i] * se[i]);
+    }
+    ParameterAgreement& a = out.parameters[k];
+    a.weighted_mean = swx / sw;
+    for (std::size_t i = 0; i < ok.size(); ++i) a.chi2 += std::pow((value[i] - a.weighted_mean) / se[i], 2);
+    a.birge_ratio = std::sqrt(a.chi2 / dof);
+    a.p_value = chi2_tail_probability(a.chi2, dof);
+    parameter_disagrees |= a.p_value < settings.significance / 9.0;
+    if (a.birge_ratio > out.parameters[largest].birge_ratio) largest = k;
+  }
+  out.assessed = true;
+  out.joint_dof = 9 * dof;
+  out.joint_chi2 = joint_chi2(ok);
+  out.joint_p_value = std::isfinite(out.joint_chi2) ? chi2_tail_probability(out.joint_chi2, out.joint_dof)
+                                                    : std::numeric_limits<double>::quiet_NaN();
+  out.agree = !parameter_disagrees && !(out.joint_p_value < settings.significance);
+  text << out.windows << " windows " << (out.agree ? "agree within" : "disagree beyond")
+       << " their intervals: joint chi2 " << out.joint_chi2 << " / " << out.joint_dof << " dof (p " << out.joint_p_value
+       << "); largest sqrt(chi2/" << dof << ") " << out.parameters[largest].birge_ratio << ", "
+       << WindowAgreement::kParameterNames[largest] << " (p " << out.parameters[largest].p_value << ")";
+  if (!out.agree) {
+    text << ": n is not one matrix through the record, or the intervals are too narrow; the whole record's "
+            "intervals are optimistic by up to that factor";
+  }
+  out.text = text.str();
+  return out;
+}
+
+}  // namespace magnetometer_insitu_calibration

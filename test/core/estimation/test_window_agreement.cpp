@@ -1,0 +1,128 @@
+// Agreement of disjoint windows within their intervals: chi^2 worked by hand, windows of another
+// quality left out, four simulated days of one instrument agreeing and four with a 1 % z scale
+// step after the second disagreeing, named.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
+#include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+/// A window of n = diag(1, 1, z): scale ratios (1, 1, z), every standard error 0.01 except z's,
+/// se_z; angles 0 +- 0.5 deg (ci95 half-width ~0.98 deg).
+mic::WindowEstimate window(double z, double se_z) {
+  mic::WindowEstimate w;
+  w.n = Eigen::Vector3d(1.0, 1.0, z).asDiagonal();
+  w.n_covariance = mic::Matrix9d::Identity() * 1e-4;
+  w.n_covariance(8, 8) = se_z * se_z;
+  mic::CalibrationParameters& p = w.parameters;
+  p.scale_ratio = Eigen::Vector3d(1.0, 1.0, z);
+  p.scale_ratio_ci95 = Eigen::Vector3d(0.01, 0.01, se_z) * 1.959964;
+  p.nonorthogonality_ci95_deg.setConstant(0.5 * 1.959964);
+  p.misalignment_ci95_deg.setConstant(0.5 * 1.959964);
+  return w;
+}
+
+}  // namespace
+
+TEST(WindowAgreement, ChiSquareWorkedByHand) {
+  // z scale 1.00, 1.02, 0.99 with standard errors 0.01, 0.01, 0.02: weights 1e4, 1e4, 2500, the
+  // weighted mean 22675 / 22500 = 1.0077778, chi2 = 0.6049383 + 1.4938272 + 0.7901235 = 26 / 9.
+  // Two degrees of freedom: tail probability exp(-chi2 / 2) exactly.
+  const std::vector<mic::WindowEstimate> windows = {window(1.00, 0.01), window(1.02, 0.01), window(0.99, 0.02)};
+  const mic::WindowAgreement a = mic::check_window_agreement(windows);
+  ASSERT_TRUE(a.assessed) << a.text;
+  EXPECT_EQ(a.windows, 3);
+  const mic::ParameterAgreement& z = a.parameters[2];
+  EXPECT_NEAR(z.weighted_mean, 22675.0 / 22500.0, 1e-12);
+  EXPECT_NEAR(z.chi2, 26.0 / 9.0, 1e-9);
+  EXPECT_NEAR(z.birge_ratio, std::sqrt(13.0 / 9.0), 1e-9);
+  EXPECT_NEAR(z.p_value, std::exp(-13.0 / 9.0), 1e-9);
+  for (int k : {0, 1, 3, 4, 5, 6, 7, 8})
+    EXPECT_EQ(a.parameters[k].chi2, 0.0) << mic::WindowAgreement::kParameterNames[k];
+  // Jointly: diagonal covariances, so the other eight entries add nothing; 9 x 2 dof.
+  EXPECT_NEAR(a.joint_chi2, 26.0 / 9.0, 1e-9);
+  EXPECT_EQ(a.joint_dof, 18);
+  EXPECT_NEAR(a.joint_p_value, mic::chi2_tail_probability(26.0 / 9.0, 18), 1e-12);
+  EXPECT_TRUE(a.agree);
+  EXPECT_NE(a.text.find("3 windows agree within their intervals"), std::string::npos) << a.text;
+  EXPECT_NE(a.text.find("scale z"), std::string::npos) << a.text;
+
+  // Spread five times wider: chi2 x 25 = 72.2, p of scale z 2e-16 < 0.01 / 9.
+  const std::vector<mic::WindowEstimate> apart = {window(1.00, 0.002), window(1.02, 0.002), window(0.99, 0.004)};
+  const mic::WindowAgreement b = mic::check_window_agreement(apart);
+  EXPECT_NEAR(b.parameters[2].chi2, 25.0 * 26.0 / 9.0, 1e-6);
+  EXPECT_FALSE(b.agree);
+  EXPECT_NE(b.text.find("disagree beyond their intervals"), std::string::npos) << b.text;
+  EXPECT_NE(b.text.find("scale z"), std::string::npos) << b.text;
+}
+
+TEST(WindowAgreement, WindowsOfAnotherQualityAreLeftOut) {
+  std::vector<mic::WindowEstimate> windows = {window(1.00, 0.01), window(1.02, 0.01), window(0.99, 0.02)};
+  mic::WindowEstimate flagged = window(1.5, 0.001);
+  flagged.quality = mic::Quality::kLowCoherence;
+  windows.push_back(flagged);
+  const mic::WindowAgreement a = mic::check_window_agreement(windows);
+  EXPECT_EQ(a.windows, 3);
+  EXPECT_NEAR(a.parameters[2].chi2, 26.0 / 9.0, 1e-9);
+
+  windows[1].quality = mic::Quality::kIllConditioned;
+  EXPECT_EQ(mic::check_window_agreement(windows).windows, 2);
+  windows[2].quality = mic::Quality::kGaps;
+  const mic::WindowAgreement one = mic::check_window_agreement(windows);
+  EXPECT_FALSE(one.assessed);
+  EXPECT_NE(one.text.find("not assessed: 1 of 4 windows ok"), std::string::npos) << one.text;
+
+  std::vector<mic::WindowEstimate> no_interval = {window(1.00, 0.01), window(1.02, 0.0)};
+  const mic::WindowAgreement none = mic::check_window_agreement(no_interval);
+  EXPECT_FALSE(none.assessed);
+  EXPECT_NE(none.text.find("no usable interval for scale z"), std::string::npos) << none.text;
+
+  mic::WindowAgreementSettings wrong;
+  wrong.significance = 0.7;
+  EXPECT_THROW(mic::check_window_agreement(no_interval, wrong), mic::InputError);
+}
+
+TEST(WindowAgreement, FourDaysOfOneInstrumentAgreeAndAScaleStepIsNamed) {
+  mic::SimulationSettings s;
+  s.variation_rms_nT = 12.5;
+  s.keep_clean_field = false;
+  const Eigen::Matrix3d n_before = mic::matrix_from_angles(s.scale_ratio, s.nonorthogonality_deg, s.misalignment_deg);
+  Eigen::Vector3d stepped = s.scale_ratio;
+  stepped(2) *= 1.01;  // +1 % on z from the third day (one day of the weak z resolves ~0.1 %)
+  const Eigen::Matrix3d n_after = mic::matrix_from_angles(stepped, s.nonorthogonality_deg, s.misalignment_deg);
+  mic::WindowEstimator estimator(mic::EstimatorSettings{});
+  std::vector<mic::WindowEstimate> same, step;
+  for (int day = 0; day < 4; ++day) {
+    s.seed = 61 + static_cast<std::uint64_t>(day);
+    s.n_explicit = n_before;
+    const mic::SimulatedPair a = mic::simulate_pair(s);
+    same.push_back(estimator.estimate(a.reference.values_nT, a.test.values_nT, 1.0));
+    s.n_explicit = day < 2 ? n_before : n_after;
+    const mic::SimulatedPair b = mic::simulate_pair(s);
+    step.push_back(estimator.estimate(b.reference.values_nT, b.test.values_nT, 1.0));
+  }
+  const mic::WindowAgreement a = mic::check_window_agreement(same);
+  ASSERT_TRUE(a.assessed) << a.text;
+  EXPECT_TRUE(a.agree) << a.text;
+  EXPECT_GT(a.joint_p_value, 0.01) << a.text;
+  const mic::WindowAgreement b = mic::check_window_agreement(step);
+  std::printf("one instrument: %s\nz step: %s\n", a.text.c_str(), b.text.c_str());
+  ASSERT_TRUE(b.assessed) << b.text;
+  EXPECT_FALSE(b.agree) << b.text;
+  EXPECT_LT(b.parameters[2].p_value, 1e-4) << b.text;
+  EXPECT_NE(b.text.find("largest sqrt(chi2/3)"), std::string::npos) << b.text;
+  EXPECT_NE(b.text.find("scale z"), std::string::npos) << b.text;
+  // The weighted mean lies between the two calibrations.
+  EXPECT_GT(b.parameters[2].weighted_mean, s.scale_ratio(2));
+  EXPECT_LT(b.parameters[2].weighted_mean, stepped(2));
+}
