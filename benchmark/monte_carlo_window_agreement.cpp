@@ -10,15 +10,15 @@
 // Records: the simulator's defaults (a quiet station, equal noise in both instruments) of `days`
 // days at 1 Hz. The step multiplies the test's z variations about their mean from the middle
 // sample on, so that the second half's z scale ratio is (1 + step) times the first's.
+#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 #include <vector>
-
-#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
-#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 namespace mic = magnetometer_insitu_calibration;
 

@@ -22,13 +22,11 @@ struct SixParameters {
 };
 
 inline SixParameters six_parameters(const magnetometer_insitu_calibration::CalibrationWindow& w) {
-  const auto& p = w.estimate.parameters;
   SixParameters s;
-  for (int k = 0; k < 3; ++k) {
-    s.value[k] = p.scale_ratio(k);
-    s.se[k] = p.scale_ratio_ci95(k) / kZ95;
-    s.value[k + 3] = p.nonorthogonality_deg(k);
-    s.se[k + 3] = p.nonorthogonality_ci95_deg(k) / kZ95;
+  for (int k = 0; k < 6; ++k) {  // the first six of the report's agreement parameters
+    const auto p = magnetometer_insitu_calibration::agreement_parameter(w.estimate.parameters, k);
+    s.value[k] = p.value;
+    s.se[k] = p.se;
   }
   return s;
 }

@@ -21,11 +21,11 @@
 // by up to the largest Birge ratio. Windows whose quality is not ok are left out.
 #pragma once
 
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+
 #include <array>
 #include <string>
 #include <vector>
-
-#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 
 namespace magnetometer_insitu_calibration {
 
@@ -55,6 +55,14 @@ struct WindowAgreementSettings {
 
   void validate() const;  ///< throws InputError naming the field
 };
+
+/// Value and standard error (ci95 half-width / 1.959964) of parameter k of a decomposition, in
+/// WindowAgreement::kParameterNames order (0-2 scale ratios, 3-5 non-orthogonality deg, 6-8
+/// misalignment deg).
+struct ValueAndError {
+  double value = 0.0, se = 0.0;
+};
+ValueAndError agreement_parameter(const CalibrationParameters& parameters, int k);
 
 /// The agreement of `windows` (disjoint windows of one record; the caller leaves out the whole
 /// record and overlapping windows). Windows whose quality is not ok are not compared.

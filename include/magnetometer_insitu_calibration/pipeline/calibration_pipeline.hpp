@@ -126,6 +126,10 @@ struct PairCalibration {
 PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& test,
                           const PreprocessSettings& settings, PreprocessReport* report = nullptr);
 
+/// Label of the window that spans the whole record (the paper's layout ends with it; the only
+/// window without a layout). Reports and `export_corrected --window` find it by this label.
+inline constexpr const char* kWholeRecordLabel = "whole record";
+
 /// [first, count) index ranges and labels of the layout over `samples` samples at `period_s`.
 struct WindowSpan {
   std::string label;

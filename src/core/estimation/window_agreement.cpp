@@ -1,49 +1,35 @@
 // Agreement of disjoint windows within their intervals: see window_agreement.hpp.
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
+
 #include <Eigen/Cholesky>
+
 #include <cmath>
 #include <iomanip>
 #include <limits>
 #include <sstream>
 
-#include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
-
 namespace magnetometer_insitu_calibration {
 
-const std::array<const char*, 9> WindowAgreement::kParameterNames = {"scale x",
-                                                                     "scale y",
-                                                                     "scale z",
-                                                                     "nonorthogonality xy",
-                                                                     "nonorthogonality xz",
-                                                                     "nonorthogonality yz",
-                                                                     "misalignment x",
-                                                                     "misalignment y",
-                                                                     "misalignment z"};
+const std::array<const char*, 9> WindowAgreement::kParameterNames = {
+    "scale x",        "scale y",        "scale z",       "nonorthogonality xy", "nonorthogonality xz",
+    "nonorthogonality yz", "misalignment x", "misalignment y", "misalignment z"};
+
+ValueAndError agreement_parameter(const CalibrationParameters& p, int k) {
+  constexpr double kZ95 = 1.959964;  // ci95 half-width / standard error
+  const int c = k % 3;
+  if (k < 3) return {p.scale_ratio(c), p.scale_ratio_ci95(c) / kZ95};
+  if (k < 6) return {p.nonorthogonality_deg(c), p.nonorthogonality_ci95_deg(c) / kZ95};
+  return {p.misalignment_deg(c), p.misalignment_ci95_deg(c) / kZ95};
+}
 
 void WindowAgreementSettings::validate() const {
   if (!(significance > 0.0 && significance < 0.5)) throw InputError("significance", "must be in (0, 0.5)");
 }
 
 namespace {
-
-constexpr double kZ95 = 1.959964;  // ci95 half-width / standard error
-
-/// Value and standard error of parameter k (WindowAgreement::kParameterNames order).
-void parameter_of(const CalibrationParameters& p, int k, double& value, double& se) {
-  const int c = k % 3;
-  if (k < 3) {
-    value = p.scale_ratio(c);
-    se = p.scale_ratio_ci95(c) / kZ95;
-  } else if (k < 6) {
-    value = p.nonorthogonality_deg(c);
-    se = p.nonorthogonality_ci95_deg(c) / kZ95;
-  } else {
-    value = p.misalignment_deg(c);
-    se = p.misalignment_ci95_deg(c) / kZ95;
-  }
-}
 
 /// The joint chi2 of vec(n) about its generalised least squares mean; NaN when a covariance is
 /// not positive definite.
@@ -97,7 +83,9 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
     double sw = 0.0, swx = 0.0;
     std::vector<double> value(ok.size()), se(ok.size());
     for (std::size_t i = 0; i < ok.size(); ++i) {
-      parameter_of(ok[i]->parameters, k, value[i], se[i]);
+      const ValueAndError p = agreement_parameter(ok[i]->parameters, k);
+      value[i] = p.value;
+      se[i] = p.se;
       if (!(se[i] > 0.0) || !std::isfinite(se[i]) || !std::isfinite(value[i])) {
         text << "not assessed: window " << i + 1 << " of the ok windows has no usable interval for "
              << WindowAgreement::kParameterNames[k];

@@ -136,7 +136,7 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
       const std::size_t first = samples * i / k, last = samples * (i + 1) / k;
       spans.push_back({"interval " + std::to_string(i + 1) + "/" + std::to_string(k), first, last - first});
     }
-    spans.push_back({"whole record", 0, samples});
+    spans.push_back({kWholeRecordLabel, 0, samples});
   } else if (layout.window_s > 0.0) {
     const auto window = static_cast<std::size_t>(std::llround(layout.window_s / period_s));
     const auto step = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(layout.step_s / period_s)));
@@ -148,7 +148,7 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
       spans.push_back({"window " + std::to_string(i), first, window});
     }
   } else {
-    spans.push_back({"whole record", 0, samples});
+    spans.push_back({kWholeRecordLabel, 0, samples});
   }
   return spans;
 }
@@ -237,7 +237,7 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
 std::vector<WindowEstimate> disjoint_window_estimates(const std::vector<CalibrationWindow>& windows) {
   std::vector<const CalibrationWindow*> parts;
   for (const CalibrationWindow& w : windows) {
-    if (w.label != "whole record") parts.push_back(&w);
+    if (w.label != kWholeRecordLabel) parts.push_back(&w);
   }
   std::sort(parts.begin(), parts.end(), [](const CalibrationWindow* a, const CalibrationWindow* b) {
     return a->first_index < b->first_index;

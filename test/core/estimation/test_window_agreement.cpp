@@ -1,17 +1,18 @@
 // Agreement of disjoint windows within their intervals: chi^2 worked by hand, windows of another
 // quality left out, four simulated days of one instrument agreeing and four with a 1 % z scale
 // step after the second disagreeing, named.
-#include <gtest/gtest.h>
-
-#include <cmath>
-#include <cstdio>
+#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
-#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
 
 namespace mic = magnetometer_insitu_calibration;
 
