@@ -10,6 +10,11 @@
 // Records: the simulator's defaults (a quiet station, equal noise in both instruments) of `days`
 // days at 1 Hz. The step multiplies the test's z variations about their mean from the middle
 // sample on, so that the second half's z scale ratio is (1 + step) times the first's.
+//
+// Also printed: the calibration node's change check (estimation/calibration_change.hpp) between
+// each pair of consecutive windows, at the node's default false-alarm probability 1e-3: the share
+// of pairs whose joint test is significant (B23).
+#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
@@ -28,7 +33,21 @@ struct Rates {
   int records = 0, assessed = 0, disagree = 0, joint_below_5pct = 0, named_scale_z = 0;
   int parameters = 0, parameter_below_5pct = 0;
   double sum_joint_chi2_per_dof = 0.0;
+  int change_pairs = 0, change_significant = 0;  // consecutive windows, the node's change check
+  int change_significant_chi2 = 0;                // the same chi2 against chi2's tail (before B23)
 };
+
+/// The node's change check between consecutive disjoint windows, at its default 1e-3.
+void tally_changes(const std::vector<mic::WindowEstimate>& windows, Rates& r) {
+  const mic::CalibrationChangeSettings settings;  // false_alarm_probability 1e-3
+  for (std::size_t i = 1; i < windows.size(); ++i) {
+    const mic::CalibrationChange c = mic::check_calibration_change(windows[i - 1], windows[i], settings);
+    if (c.status == mic::CalibrationChangeStatus::kInconclusive) continue;
+    ++r.change_pairs;
+    r.change_significant += c.p_value < settings.false_alarm_probability;
+    r.change_significant_chi2 += mic::chi2_tail_probability(c.chi2, 9) < settings.false_alarm_probability;
+  }
+}
 
 void tally(const mic::WindowAgreement& a, Rates& r) {
   ++r.records;
@@ -81,8 +100,10 @@ int main(int argc, char** argv) {
         settings.response_model = false;
       }
       const mic::PairCalibration result = mic::calibrate_records(pair.reference, pair.test, settings);
-      const mic::WindowAgreement a = mic::check_window_agreement(mic::disjoint_window_estimates(result.windows));
+      const std::vector<mic::WindowEstimate> disjoint = mic::disjoint_window_estimates(result.windows);
+      const mic::WindowAgreement a = mic::check_window_agreement(disjoint);
       tally(a, rates[m]);
+      tally_changes(disjoint, rates[m]);
       std::printf("seed %llu %s: %s\n", static_cast<unsigned long long>(s.seed), names[m], a.text.c_str());
     }
   }
@@ -92,13 +113,15 @@ int main(int argc, char** argv) {
       seeds, days, intervals, step_pct, first_seed, first_seed + seeds - 1, seconds);
   std::printf(
       "| estimator | called disagreeing | of those, naming scale z | joint p < 0.05 | parameters with p < 0.05 | mean "
-      "joint chi2/dof |\n|---|---|---|---|---|---|\n");
+      "joint chi2/dof | change check, consecutive windows at 1e-3 (chi2's tail) |\n|---|---|---|---|---|---|---|\n");
   for (int m = 0; m < 2; ++m) {
     const Rates& r = rates[m];
     const double n = r.assessed > 0 ? r.assessed : 1;
-    std::printf("| %s | %.1f %% (%d of %d) | %d | %.1f %% | %.1f %% | %.2f |\n", names[m], 100.0 * r.disagree / n,
-                r.disagree, r.assessed, r.named_scale_z, 100.0 * r.joint_below_5pct / n,
-                100.0 * r.parameter_below_5pct / (r.parameters > 0 ? r.parameters : 1), r.sum_joint_chi2_per_dof / n);
+    std::printf("| %s | %.1f %% (%d of %d) | %d | %.1f %% | %.1f %% | %.2f | %.2f %% (%d of %d; %.2f %%) |\n", names[m],
+                100.0 * r.disagree / n, r.disagree, r.assessed, r.named_scale_z, 100.0 * r.joint_below_5pct / n,
+                100.0 * r.parameter_below_5pct / (r.parameters > 0 ? r.parameters : 1), r.sum_joint_chi2_per_dof / n,
+                100.0 * r.change_significant / (r.change_pairs > 0 ? r.change_pairs : 1), r.change_significant,
+                r.change_pairs, 100.0 * r.change_significant_chi2 / (r.change_pairs > 0 ? r.change_pairs : 1));
   }
   return 0;
 }

@@ -5,7 +5,12 @@
 // S = Cov_new + Cov_accepted (the two windows taken as independent; a sliding window that
 // overlaps the accepted one makes the test conservative). The joint statistic
 //   chi2 = d^T S^-1 d          (~ chi^2 with 9 degrees of freedom when nothing changed)
-// is significant when its tail probability is below false_alarm_probability. Per parameter
+// is significant when its tail probability is below false_alarm_probability. The covariances are
+// themselves estimated, each from WindowEstimate::covariance_dof spectral cells: chi2 is then
+// Hotelling's T^2, whose tail is F's, (nu - 8) / (9 nu) chi2 ~ F(9, nu - 8), with nu of the sum
+// S from the two windows' by Satterthwaite's rule on the traces. Consecutive one-hour windows of
+// one n (nu about 36 each): chi2's tail called 1.30 % of 2300 pairs changed at 1e-3, F's 0.26 %
+// (docs/estimator_validation.md B23); a known covariance (nu infinite) gives chi2's tail. Per parameter
 // (scale-factor ratios, non-orthogonality, misalignment) z = |difference| / sqrt(se_new^2 +
 // se_accepted^2) names what moved. A change is reported only when it is significant AND some
 // parameter moved by more than its practical tolerance (scale_tolerance, angle_tolerance_deg):
@@ -45,7 +50,8 @@ const char* calibration_change_status_name(CalibrationChangeStatus status);  ///
 struct CalibrationChange {
   CalibrationChangeStatus status = CalibrationChangeStatus::kInconclusive;
   double chi2 = 0.0;     ///< joint statistic, 9 degrees of freedom
-  double p_value = 1.0;  ///< its tail probability
+  double covariance_dof = 0.0;  ///< cells behind S = Cov_new + Cov_accepted (infinite: known)
+  double p_value = 1.0;  ///< its tail probability (F's for an estimated S, chi2's for a known one)
   /// |difference| / combined standard error per parameter (x, y, z or xy, xz, yz).
   Eigen::Vector3d scale_z = Eigen::Vector3d::Zero(), nonorthogonality_z = Eigen::Vector3d::Zero(),
                   misalignment_z = Eigen::Vector3d::Zero();
@@ -58,8 +64,22 @@ struct CalibrationChange {
 CalibrationChange check_calibration_change(const WindowEstimate& accepted, const WindowEstimate& latest,
                                            const CalibrationChangeSettings& settings = {});
 
-/// Upper tail probability of the chi^2 distribution with `dof` degrees of freedom at x
+/// Upper tail probability of Fisher's F distribution with (d1, d2) degrees of freedom at f
+/// (regularised incomplete beta function I_{d2 / (d2 + d1 f)}(d2 / 2, d1 / 2)).
+double f_tail_probability(double f, double d1, double d2);
+
+/// Upper tail probability of q = d^T S^-1 d over p entries, S estimated with nu degrees of
+/// freedom (Hotelling's T^2: (nu - p + 1) q / (p nu) ~ F(p, nu - p + 1)); chi^2 with p degrees
+/// of freedom when nu is infinite; NaN when nu <= p (no such test).
+double quadratic_form_tail_probability(double q, int p, double nu);
+
+/// Degrees of freedom of the sum of two estimated covariances (Satterthwaite on the traces):
+/// (tr a + tr b)^2 / (tr(a)^2 / nu_a + tr(b)^2 / nu_b); an infinite nu adds nothing to the
+/// denominator; infinite when both are.
+double combined_covariance_dof(const Matrix9d& a, double a_dof, const Matrix9d& b, double b_dof);
+
+/// Upper tail probability of the chi^2 distribution with `dof` (> 0, not necessarily whole) degrees of freedom at x
 /// (regularised incomplete gamma function Q(dof/2, x/2)).
-double chi2_tail_probability(double x, int dof);
+double chi2_tail_probability(double x, double dof);
 
 }  // namespace magnetometer_insitu_calibration

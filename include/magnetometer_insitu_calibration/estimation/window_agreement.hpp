@@ -11,7 +11,14 @@
 //                                               for K = 4 when they are right)
 // Jointly, over the nine entries of n with each window's 9x9 covariance C_k:
 //   m = (sum C_k^-1)^-1 sum C_k^-1 vec(n_k),   chi2 = sum (vec(n_k) - m)^T C_k^-1 (vec(n_k) - m),
-// 9 (K - 1) dof. The windows disagree when the joint tail probability is below `significance`, or
+// 9 (K - 1) dof. Each window's covariance is itself estimated, from nu_k = covariance_dof
+// spectral cells (fd_wlse.hpp), so each window's term is Hotelling's T^2, not chi2: mean
+// p nu / (nu - p - 1) over p entries (1.38 x chi2's for p = 9 at nu = 36, a one-hour window;
+// under 1.02 x for a day) and a heavier tail. Both statistics are referred to a chi2 scaled to
+// the sum's mean and variance, each window contributing (K - 1) / K of its T^2's moments
+// (Satterthwaite); for known covariances that is chi2 with K - 1 and 9 (K - 1) dof, as above.
+// The Birge ratio is sqrt(chi2 / its mean).
+// The windows disagree when the joint tail probability is below `significance`, or
 // a parameter's is below significance / 9 (Bonferroni over the nine parameters): a false alarm
 // rate of at most 2 x significance when n is constant and the intervals honest.
 //
@@ -32,8 +39,9 @@ namespace magnetometer_insitu_calibration {
 struct ParameterAgreement {
   double weighted_mean = 0.0;  ///< the parameter's unit (ratio or degrees)
   double chi2 = 0.0;           ///< K - 1 degrees of freedom
-  double birge_ratio = 0.0;    ///< sqrt(chi2 / (K - 1))
-  double p_value = 1.0;        ///< upper tail probability of chi2
+  double expected_chi2 = 0.0;  ///< its mean when the windows agree: K - 1 for known covariances
+  double birge_ratio = 0.0;    ///< sqrt(chi2 / expected_chi2)
+  double p_value = 1.0;        ///< upper tail probability of chi2 (see the header)
 };
 
 struct WindowAgreement {
@@ -44,6 +52,7 @@ struct WindowAgreement {
   std::array<ParameterAgreement, 9> parameters{};
   double joint_chi2 = 0.0;  ///< NaN when a covariance is not positive definite
   int joint_dof = 0;
+  double joint_expected_chi2 = 0.0;  ///< its mean when the windows agree: joint_dof for known covariances
   double joint_p_value = 1.0;
   std::string text;  ///< one line: the verdict and the largest Birge ratio, or why not assessed
 

@@ -202,6 +202,7 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   result.harmonic_first = static_cast<int>(m0);
   result.harmonic_last = static_cast<int>(m);
   const long harmonics = m - m0 + 1;
+  result.covariance_dof = static_cast<double>(std::max(0L, harmonics));
   if (length < 16 || harmonics < p + 2) {
     std::ostringstream text;
     text << "window of " << length << " samples (" << duration_s << " s) holds " << std::max(0L, harmonics)

@@ -348,6 +348,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     inband_variance += (2.0 / l2) * e.cwiseAbs2() / static_cast<double>(k_sections);
   }
   const double effective = std::max(weight_sum, 4.0);
+  result.covariance_dof = weight_sum;  // the cells behind the sandwich (fd_wlse.hpp, covariance_dof)
   const double dof_correction = 2.0 * effective / (2.0 * effective - 3.0);
   Eigen::Matrix<double, 9, 9> bread = Eigen::Matrix<double, 9, 9>::Zero();
   for (int l = 0; l < 3; ++l) bread.block<3, 3>(3 * l, 3 * l) = fit.a_inverse;

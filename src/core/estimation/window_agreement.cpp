@@ -31,6 +31,37 @@ void WindowAgreementSettings::validate() const {
 
 namespace {
 
+/// Mean and variance of a quadratic form over p entries, d^T S^-1 d, when S is estimated with nu
+/// degrees of freedom and d has covariance S's expectation: Hotelling's T^2 = a F(p, d2),
+/// a = p nu / d2, d2 = nu - p + 1; chi2's p and 2p for a known S (nu infinite). NaN when the
+/// variance does not exist (nu <= p + 3).
+struct FormMoments {
+  double mean = 0.0, variance = 0.0;
+};
+FormMoments quadratic_form_moments(double nu, int p) {
+  if (!std::isfinite(nu)) return {static_cast<double>(p), 2.0 * p};
+  const double d2 = nu - p + 1.0;
+  if (!(d2 > 4.0)) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  const double a = p * nu / d2;
+  return {a * d2 / (d2 - 2.0), a * a * 2.0 * d2 * d2 * (p + d2 - 2.0) / (p * (d2 - 2.0) * (d2 - 2.0) * (d2 - 4.0))};
+}
+
+/// Tail probability of a sum of K such forms about their weighted mean (K - 1 of K forms'
+/// freedom left): a chi2 scaled to the sum's mean and variance (Satterthwaite), c chi2_f with
+/// c = V / 2E, f = 2E^2 / V; chi2 with p (K - 1) dof when every covariance is known.
+struct SumReference {
+  double mean = 0.0, variance = 0.0;
+  void add(const FormMoments& m, double share) {
+    mean += share * m.mean;
+    variance += share * m.variance;
+  }
+  double tail_probability(double chi2) const {
+    if (!(mean > 0.0) || !(variance > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    const double scale = variance / (2.0 * mean), dof = 2.0 * mean * mean / variance;
+    return chi2_tail_probability(chi2 / scale, dof);
+  }
+};
+
 /// The joint chi2 of vec(n) about its generalised least squares mean; NaN when a covariance is
 /// not positive definite.
 double joint_chi2(const std::vector<const WindowEstimate*>& ok) {
@@ -77,6 +108,7 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
     return out;
   }
   const int dof = out.windows - 1;
+  const double share = static_cast<double>(dof) / out.windows;  // of each window's freedom, about the mean
   int largest = 0;
   bool parameter_disagrees = false;
   for (int k = 0; k < 9; ++k) {
@@ -97,21 +129,31 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
     }
     ParameterAgreement& a = out.parameters[k];
     a.weighted_mean = swx / sw;
-    for (std::size_t i = 0; i < ok.size(); ++i) a.chi2 += std::pow((value[i] - a.weighted_mean) / se[i], 2);
-    a.birge_ratio = std::sqrt(a.chi2 / dof);
-    a.p_value = chi2_tail_probability(a.chi2, dof);
+    SumReference reference;
+    for (std::size_t i = 0; i < ok.size(); ++i) {
+      a.chi2 += std::pow((value[i] - a.weighted_mean) / se[i], 2);
+      reference.add(quadratic_form_moments(ok[i]->covariance_dof, 1), share);
+    }
+    a.expected_chi2 = reference.mean;
+    a.birge_ratio = std::sqrt(a.chi2 / reference.mean);
+    a.p_value = reference.tail_probability(a.chi2);
     parameter_disagrees |= a.p_value < settings.significance / 9.0;
     if (a.birge_ratio > out.parameters[largest].birge_ratio) largest = k;
   }
   out.assessed = true;
   out.joint_dof = 9 * dof;
   out.joint_chi2 = joint_chi2(ok);
-  out.joint_p_value = std::isfinite(out.joint_chi2) ? chi2_tail_probability(out.joint_chi2, out.joint_dof)
+  SumReference joint;
+  for (const WindowEstimate* w : ok) joint.add(quadratic_form_moments(w->covariance_dof, 9), share);
+  out.joint_expected_chi2 = joint.mean;
+  out.joint_p_value = std::isfinite(out.joint_chi2) ? joint.tail_probability(out.joint_chi2)
                                                     : std::numeric_limits<double>::quiet_NaN();
   out.agree = !parameter_disagrees && !(out.joint_p_value < settings.significance);
   text << out.windows << " windows " << (out.agree ? "agree within" : "disagree beyond")
-       << " their intervals: joint chi2 " << out.joint_chi2 << " / " << out.joint_dof << " dof (p " << out.joint_p_value
-       << "); largest sqrt(chi2/" << dof << ") " << out.parameters[largest].birge_ratio << ", "
+       << " their intervals: joint chi2 " << out.joint_chi2 << " / " << out.joint_dof << " dof";
+  if (std::abs(out.joint_expected_chi2 - out.joint_dof) > 0.05 * out.joint_dof)
+    text << ", expected " << out.joint_expected_chi2 << " (covariances from few cells)";
+  text << " (p " << out.joint_p_value << "); largest sqrt(chi2/" << out.parameters[largest].expected_chi2 << ") " << out.parameters[largest].birge_ratio << ", "
        << WindowAgreement::kParameterNames[largest] << " (p " << out.parameters[largest].p_value << ")";
   if (!out.agree) {
     text << ": n is not one matrix through the record, or the intervals are too narrow; the whole record's "

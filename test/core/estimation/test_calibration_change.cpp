@@ -1,11 +1,15 @@
 // Calibration change: unchanged between two days of one instrument, changed after a 0.5 % scale
-// step, inconclusive for a flagged window; the chi^2 tail against tabulated values.
+// step, inconclusive for a flagged window; the chi^2 and F tails against tables and closed forms;
+// one-hour windows' covariances referred to Hotelling's T^2 with their cells.
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -15,6 +19,62 @@ TEST(CalibrationChange, ChiSquareTailMatchesTables) {
   EXPECT_NEAR(mic::chi2_tail_probability(3.841, 1), 0.05, 2e-4);
   EXPECT_NEAR(mic::chi2_tail_probability(2.088, 9), 0.99, 2e-4);
   EXPECT_DOUBLE_EQ(mic::chi2_tail_probability(0.0, 9), 1.0);
+}
+
+TEST(CalibrationChange, FTailMatchesClosedFormsAndTables) {
+  // d1 = 2: P(F > f) = (1 + 2 f / d2)^(-d2 / 2). d1 = d2 = 1 (F = t^2, Cauchy t): 1 - (2 / pi) atan(sqrt(f)).
+  for (double f : {0.1, 1.0, 3.0, 20.0}) {
+    for (double d2 : {1.0, 5.0, 28.0, 300.0}) {
+      EXPECT_NEAR(mic::f_tail_probability(f, 2.0, d2), std::pow(1.0 + 2.0 * f / d2, -0.5 * d2), 1e-12) << f << " " << d2;
+    }
+    EXPECT_NEAR(mic::f_tail_probability(f, 1.0, 1.0), 1.0 - 2.0 / M_PI * std::atan(std::sqrt(f)), 1e-12) << f;
+  }
+  EXPECT_NEAR(mic::f_tail_probability(2.24, 9.0, 28.0), 0.05, 1e-3);  // F(9, 28) table: 2.24 at 5 %
+  EXPECT_DOUBLE_EQ(mic::f_tail_probability(0.0, 9.0, 28.0), 1.0);
+  // Hotelling's T^2 over 9 entries: chi2's tail for a known covariance, its limit for a large
+  // nu, heavier for a small one (nu = 72: two one-hour windows), none for nu <= 9.
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_DOUBLE_EQ(mic::quadratic_form_tail_probability(27.877, 9, inf), mic::chi2_tail_probability(27.877, 9));
+  EXPECT_NEAR(mic::quadratic_form_tail_probability(27.877, 9, 1e7), 0.001, 2e-5);
+  const double small = mic::quadratic_form_tail_probability(27.877, 9, 72.0);
+  EXPECT_NEAR(small, mic::f_tail_probability(27.877 * 64.0 / (9.0 * 72.0), 9.0, 64.0), 1e-15);
+  EXPECT_GT(small, 0.003);
+  EXPECT_TRUE(std::isnan(mic::quadratic_form_tail_probability(27.877, 9, 9.0)));
+  // Satterthwaite on the traces: two equal covariances of nu each give 2 nu; a known one adds none.
+  const mic::Matrix9d c = mic::Matrix9d::Identity() * 1e-6;
+  EXPECT_NEAR(mic::combined_covariance_dof(c, 36.0, c, 36.0), 72.0, 1e-9);
+  EXPECT_NEAR(mic::combined_covariance_dof(c, 36.0, 3.0 * c, inf), 36.0 * 16.0, 1e-9);
+  EXPECT_TRUE(std::isinf(mic::combined_covariance_dof(c, inf, c, inf)));
+}
+
+TEST(CalibrationChange, OneHourWindowsCarryTheirCellsIntoTheTest) {
+  // A one-hour window at 1 s in 0.0002-0.01 Hz holds harmonics 1-36: plain Eq. 2's covariance
+  // rests on 36 cells, the robust estimator's on the sum of its cell weights (at most 36); the
+  // change check refers chi2 to Hotelling's tail with their combined freedom.
+  mic::SimulationSettings s;
+  s.seed = 44;
+  s.duration_s = 3600.0;
+  s.keep_clean_field = false;
+  const mic::SimulatedPair first = mic::simulate_pair(s);
+  s.seed = 45;
+  const mic::SimulatedPair second = mic::simulate_pair(s);
+  mic::EstimatorSettings plain_settings;
+  plain_settings.method = mic::EstimatorMethod::kPlain;
+  mic::WindowEstimator plain(plain_settings), robust(mic::EstimatorSettings{});
+  const mic::WindowEstimate p1 = plain.estimate(first.reference.values_nT, first.test.values_nT, 1.0);
+  EXPECT_EQ(p1.covariance_dof, 36.0);
+  const mic::WindowEstimate r1 = robust.estimate(first.reference.values_nT, first.test.values_nT, 1.0);
+  const mic::WindowEstimate r2 = robust.estimate(second.reference.values_nT, second.test.values_nT, 1.0);
+  ASSERT_EQ(r1.quality, mic::Quality::kOk) << r1.quality_text;
+  EXPECT_GT(r1.covariance_dof, 0.8 * 36.0);
+  EXPECT_LE(r1.covariance_dof, 36.0);
+  const mic::CalibrationChange c = mic::check_calibration_change(r1, r2);
+  ASSERT_NE(c.status, mic::CalibrationChangeStatus::kInconclusive) << c.text;
+  EXPECT_NEAR(c.covariance_dof,
+              mic::combined_covariance_dof(r1.n_covariance, r1.covariance_dof, r2.n_covariance, r2.covariance_dof), 1e-9);
+  EXPECT_NEAR(c.p_value, mic::quadratic_form_tail_probability(c.chi2, 9, c.covariance_dof), 1e-15);
+  EXPECT_GT(c.p_value, mic::chi2_tail_probability(c.chi2, 9));
+  EXPECT_NE(c.text.find("cells"), std::string::npos) << c.text;
 }
 
 TEST(CalibrationChange, DetectsAScaleStepAndNotTheNoise) {

@@ -13,6 +13,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <utility>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -65,6 +67,36 @@ TEST(WindowAgreement, ChiSquareWorkedByHand) {
   EXPECT_FALSE(b.agree);
   EXPECT_NE(b.text.find("disagree beyond their intervals"), std::string::npos) << b.text;
   EXPECT_NE(b.text.find("scale z"), std::string::npos) << b.text;
+}
+
+TEST(WindowAgreement, CovariancesFromFewCellsRaiseTheExpectedChiSquare) {
+  // The same three windows, each covariance estimated from nu = 36 spectral cells (a one-hour
+  // window). A quadratic form over p entries then has mean p nu / (nu - p - 1) (Hotelling's T^2),
+  // each window contributing (K - 1) / K = 2/3 of it: per parameter 3 x 2/3 x 36/34 = 72/34, jointly
+  // 3 x 2/3 x 9 x 36/26 = 648/26. Their variances, with F(p, d2 = nu - p + 1): a^2 2 d2^2 (p + d2 -
+  // 2) / (p (d2 - 2)^2 (d2 - 4)), a = p nu / d2; the tail is a chi2 scaled to both moments.
+  std::vector<mic::WindowEstimate> windows = {window(1.00, 0.01), window(1.02, 0.01), window(0.99, 0.02)};
+  for (mic::WindowEstimate& w : windows) w.covariance_dof = 36.0;
+  const mic::WindowAgreement a = mic::check_window_agreement(windows);
+  ASSERT_TRUE(a.assessed) << a.text;
+  const mic::ParameterAgreement& z = a.parameters[2];
+  EXPECT_NEAR(z.chi2, 26.0 / 9.0, 1e-9);  // the statistic itself is unchanged
+  EXPECT_NEAR(z.expected_chi2, 72.0 / 34.0, 1e-12);
+  EXPECT_NEAR(z.birge_ratio, std::sqrt((26.0 / 9.0) / (72.0 / 34.0)), 1e-9);
+  EXPECT_NEAR(a.joint_expected_chi2, 648.0 / 26.0, 1e-9);
+  auto moments = [](double p, double nu) {
+    const double d2 = nu - p + 1.0, scale = p * nu / d2;
+    return std::make_pair(scale * d2 / (d2 - 2.0),
+                          scale * scale * 2.0 * d2 * d2 * (p + d2 - 2.0) / (p * (d2 - 2.0) * (d2 - 2.0) * (d2 - 4.0)));
+  };
+  const auto one = moments(1.0, 36.0);
+  const double mean = 2.0 * one.first, variance = 2.0 * one.second;  // 3 windows x 2/3
+  EXPECT_NEAR(z.p_value, mic::chi2_tail_probability(z.chi2 * 2.0 * mean / variance, 2.0 * mean * mean / variance), 1e-12);
+  EXPECT_GT(z.p_value, std::exp(-13.0 / 9.0));  // a heavier tail than chi2's: less significant
+  EXPECT_NE(a.text.find("expected"), std::string::npos) << a.text;
+  // Known covariances (the default): the chi2 of the test above.
+  for (mic::WindowEstimate& w : windows) w.covariance_dof = std::numeric_limits<double>::infinity();
+  EXPECT_NEAR(mic::check_window_agreement(windows).parameters[2].p_value, std::exp(-13.0 / 9.0), 1e-9);
 }
 
 TEST(WindowAgreement, WindowsOfAnotherQualityAreLeftOut) {
@@ -121,7 +153,10 @@ TEST(WindowAgreement, FourDaysOfOneInstrumentAgreeAndAScaleStepIsNamed) {
   ASSERT_TRUE(b.assessed) << b.text;
   EXPECT_FALSE(b.agree) << b.text;
   EXPECT_LT(b.parameters[2].p_value, 1e-4) << b.text;
-  EXPECT_NE(b.text.find("largest sqrt(chi2/3)"), std::string::npos) << b.text;
+  // Day-long windows rest on hundreds of cells: the expected chi2 is K - 1 = 3 within 2 %.
+  EXPECT_GE(b.parameters[2].expected_chi2, 3.0);
+  EXPECT_LT(b.parameters[2].expected_chi2, 3.06);
+  EXPECT_NE(b.text.find("largest sqrt(chi2/3"), std::string::npos) << b.text;
   EXPECT_NE(b.text.find("scale z"), std::string::npos) << b.text;
   // The weighted mean lies between the two calibrations.
   EXPECT_GT(b.parameters[2].weighted_mean, s.scale_ratio(2));
