@@ -25,6 +25,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"  // chi2 and F tails
 
 #include <Eigen/Core>
 
@@ -63,23 +64,5 @@ struct CalibrationChange {
 
 CalibrationChange check_calibration_change(const WindowEstimate& accepted, const WindowEstimate& latest,
                                            const CalibrationChangeSettings& settings = {});
-
-/// Upper tail probability of Fisher's F distribution with (d1, d2) degrees of freedom at f
-/// (regularised incomplete beta function I_{d2 / (d2 + d1 f)}(d2 / 2, d1 / 2)).
-double f_tail_probability(double f, double d1, double d2);
-
-/// Upper tail probability of q = d^T S^-1 d over p entries, S estimated with nu degrees of
-/// freedom (Hotelling's T^2: (nu - p + 1) q / (p nu) ~ F(p, nu - p + 1)); chi^2 with p degrees
-/// of freedom when nu is infinite; NaN when nu <= p (no such test).
-double quadratic_form_tail_probability(double q, int p, double nu);
-
-/// Degrees of freedom of the sum of two estimated covariances (Satterthwaite on the traces):
-/// (tr a + tr b)^2 / (tr(a)^2 / nu_a + tr(b)^2 / nu_b); an infinite nu adds nothing to the
-/// denominator; infinite when both are.
-double combined_covariance_dof(const Matrix9d& a, double a_dof, const Matrix9d& b, double b_dof);
-
-/// Upper tail probability of the chi^2 distribution with `dof` (> 0, not necessarily whole) degrees of freedom at x
-/// (regularised incomplete gamma function Q(dof/2, x/2)).
-double chi2_tail_probability(double x, double dof);
 
 }  // namespace magnetometer_insitu_calibration

@@ -6,7 +6,6 @@
 #include <Eigen/Cholesky>
 
 #include <cmath>
-#include <limits>
 #include <sstream>
 
 namespace magnetometer_insitu_calibration {
@@ -26,95 +25,6 @@ const char* calibration_change_status_name(CalibrationChangeStatus status) {
     case CalibrationChangeStatus::kInconclusive: return "inconclusive";
   }
   return "unknown";
-}
-
-double chi2_tail_probability(double x, double dof) {
-  if (!(x > 0.0)) return 1.0;
-  const double a = 0.5 * dof, z = 0.5 * x;
-  const double log_prefactor = a * std::log(z) - z - std::lgamma(a);
-  if (z < a + 1.0) {  // series for P(a, z), then Q = 1 - P
-    double term = 1.0 / a, sum = term;
-    for (int k = 1; k < 500; ++k) {
-      term *= z / (a + k);
-      sum += term;
-      if (term < sum * 1e-15) break;
-    }
-    return std::max(0.0, 1.0 - sum * std::exp(log_prefactor));
-  }
-  // Continued fraction for Q(a, z) (modified Lentz).
-  double b = z + 1.0 - a, c = 1.0 / 1e-300, d = 1.0 / b, h = d;
-  for (int i = 1; i < 500; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < 1e-300) d = 1e-300;
-    c = b + an / c;
-    if (std::abs(c) < 1e-300) c = 1e-300;
-    d = 1.0 / d;
-    const double delta = d * c;
-    h *= delta;
-    if (std::abs(delta - 1.0) < 1e-15) break;
-  }
-  return std::exp(log_prefactor) * h;
-}
-
-namespace {
-
-/// Continued fraction of the regularised incomplete beta function (modified Lentz): I_x(a, b) =
-/// x^a (1 - x)^b / (a B(a, b)) / (1 + d1 / (1 + d2 / (1 + ...))), d_2m+1 = -(a + m)(a + b + m) x /
-/// ((a + 2m)(a + 2m + 1)), d_2m = m (b - m) x / ((a + 2m - 1)(a + 2m)); converges fast for
-/// x < (a + 1) / (a + b + 2).
-double beta_continued_fraction(double a, double b, double x) {
-  constexpr double kTiny = 1e-300;
-  double c = 1.0, d = 1.0 - (a + b) * x / (a + 1.0);
-  if (std::abs(d) < kTiny) d = kTiny;
-  d = 1.0 / d;
-  double h = d;
-  for (int m = 1; m < 1000; ++m) {
-    const double even = m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m));
-    const double odd = -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0));
-    for (double step : {even, odd}) {
-      d = 1.0 + step * d;
-      if (std::abs(d) < kTiny) d = kTiny;
-      c = 1.0 + step / c;
-      if (std::abs(c) < kTiny) c = kTiny;
-      d = 1.0 / d;
-      h *= d * c;
-    }
-    if (std::abs(d * c - 1.0) < 1e-15) break;
-  }
-  return h;
-}
-
-/// Regularised incomplete beta function I_x(a, b), a, b > 0.
-double incomplete_beta(double x, double a, double b) {
-  if (!(x > 0.0)) return 0.0;
-  if (!(x < 1.0)) return 1.0;
-  const double log_front = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
-  if (x < (a + 1.0) / (a + b + 2.0)) return std::exp(log_front) * beta_continued_fraction(a, b, x) / a;
-  return 1.0 - std::exp(log_front) * beta_continued_fraction(b, a, 1.0 - x) / b;
-}
-
-}  // namespace
-
-double f_tail_probability(double f, double d1, double d2) {
-  if (!(f > 0.0)) return 1.0;
-  return incomplete_beta(d2 / (d2 + d1 * f), 0.5 * d2, 0.5 * d1);
-}
-
-double quadratic_form_tail_probability(double q, int p, double nu) {
-  if (!std::isfinite(nu)) return chi2_tail_probability(q, p);
-  if (!(nu > p)) return std::numeric_limits<double>::quiet_NaN();
-  const double d2 = nu - p + 1.0;
-  return f_tail_probability(q * d2 / (p * nu), p, d2);
-}
-
-double combined_covariance_dof(const Matrix9d& first, double first_dof, const Matrix9d& second, double second_dof) {
-  const double t1 = first.trace(), t2 = second.trace();
-  const double spread = (std::isfinite(first_dof) ? t1 * t1 / first_dof : 0.0) +
-                        (std::isfinite(second_dof) ? t2 * t2 / second_dof : 0.0);
-  if (!(spread > 0.0)) return std::numeric_limits<double>::infinity();
-  return (t1 + t2) * (t1 + t2) / spread;
 }
 
 CalibrationChange check_calibration_change(const WindowEstimate& accepted, const WindowEstimate& latest,

@@ -2,7 +2,7 @@
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 
 #include <Eigen/Cholesky>
 
@@ -31,27 +31,12 @@ void WindowAgreementSettings::validate() const {
 
 namespace {
 
-/// Mean and variance of a quadratic form over p entries, d^T S^-1 d, when S is estimated with nu
-/// degrees of freedom and d has covariance S's expectation: Hotelling's T^2 = a F(p, d2),
-/// a = p nu / d2, d2 = nu - p + 1; chi2's p and 2p for a known S (nu infinite). NaN when the
-/// variance does not exist (nu <= p + 3).
-struct FormMoments {
-  double mean = 0.0, variance = 0.0;
-};
-FormMoments quadratic_form_moments(double nu, int p) {
-  if (!std::isfinite(nu)) return {static_cast<double>(p), 2.0 * p};
-  const double d2 = nu - p + 1.0;
-  if (!(d2 > 4.0)) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
-  const double a = p * nu / d2;
-  return {a * d2 / (d2 - 2.0), a * a * 2.0 * d2 * d2 * (p + d2 - 2.0) / (p * (d2 - 2.0) * (d2 - 2.0) * (d2 - 4.0))};
-}
-
 /// Tail probability of a sum of K such forms about their weighted mean (K - 1 of K forms'
 /// freedom left): a chi2 scaled to the sum's mean and variance (Satterthwaite), c chi2_f with
 /// c = V / 2E, f = 2E^2 / V; chi2 with p (K - 1) dof when every covariance is known.
 struct SumReference {
   double mean = 0.0, variance = 0.0;
-  void add(const FormMoments& m, double share) {
+  void add(const QuadraticFormMoments& m, double share) {
     mean += share * m.mean;
     variance += share * m.variance;
   }
@@ -153,8 +138,9 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
        << " their intervals: joint chi2 " << out.joint_chi2 << " / " << out.joint_dof << " dof";
   if (std::abs(out.joint_expected_chi2 - out.joint_dof) > 0.05 * out.joint_dof)
     text << ", expected " << out.joint_expected_chi2 << " (covariances from few cells)";
-  text << " (p " << out.joint_p_value << "); largest sqrt(chi2/" << out.parameters[largest].expected_chi2 << ") " << out.parameters[largest].birge_ratio << ", "
-       << WindowAgreement::kParameterNames[largest] << " (p " << out.parameters[largest].p_value << ")";
+  const ParameterAgreement& worst = out.parameters[largest];
+  text << " (p " << out.joint_p_value << "); largest sqrt(chi2/" << worst.expected_chi2 << ") " << worst.birge_ratio
+       << ", " << WindowAgreement::kParameterNames[largest] << " (p " << worst.p_value << ")";
   if (!out.agree) {
     text << ": n is not one matrix through the record, or the intervals are too narrow; the whole record's "
             "intervals are optimistic by up to that factor";

@@ -130,6 +130,7 @@ json window_agreement_to_json(const std::vector<CalibrationWindow>& windows) {
     parameters[WindowAgreement::kParameterNames[k]] =
         a.assessed ? json{{"weighted_mean", number(p.weighted_mean)},
                           {"chi2", number(p.chi2)},
+                          {"expected_chi2", number(p.expected_chi2)},
                           {"sqrt_chi2_per_dof", number(p.birge_ratio)},
                           {"p_value", number(p.p_value)}}
                    : json(nullptr);
@@ -139,6 +140,7 @@ json window_agreement_to_json(const std::vector<CalibrationWindow>& windows) {
               {"windows", a.windows},
               {"joint_chi2", a.assessed ? number(a.joint_chi2) : json(nullptr)},
               {"joint_dof", a.joint_dof},
+              {"joint_expected_chi2", a.assessed ? number(a.joint_expected_chi2) : json(nullptr)},
               {"joint_p_value", a.assessed ? number(a.joint_p_value) : json(nullptr)},
               {"parameters", parameters},
               {"text", a.text}};

@@ -99,6 +99,17 @@ TEST(CalibrationPipeline, IntervalsThenWholeRecordAreConsistent) {
     chi2 += std::pow((p.scale_ratio(2) - swx / sw) / (p.scale_ratio_ci95(2) / 1.959964), 2);
   }
   EXPECT_NEAR(j["window_agreement"]["parameters"]["scale z"]["chi2"].get<double>(), chi2, 1e-9 * (1.0 + chi2));
+  // Its expected value, from each quarter's cells nu: 3/4 of the mean of t^2, nu / (nu - 2), per
+  // quarter (B23); the Birge ratio is sqrt(chi2 / expected).
+  double expected = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    const double nu = result.windows[i].estimate.covariance_dof;
+    expected += 0.75 * nu / (nu - 2.0);
+  }
+  EXPECT_GT(expected, 3.0);
+  EXPECT_NEAR(j["window_agreement"]["parameters"]["scale z"]["expected_chi2"].get<double>(), expected, 1e-9);
+  EXPECT_NEAR(j["window_agreement"]["parameters"]["scale z"]["sqrt_chi2_per_dof"].get<double>(),
+              std::sqrt(chi2 / expected), 1e-9);
   // One n through the simulated day: jointly the quarters agree (measured p 0.23).
   std::printf("simulated day: %s\n", j["window_agreement"]["text"].get<std::string>().c_str());
   EXPECT_GT(j["window_agreement"]["joint_p_value"].get<double>(), 0.01);

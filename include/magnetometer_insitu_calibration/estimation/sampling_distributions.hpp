@@ -1,0 +1,38 @@
+// Sampling distributions of the package's tests of estimates against each other (the change
+// check, calibration_change.hpp; the windows' agreement, window_agreement.hpp): chi2 and F tails,
+// and Hotelling's T^2, the law of a quadratic form in a covariance that is itself estimated from
+// a finite number of spectral cells (WindowEstimate::covariance_dof).
+#pragma once
+
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"  // Matrix9d
+
+namespace magnetometer_insitu_calibration {
+
+/// Upper tail probability of Fisher's F distribution with (d1, d2) degrees of freedom at f
+/// (regularised incomplete beta function I_{d2 / (d2 + d1 f)}(d2 / 2, d1 / 2)).
+double f_tail_probability(double f, double d1, double d2);
+
+/// Upper tail probability of q = d^T S^-1 d over p entries, S estimated with nu degrees of
+/// freedom (Hotelling's T^2: (nu - p + 1) q / (p nu) ~ F(p, nu - p + 1)); chi^2 with p degrees
+/// of freedom when nu is infinite; NaN when nu <= p (no such test).
+double quadratic_form_tail_probability(double q, int p, double nu);
+
+/// Mean and variance of q = d^T S^-1 d over p entries, S estimated with nu degrees of freedom and
+/// d of covariance E[S]: Hotelling's T^2 = a F(p, d2), a = p nu / d2, d2 = nu - p + 1, so the mean
+/// is p nu / (nu - p - 1); chi2's p and 2p when nu is infinite; NaN when the variance does not
+/// exist (nu <= p + 3).
+struct QuadraticFormMoments {
+  double mean = 0.0, variance = 0.0;
+};
+QuadraticFormMoments quadratic_form_moments(double nu, int p);
+
+/// Degrees of freedom of the sum of two estimated covariances (Satterthwaite on the traces):
+/// (tr a + tr b)^2 / (tr(a)^2 / nu_a + tr(b)^2 / nu_b); an infinite nu adds nothing to the
+/// denominator; infinite when both are.
+double combined_covariance_dof(const Matrix9d& a, double a_dof, const Matrix9d& b, double b_dof);
+
+/// Upper tail probability of the chi^2 distribution with `dof` (> 0, not necessarily whole)
+/// degrees of freedom at x (regularised incomplete gamma function Q(dof/2, x/2)).
+double chi2_tail_probability(double x, double dof);
+
+}  // namespace magnetometer_insitu_calibration
