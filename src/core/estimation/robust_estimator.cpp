@@ -234,6 +234,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   }
   const std::size_t bins = static_cast<std::size_t>(
       1 + std::max_element(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) { return a.bin < b.bin; })->bin);
+  result.weights = robust_weights_text(bins);
 
   IrlsResult fit = irls(cells, k_sections, bins, rs, sample_period_s);
   if (!fit.ok) {

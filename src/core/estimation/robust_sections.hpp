@@ -99,6 +99,15 @@ WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<
 Matrix9d noise_level_covariance_term(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                      const WeightedSolution& fit, const RobustSettings& rs, double sample_period_s);
 
+/// True when the cells' Huber weights apply: more than one scale bin, so that the scale can
+/// follow the residual's colour across the band (section_irls.cpp).
+inline bool huber_cell_weights(std::size_t scale_bins) { return scale_bins > 1; }
+/// WindowEstimate::weights of the robust estimator with `scale_bins` bins.
+inline const char* robust_weights_text(std::size_t scale_bins) {
+  return huber_cell_weights(scale_bins) ? "lambda^gamma x Huber cell x section"
+                                        : "lambda^gamma x section (one scale bin: no Huber cell weights)";
+}
+
 // section_irls.cpp: steps 3 and 5, IRLS over the cells.
 IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,
                 double sample_period_s);

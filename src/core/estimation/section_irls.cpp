@@ -23,6 +23,12 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   out.scale2.assign(bins, Eigen::Vector3d::Ones());
   std::vector<double> cell_weight(m, 1.0);
   const double share = reference_share_of_residual(rs.eiv_noise_ratio);
+  // Huber weights need a scale that is one level across its bin. When the band's cells make a
+  // single bin (a window under about 2 h), that one scale spans the residual's colour (the
+  // instruments' 1/f noise, a pier's tilt) and the strong low cells would be down-weighted as
+  // outliers: there the cells keep weight 1 (docs/estimator_validation.md, B24). The
+  // rejection of wild cells (kCellRejection) and the section weights stay.
+  const bool huber = huber_cell_weights(bins);
   bool have_scale = false;
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);
   std::vector<double> r2(m, 0.0);
@@ -66,7 +72,7 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
       const double d = std::sqrt(r2[i] / 3.0);
       // Huber; after two iterations (scale and n settled) cells beyond cell_rejection sigmas
       // are dropped: a clean cell has d^2 ~ Gamma(3)/3, P(d > 5) ~ 1e-14.
-      cell_weight[i] = d <= rs.huber_k ? 1.0 : rs.huber_k / d;
+      cell_weight[i] = (!huber || d <= rs.huber_k) ? 1.0 : rs.huber_k / d;
       if (it >= 2 && d > kCellRejection) cell_weight[i] = 0.0;
       section_r2[static_cast<std::size_t>(cells[i].section)].push_back(std::min(r2[i] / 3.0, kLevelCap));
     }

@@ -282,6 +282,29 @@ TEST(RobustEstimator, ShortWindowIntervalsCoverTheTruth) {
   EXPECT_GT(coverage, coverage_sandwich);
 }
 
+// A one-hour window's band (0.0002-0.01 Hz) holds 36 harmonics, one scale bin of the Huber
+// weights: one scale cannot follow the residual's colour, so the cells keep weight 1 and the
+// window says so (B24: with Huber weights there, 1 h windows were less accurate than Eq. 2).
+// Six hours hold 4 bins, and the Huber weights apply to the same record's cells.
+TEST(RobustEstimator, OneScaleBinWindowKeepsItsCellsUnweighted) {
+  mic::SimulationSettings s = station(41);
+  s.test_pink_nT_per_sqrt_hz = 0.05;  // a coloured residual: 1/f noise ten times the default's
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::WindowEstimator estimator{mic::EstimatorSettings{}};
+  const mic::WindowEstimate hour =
+      estimator.estimate(pair.reference.values_nT.topRows(3600), pair.test.values_nT.topRows(3600), 1.0);
+  ASSERT_EQ(hour.quality, mic::Quality::kOk) << hour.quality_text;
+  EXPECT_EQ(estimator.robust_diagnostics()->cells, 36u);
+  EXPECT_EQ(hour.weights, "lambda^gamma x section (one scale bin: no Huber cell weights)");
+  EXPECT_EQ(hour.downweighted_fraction, 0.0);
+  EXPECT_DOUBLE_EQ(hour.covariance_dof, 36.0);  // every cell whole in the sandwich
+  const mic::WindowEstimate six =
+      estimator.estimate(pair.reference.values_nT.topRows(21600), pair.test.values_nT.topRows(21600), 1.0);
+  ASSERT_EQ(six.quality, mic::Quality::kOk) << six.quality_text;
+  EXPECT_EQ(six.weights, "lambda^gamma x Huber cell x section");
+  EXPECT_GT(six.downweighted_fraction, 0.0);  // the 1/f residual's low cells, against their bin's scale
+}
+
 // Issue 13: without an identified reference noise the default applies no errors-in-variables
 // correction (the same n as --eiv none, bit for bit) and says so; with the simulated reference
 // noise given (the simulation's truth, as a maker's figure would be) it corrects the
