@@ -24,7 +24,7 @@ struct ReportInputs {
 /// quality_text. *_ci95 are half-widths of 95 % intervals. NaN is written as null.
 nlohmann::json window_to_json(const CalibrationWindow& window);
 /// {"assessed", "agree", "windows", "joint_chi2", "joint_dof", "joint_expected_chi2",
-/// "joint_p_value", "parameters": {"scale x": {"weighted_mean", "chi2", "expected_chi2",
+/// "joint_p_value", "joint_tested", "parameters": {"scale x": {"weighted_mean", "chi2", "expected_chi2",
 /// "sqrt_chi2_per_dof" (sqrt(chi2 / expected_chi2)), "p_value"}, ...}, "text"} of the
 /// disjoint windows (disjoint_window_estimates, window_agreement.hpp); null when there are none
 /// (one window, or overlapping sliding windows). The document's key "window_agreement".

@@ -133,13 +133,20 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
   out.joint_expected_chi2 = joint.mean;
   out.joint_p_value = std::isfinite(out.joint_chi2) ? joint.tail_probability(out.joint_chi2)
                                                     : std::numeric_limits<double>::quiet_NaN();
-  out.agree = !parameter_disagrees && !(out.joint_p_value < settings.significance);
+  double fewest_cells = std::numeric_limits<double>::infinity();
+  for (const WindowEstimate* w : ok) fewest_cells = std::min(fewest_cells, w->covariance_dof);
+  out.joint_tested = fewest_cells >= WindowAgreement::kJointTestMinCells;
+  out.agree = !parameter_disagrees && !(out.joint_tested && out.joint_p_value < settings.significance);
   text << out.windows << " windows " << (out.agree ? "agree within" : "disagree beyond")
        << " their intervals: joint chi2 " << out.joint_chi2 << " / " << out.joint_dof << " dof";
   if (std::abs(out.joint_expected_chi2 - out.joint_dof) > 0.05 * out.joint_dof)
     text << ", expected " << out.joint_expected_chi2 << " (covariances from few cells)";
+  text << " (p " << out.joint_p_value;
+  if (!out.joint_tested)
+    text << ", not tested: a covariance from " << fewest_cells << " cells, under "
+         << WindowAgreement::kJointTestMinCells << "; the parameters one by one";
   const ParameterAgreement& worst = out.parameters[largest];
-  text << " (p " << out.joint_p_value << "); largest sqrt(chi2/" << worst.expected_chi2 << ") " << worst.birge_ratio
+  text << "); largest sqrt(chi2/" << worst.expected_chi2 << ") " << worst.birge_ratio
        << ", " << WindowAgreement::kParameterNames[largest] << " (p " << worst.p_value << ")";
   if (!out.agree) {
     text << ": n is not one matrix through the record, or the intervals are too narrow; the whole record's "

@@ -142,6 +142,7 @@ json window_agreement_to_json(const std::vector<CalibrationWindow>& windows) {
               {"joint_dof", a.joint_dof},
               {"joint_expected_chi2", a.assessed ? number(a.joint_expected_chi2) : json(nullptr)},
               {"joint_p_value", a.assessed ? number(a.joint_p_value) : json(nullptr)},
+              {"joint_tested", a.assessed ? json(a.joint_tested) : json(nullptr)},
               {"parameters", parameters},
               {"text", a.text}};
 }

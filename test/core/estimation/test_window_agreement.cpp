@@ -99,6 +99,32 @@ TEST(WindowAgreement, CovariancesFromFewCellsRaiseTheExpectedChiSquare) {
   EXPECT_NEAR(mic::check_window_agreement(windows).parameters[2].p_value, std::exp(-13.0 / 9.0), 1e-9);
 }
 
+TEST(WindowAgreement, JointTestDecidesOnlyOnCovariancesOfEnoughCells) {
+  // Three windows whose x-y coupling (n(0, 1), 0 +- 0.01) is 0, +0.1, -0.1 while their reported
+  // parameters all agree: the joint test over vec(n) sees it (chi2 200 on n(0, 1) alone, 18
+  // dof), the parameters do not (chi2 0). With known covariances or 90 cells each the joint test decides; with one window's
+  // covariance from 36 cells (a one-hour window) the parameters decide one by one, and agree.
+  std::vector<mic::WindowEstimate> windows = {window(1.0, 0.01), window(1.0, 0.01), window(1.0, 0.01)};
+  windows[1].n(0, 1) = 0.1;
+  windows[2].n(0, 1) = -0.1;
+  const mic::WindowAgreement known = mic::check_window_agreement(windows);
+  ASSERT_TRUE(known.assessed) << known.text;
+  EXPECT_NEAR(known.joint_chi2, 200.0, 1e-9);  // (0.1^2 + 0.1^2) / 1e-4
+  EXPECT_TRUE(known.joint_tested);
+  EXPECT_LT(known.joint_p_value, 0.01);
+  EXPECT_FALSE(known.agree) << known.text;
+  for (mic::WindowEstimate& w : windows) w.covariance_dof = mic::WindowAgreement::kJointTestMinCells;
+  const mic::WindowAgreement enough = mic::check_window_agreement(windows);
+  EXPECT_TRUE(enough.joint_tested);
+  EXPECT_FALSE(enough.agree) << enough.text;
+  windows[1].covariance_dof = 36.0;
+  const mic::WindowAgreement few = mic::check_window_agreement(windows);
+  EXPECT_FALSE(few.joint_tested);
+  EXPECT_NEAR(few.joint_chi2, 200.0, 1e-9);  // still computed and printed
+  EXPECT_TRUE(few.agree) << few.text;
+  EXPECT_NE(few.text.find("not tested: a covariance from 36 cells, under 90"), std::string::npos) << few.text;
+}
+
 TEST(WindowAgreement, WindowsOfAnotherQualityAreLeftOut) {
   std::vector<mic::WindowEstimate> windows = {window(1.00, 0.01), window(1.02, 0.01), window(0.99, 0.02)};
   mic::WindowEstimate flagged = window(1.5, 0.001);
