@@ -39,8 +39,9 @@
 //     huber_k / sqrt(r^2/3), when the cells make more than one frequency bin: with one bin (a
 //     window under about 2 h) the scale cannot follow the colour and cells keep weight 1
 //     (after two iterations cells with d > 5 get 0 in either case). Section weight: q_s =
-//     median of r^2 over the section's cells / the median over sections; 1 for q <= 2, 2/q up to section_rejection, then 0 (a section
-//     with raised broadband residual, e.g. a step or a long transient, is dropped as a whole).
+//     median of r^2 over the section's cells / the median over sections; 1 for q <= 2, 2/q up
+//     to section_rejection, then 0 (a section with raised broadband residual, e.g. a step or a
+//     long transient, is dropped as a whole).
 //  4. Delay (delay_estimation.hpp) from the cleaned records with n; when significant (> 2 se)
 //     and correct_delay, the test record is advanced by tau over the whole window
 //     (advance_record), cut into the same sections again (Y_c replaced) and step 3 is repeated,

@@ -102,8 +102,9 @@ TEST(WindowAgreement, CovariancesFromFewCellsRaiseTheExpectedChiSquare) {
 TEST(WindowAgreement, JointTestDecidesOnlyOnCovariancesOfEnoughCells) {
   // Three windows whose x-y coupling (n(0, 1), 0 +- 0.01) is 0, +0.1, -0.1 while their reported
   // parameters all agree: the joint test over vec(n) sees it (chi2 200 on n(0, 1) alone, 18
-  // dof), the parameters do not (chi2 0). With known covariances or 90 cells each the joint test decides; with one window's
-  // covariance from 36 cells (a one-hour window) the parameters decide one by one, and agree.
+  // dof), the parameters do not (chi2 0). With known covariances or 90 cells each the joint test
+  // decides; with one window's covariance from 36 cells (a one-hour window) the parameters decide
+  // one by one, and agree.
   std::vector<mic::WindowEstimate> windows = {window(1.0, 0.01), window(1.0, 0.01), window(1.0, 0.01)};
   windows[1].n(0, 1) = 0.1;
   windows[2].n(0, 1) = -0.1;
