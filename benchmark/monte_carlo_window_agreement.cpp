@@ -13,7 +13,9 @@
 //
 // Also printed: the calibration node's change check (estimation/calibration_change.hpp) between
 // each pair of consecutive windows, at the node's default false-alarm probability 1e-3: the share
-// of pairs whose joint test is significant (B23).
+// of pairs it calls significant (B25), and in brackets the share whose joint test alone is (B23),
+// and that test against chi2's tail (before B23). And as the node checks, the first window against
+// each window of the second half: with a step, the share of those detected.
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
@@ -22,6 +24,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -32,9 +36,16 @@ namespace {
 struct Rates {
   int records = 0, assessed = 0, disagree = 0, joint_below_5pct = 0, named_scale_z = 0;
   int parameters = 0, parameter_below_5pct = 0;
-  double sum_joint_chi2_per_dof = 0.0;
+  double sum_joint_chi2_per_dof = 0.0, sum_joint_chi2_per_expected = 0.0, sum_fewest_cells = 0.0;
+  int joint_tested = 0;
+  // The joint test's rejections at 0.05 and 0.01 by the fewest cells of a record's windows.
+  static constexpr int kBuckets = 6;
+  static constexpr double kBucketTop[kBuckets] = {18.0, 27.0, 36.0, 54.0, 90.0, 1e300};
+  int bucket_records[kBuckets] = {}, bucket_below_5pct[kBuckets] = {}, bucket_below_1pct[kBuckets] = {};
   int change_pairs = 0, change_significant = 0;  // consecutive windows, the node's change check
   int change_significant_chi2 = 0;                // the same chi2 against chi2's tail (before B23)
+  int change_significant_joint = 0;               // the joint test alone, whatever the cells (before B25)
+  int late_pairs = 0, late_significant = 0, late_significant_joint = 0;  // first window against the second half's
 };
 
 /// The node's change check between consecutive disjoint windows, at its default 1e-3.
@@ -44,8 +55,18 @@ void tally_changes(const std::vector<mic::WindowEstimate>& windows, Rates& r) {
     const mic::CalibrationChange c = mic::check_calibration_change(windows[i - 1], windows[i], settings);
     if (c.status == mic::CalibrationChangeStatus::kInconclusive) continue;
     ++r.change_pairs;
-    r.change_significant += c.p_value < settings.false_alarm_probability;
+    r.change_significant += c.significant;
+    r.change_significant_joint += c.p_value < settings.false_alarm_probability;
     r.change_significant_chi2 += mic::chi2_tail_probability(c.chi2, 9) < settings.false_alarm_probability;
+  }
+  // As the node checks: the first window accepted, each window of the record's second half (after
+  // the step, when there is one) against it.
+  for (std::size_t i = windows.size() / 2; i < windows.size() && windows.size() > 1; ++i) {
+    const mic::CalibrationChange c = mic::check_calibration_change(windows.front(), windows[i], settings);
+    if (c.status == mic::CalibrationChangeStatus::kInconclusive) continue;
+    ++r.late_pairs;
+    r.late_significant += c.significant;
+    r.late_significant_joint += c.p_value < settings.false_alarm_probability;
   }
 }
 
@@ -56,6 +77,8 @@ void tally(const mic::WindowAgreement& a, Rates& r) {
   r.disagree += !a.agree;
   r.joint_below_5pct += a.joint_p_value < 0.05;
   r.sum_joint_chi2_per_dof += a.joint_chi2 / a.joint_dof;
+  r.sum_joint_chi2_per_expected += a.joint_chi2 / a.joint_expected_chi2;
+  r.joint_tested += a.joint_tested;
   int largest = 0;
   for (int k = 0; k < 9; ++k) {
     ++r.parameters;
@@ -103,6 +126,16 @@ int main(int argc, char** argv) {
       const std::vector<mic::WindowEstimate> disjoint = mic::disjoint_window_estimates(result.windows);
       const mic::WindowAgreement a = mic::check_window_agreement(disjoint);
       tally(a, rates[m]);
+      double fewest = std::numeric_limits<double>::infinity();
+      for (const mic::WindowEstimate& w : disjoint) fewest = std::min(fewest, w.covariance_dof);
+      rates[m].sum_fewest_cells += fewest;
+      if (a.assessed) {
+        int b = 0;
+        while (fewest >= Rates::kBucketTop[b]) ++b;
+        ++rates[m].bucket_records[b];
+        rates[m].bucket_below_5pct[b] += a.joint_p_value < 0.05;
+        rates[m].bucket_below_1pct[b] += a.joint_p_value < 0.01;
+      }
       tally_changes(disjoint, rates[m]);
       std::printf("seed %llu %s: %s\n", static_cast<unsigned long long>(s.seed), names[m], a.text.c_str());
     }
@@ -113,15 +146,46 @@ int main(int argc, char** argv) {
       seeds, days, intervals, step_pct, first_seed, first_seed + seeds - 1, seconds);
   std::printf(
       "| estimator | called disagreeing | of those, naming scale z | joint p < 0.05 | parameters with p < 0.05 | mean "
-      "joint chi2/dof | change check, consecutive windows at 1e-3 (chi2's tail) |\n|---|---|---|---|---|---|---|\n");
+      "joint chi2/dof | change check, consecutive windows at 1e-3 (joint test alone; chi2's tail) |\n|---|---|---|---|---|---|---|\n");
   for (int m = 0; m < 2; ++m) {
     const Rates& r = rates[m];
     const double n = r.assessed > 0 ? r.assessed : 1;
-    std::printf("| %s | %.1f %% (%d of %d) | %d | %.1f %% | %.1f %% | %.2f | %.2f %% (%d of %d; %.2f %%) |\n", names[m],
+    const double pairs = r.change_pairs > 0 ? r.change_pairs : 1;
+    std::printf("| %s | %.1f %% (%d of %d) | %d | %.1f %% | %.1f %% | %.2f | %.2f %% (%d of %d; %.2f %%; %.2f %%) |\n",
+                names[m],
                 100.0 * r.disagree / n, r.disagree, r.assessed, r.named_scale_z, 100.0 * r.joint_below_5pct / n,
                 100.0 * r.parameter_below_5pct / (r.parameters > 0 ? r.parameters : 1), r.sum_joint_chi2_per_dof / n,
-                100.0 * r.change_significant / (r.change_pairs > 0 ? r.change_pairs : 1), r.change_significant,
-                r.change_pairs, 100.0 * r.change_significant_chi2 / (r.change_pairs > 0 ? r.change_pairs : 1));
+                100.0 * r.change_significant / pairs, r.change_significant, r.change_pairs,
+                100.0 * r.change_significant_joint / pairs, 100.0 * r.change_significant_chi2 / pairs);
+  }
+  std::printf("\n| estimator | joint chi2 / its expected value (T^2) | joint test decided | fewest cells of a window (mean) |\n|---|---|---|---|\n");
+  for (int m = 0; m < 2; ++m) {
+    const Rates& r = rates[m];
+    const double n = r.assessed > 0 ? r.assessed : 1;
+    std::printf("| %s | %.3f | %.1f %% | %.1f |\n", names[m], r.sum_joint_chi2_per_expected / n,
+                100.0 * r.joint_tested / n, r.sum_fewest_cells / (r.records > 0 ? r.records : 1));
+  }
+  std::printf("\n| estimator | fewest cells of a record's windows: records, joint p < 0.05, p < 0.01 |\n|---|---|\n");
+  for (int m = 0; m < 2; ++m) {
+    std::printf("| %s |", names[m]);
+    double low = 0.0;
+    for (int b = 0; b < Rates::kBuckets; ++b) {
+      const Rates& r = rates[m];
+      if (r.bucket_records[b] > 0)
+        std::printf(" [%.0f, %s): %d, %.1f %%, %.1f %%;", low,
+                    b + 1 < Rates::kBuckets ? std::to_string(static_cast<int>(Rates::kBucketTop[b])).c_str() : "inf",
+                    r.bucket_records[b],
+                    100.0 * r.bucket_below_5pct[b] / r.bucket_records[b], 100.0 * r.bucket_below_1pct[b] / r.bucket_records[b]);
+      low = Rates::kBucketTop[b];
+    }
+    std::printf(" |\n");
+  }
+  std::printf("\n| estimator | first window against each of the second half's, at 1e-3 (joint test alone) |\n|---|---|\n");
+  for (int m = 0; m < 2; ++m) {
+    const Rates& r = rates[m];
+    const double pairs = r.late_pairs > 0 ? r.late_pairs : 1;
+    std::printf("| %s | %.2f %% (%d of %d; %.2f %%) |\n", names[m], 100.0 * r.late_significant / pairs,
+                r.late_significant, r.late_pairs, 100.0 * r.late_significant_joint / pairs);
   }
   return 0;
 }

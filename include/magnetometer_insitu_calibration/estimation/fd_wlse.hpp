@@ -137,12 +137,15 @@ struct WindowEstimate {
   int harmonic_last = 0;   ///< m
   Eigen::Matrix3d n = Eigen::Matrix3d::Identity();  ///< T = R n
   Matrix9d n_covariance = Matrix9d::Zero();         ///< covariance of row-major vec(n)
-  /// Degrees of freedom of n_covariance: the spectral cells it was estimated from (plain: the
-  /// band's harmonics; robust: the sum of the cell weights, the M of its sandwich). A covariance
-  /// estimated from nu cells makes a quadratic form in it (chi2 against vec(n)) larger than chi2
-  /// by nu / (nu - p - 1) on average and heavier in the tail (Hotelling's T^2): 1.4 at nu = 36
-  /// (a one-hour window), 1.01 at a day. The change and agreement checks use it; infinity: the
-  /// covariance is taken as known (e.g. a calibration read back from a file).
+  /// Degrees of freedom of n_covariance: how many spectral cells its sandwich rests on, counted
+  /// as cells that share it equally ((sum t)^2 / sum t^2 of the cells' expected shares t,
+  /// Satterthwaite; src/core/estimation/sandwich_cells.hpp). At most the band's cells; fewer when
+  /// a few strong harmonics carry the sandwich (a simulated hour's 36 cells count 24-30, a real
+  /// WIC hour's 9-22; docs/estimator_validation.md B25). A covariance estimated from nu cells makes
+  /// a quadratic form in it (chi2 against vec(n)) larger than chi2 by nu / (nu - p - 1) on average
+  /// and heavier in the tail (Hotelling's T^2). The change and agreement checks use it; JSON
+  /// "covariance_cells"; infinity: the covariance is taken as known (e.g. a calibration read back
+  /// from a file).
   double covariance_dof = std::numeric_limits<double>::infinity();
   Eigen::Vector3d trend_nT_per_day = Eigen::Vector3d::Zero();
   Eigen::Vector3d trend_stderr_nT_per_day = Eigen::Vector3d::Zero();

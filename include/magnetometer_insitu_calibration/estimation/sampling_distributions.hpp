@@ -26,10 +26,21 @@ struct QuadraticFormMoments {
 };
 QuadraticFormMoments quadratic_form_moments(double nu, int p);
 
-/// Degrees of freedom of the sum of two estimated covariances (Satterthwaite on the traces):
-/// (tr a + tr b)^2 / (tr(a)^2 / nu_a + tr(b)^2 / nu_b); an infinite nu adds nothing to the
-/// denominator; infinite when both are.
+/// Degrees of freedom of the sum of two estimated variances (Welch-Satterthwaite):
+/// (a + b)^2 / (a^2 / nu_a + b^2 / nu_b); an infinite nu adds nothing to the denominator;
+/// infinite when both are.
+double combined_variance_dof(double a, double a_dof, double b, double b_dof);
+
+/// The same for two estimated covariances, on their traces.
 double combined_covariance_dof(const Matrix9d& a, double a_dof, const Matrix9d& b, double b_dof);
+
+/// The joint tests over the nine entries of n (the change check, the windows' agreement) decide
+/// only when every window's covariance rests on at least this many cells (covariance_dof, four
+/// per entry of n): on simulated records of one n the joint test's false alarms were twice its
+/// level from one-hour windows' 18-27 cells and at or under it from 36 (two- and three-hour
+/// windows; docs/estimator_validation.md B25). Below, the nine parameters decide one by one
+/// (Bonferroni), whose tests hold from fewer cells.
+constexpr double kJointTestMinCells = 36.0;
 
 /// Upper tail probability of the chi^2 distribution with `dof` (> 0, not necessarily whole)
 /// degrees of freedom at x (regularised incomplete gamma function Q(dof/2, x/2)).

@@ -12,9 +12,9 @@
 // Jointly, over the nine entries of n with each window's 9x9 covariance C_k:
 //   m = (sum C_k^-1)^-1 sum C_k^-1 vec(n_k),   chi2 = sum (vec(n_k) - m)^T C_k^-1 (vec(n_k) - m),
 // 9 (K - 1) dof. Each window's covariance is itself estimated, from nu_k = covariance_dof
-// spectral cells (fd_wlse.hpp), so each window's term is Hotelling's T^2, not chi2: mean
-// p nu / (nu - p - 1) over p entries (1.38 x chi2's for p = 9 at nu = 36, a one-hour window;
-// under 1.02 x for a day) and a heavier tail. Both statistics are referred to a chi2 scaled to
+// cells (fd_wlse.hpp: as many as share its sandwich equally), so each window's term is
+// Hotelling's T^2, not chi2: mean p nu / (nu - p - 1) over p entries (1.6 x chi2's for p = 9 at
+// nu = 26, a simulated one-hour window's; 2 x at a real WIC hour's 20) and a heavier tail. Both statistics are referred to a chi2 scaled to
 // the sum's mean and variance, each window contributing (K - 1) / K of its T^2's moments
 // (Satterthwaite); for known covariances that is chi2 with K - 1 and 9 (K - 1) dof, as above.
 // The Birge ratio is sqrt(chi2 / its mean).
@@ -22,11 +22,11 @@
 // a parameter's is below significance / 9 (Bonferroni over the nine parameters): a false alarm
 // rate of at most 2 x significance when n is constant and the intervals honest.
 // The joint test needs each 9 x 9 covariance well estimated; from few cells its tail is heavier
-// than T^2's (measured, not explained; each parameter's alone is not): 24 one-hour
-// windows (36 cells) of one n were called disagreeing 15-26 % of the time, 12 two-hour ones
-// 2.5-3.5 % (docs/estimator_validation.md B23, B24). So the joint test decides only when every
-// window's covariance rests on kJointTestMinCells (ten per entry of n) or more; below that the
-// parameters decide one by one, and the text says so.
+// than T^2's while each parameter's alone is not: on simulated one-hour windows (18-27 cells)
+// its false alarms were twice its level, from 36 cells at or under it (docs/estimator_validation.md
+// B23-B25). So the joint test decides only when every window's covariance rests on
+// kJointTestMinCells (four per entry of n) or more; below that the parameters decide one by one,
+// and the text says so.
 //
 // A disagreement means that n is not one matrix through the record (a real change, or a relation
 // that depends on the field's frequencies or directions, which change through a day) or that the
@@ -35,6 +35,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"  // kJointTestMinCells
 
 #include <array>
 #include <string>
@@ -64,7 +65,8 @@ struct WindowAgreement {
   std::string text;  ///< one line: the verdict and the largest Birge ratio, or why not assessed
 
   static const std::array<const char*, 9> kParameterNames;  ///< "scale x", ..., "misalignment z"
-  static constexpr double kJointTestMinCells = 90.0;          ///< ten spectral cells per entry of n
+  /// four cells per entry of n (sampling_distributions.hpp)
+  static constexpr double kJointTestMinCells = magnetometer_insitu_calibration::kJointTestMinCells;
 };
 
 struct WindowAgreementSettings {

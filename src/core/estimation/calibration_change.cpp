@@ -2,9 +2,11 @@
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"  // agreement_parameter
 
 #include <Eigen/Cholesky>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -49,45 +51,53 @@ CalibrationChange check_calibration_change(const WindowEstimate& accepted, const
   out.chi2 = d.dot(ldlt.solve(d));
   out.covariance_dof = combined_covariance_dof(accepted.n_covariance, accepted.covariance_dof, latest.n_covariance,
                                                latest.covariance_dof);
+  // NaN when the covariances rest on 9 cells or fewer: no joint test, the parameters decide.
   out.p_value = quadratic_form_tail_probability(out.chi2, 9, out.covariance_dof);
-  if (!std::isfinite(out.p_value)) {
-    text << "cannot compare: the covariances rest on " << out.covariance_dof
-         << " spectral cells, too few for a joint test of 9 entries";
-    out.text = text.str();
-    return out;
-  }
   const CalibrationParameters& a = accepted.parameters;
   const CalibrationParameters& b = latest.parameters;
-  constexpr double kZ95 = 1.959964;
-  auto z_of = [&](const Eigen::Vector3d& diff, const Eigen::Vector3d& ci_a, const Eigen::Vector3d& ci_b) {
-    const Eigen::Vector3d se = ((ci_a / kZ95).cwiseAbs2() + (ci_b / kZ95).cwiseAbs2()).cwiseSqrt();
-    return Eigen::Vector3d(diff.cwiseAbs().cwiseQuotient(se.cwiseMax(1e-300)));
-  };
   out.scale_difference = b.scale_ratio - a.scale_ratio;
   out.nonorthogonality_difference_deg = b.nonorthogonality_deg - a.nonorthogonality_deg;
   out.misalignment_difference_deg = b.misalignment_deg - a.misalignment_deg;
-  out.scale_z = z_of(out.scale_difference, a.scale_ratio_ci95, b.scale_ratio_ci95);
-  out.nonorthogonality_z = z_of(out.nonorthogonality_difference_deg, a.nonorthogonality_ci95_deg, b.nonorthogonality_ci95_deg);
-  out.misalignment_z = z_of(out.misalignment_difference_deg, a.misalignment_ci95_deg, b.misalignment_ci95_deg);
-  const bool significant = out.p_value < settings.false_alarm_probability;
+  // Per parameter, in WindowAgreement::kParameterNames order: z and the tail of F(1, nu).
+  Eigen::Vector3d* zs[3] = {&out.scale_z, &out.nonorthogonality_z, &out.misalignment_z};
+  const Eigen::Vector3d* ds[3] = {&out.scale_difference, &out.nonorthogonality_difference_deg,
+                                  &out.misalignment_difference_deg};
+  const char* names[9] = {"Kx",         "Ky",         "Kz",         "nonorth xy", "nonorth xz",
+                          "nonorth yz", "misalign x", "misalign y", "misalign z"};
+  int named = 0;
+  bool parameter_testable = true;
+  for (int k = 0; k < 9; ++k) {
+    const ValueAndError pa = agreement_parameter(a, k), pb = agreement_parameter(b, k);
+    const double variance = pa.se * pa.se + pb.se * pb.se;
+    const double z = std::abs(pb.value - pa.value) / std::sqrt(std::max(variance, 1e-300));
+    (*zs[k / 3])(k % 3) = z;
+    const double nu = combined_variance_dof(pa.se * pa.se, accepted.covariance_dof, pb.se * pb.se,
+                                            latest.covariance_dof);
+    const double p = quadratic_form_tail_probability(z * z, 1, nu);
+    parameter_testable &= std::isfinite(p);  // NaN when nu <= 1
+    if (p < out.parameter_p_value) out.parameter_p_value = p, named = k;
+  }
+  if (!parameter_testable) {
+    out.text = "cannot compare: a parameter's standard errors rest on too few spectral cells";
+    return out;
+  }
+  out.joint_tested = std::min(accepted.covariance_dof, latest.covariance_dof) >= kJointTestMinCells;
+  const double alpha = settings.false_alarm_probability;
+  out.significant = out.joint_tested ? out.p_value < alpha : out.parameter_p_value < alpha / 9.0;
   const bool practical = out.scale_difference.cwiseAbs().maxCoeff() > settings.scale_tolerance ||
                          out.nonorthogonality_difference_deg.cwiseAbs().maxCoeff() > settings.angle_tolerance_deg ||
                          out.misalignment_difference_deg.cwiseAbs().maxCoeff() > settings.angle_tolerance_deg;
-  out.status = significant && practical ? CalibrationChangeStatus::kChanged : CalibrationChangeStatus::kUnchanged;
-  // Name the parameter that moved most (in standard errors).
-  const char* names[3][3] = {{"Kx", "Ky", "Kz"}, {"nonorth xy", "nonorth xz", "nonorth yz"}, {"misalign x", "misalign y", "misalign z"}};
-  const Eigen::Vector3d* zs[3] = {&out.scale_z, &out.nonorthogonality_z, &out.misalignment_z};
-  const Eigen::Vector3d* ds[3] = {&out.scale_difference, &out.nonorthogonality_difference_deg, &out.misalignment_difference_deg};
-  int gi = 0, ci = 0;
-  for (int g = 0; g < 3; ++g)
-    for (int c = 0; c < 3; ++c)
-      if ((*zs[g])(c) > (*zs[gi])(ci)) gi = g, ci = c;
+  out.status = out.significant && practical ? CalibrationChangeStatus::kChanged : CalibrationChangeStatus::kUnchanged;
   text << (out.status == CalibrationChangeStatus::kChanged ? "calibration changed" : "calibration unchanged")
        << ": chi2 " << out.chi2 << " (9 dof";
   if (std::isfinite(out.covariance_dof)) text << ", covariances from " << out.covariance_dof << " cells";
-  text << ", p " << out.p_value << "); largest move " << names[gi][ci] << " by "
-       << (*ds[gi])(ci) << (gi == 0 ? "" : " deg") << " (" << (*zs[gi])(ci) << " se)";
-  if (significant && !practical) text << ", significant but within the practical tolerances";
+  text << ", p " << out.p_value;
+  if (!out.joint_tested)
+    text << "; not tested: a covariance from " << std::min(accepted.covariance_dof, latest.covariance_dof)
+         << " cells, under " << kJointTestMinCells << "; the parameters one by one";
+  text << "); largest move " << names[named] << " by " << (*ds[named / 3])(named % 3) << (named < 3 ? "" : " deg")
+       << " (" << (*zs[named / 3])(named % 3) << " se, p " << out.parameter_p_value << ")";
+  if (out.significant && !practical) text << ", significant but within the practical tolerances";
   out.text = text.str();
   return out;
 }

@@ -25,6 +25,7 @@
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "failed_window_estimate.hpp"
+#include "sandwich_cells.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -264,6 +265,21 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
       test_power(l) += std::norm(wt(l));
     }
     omega.noalias() += s * s.transpose();
+  }
+  {  // the cells behind the sandwich, as many as share it equally (sandwich_cells.hpp): Eq. 2's
+     // weights lambda^gamma, one residual power per column
+    detail::SandwichCells sandwich_cells(p);
+    const Eigen::Vector3d one = Eigen::Vector3d::Ones();
+    for (int pass = 0; pass < 2; ++pass) {
+      for (long j = m0; j <= m; ++j) {
+        load_bin(static_cast<std::size_t>(j));
+        const VectorP x = scale.cast<std::complex<double>>().asDiagonal() * wx;  // the trend column at the field's scale
+        if (pass == 0) sandwich_cells.add(x, weight(j), one);
+        else sandwich_cells.share(x, weight(j), one);
+      }
+    }
+    const double count = sandwich_cells.count();
+    if (std::isfinite(count)) result.covariance_dof = count;  // else the harmonics, as set above
   }
   const double dof_correction = 2.0 * harmonics / (2.0 * harmonics - p);
   Eigen::MatrixXd bread = Eigen::MatrixXd::Zero(3 * p, 3 * p);

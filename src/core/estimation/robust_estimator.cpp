@@ -9,6 +9,7 @@
 #include "delay_spectra.hpp"
 #include "failed_window_estimate.hpp"
 #include "robust_sections.hpp"
+#include "sandwich_cells.hpp"
 #include "section_trend.hpp"
 #include "spectral_tools.hpp"
 
@@ -349,7 +350,16 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     inband_variance += (2.0 / l2) * e.cwiseAbs2() / static_cast<double>(k_sections);
   }
   const double effective = std::max(weight_sum, 4.0);
-  result.covariance_dof = weight_sum;  // the cells behind the sandwich (fd_wlse.hpp, covariance_dof)
+  {  // the cells behind the sandwich, as many as share it equally (sandwich_cells.hpp)
+    detail::SandwichCells sandwich_cells(3);
+    auto sigma2 = [&](const Cell& cell) { return scale2[static_cast<std::size_t>(cell.bin)]; };
+    for (std::size_t i = 0; i < cells.size(); ++i) sandwich_cells.add(cells[i].x, fit.weight[i] * cells[i].g, sigma2(cells[i]));
+    for (std::size_t i = 0; i < cells.size(); ++i) sandwich_cells.share(cells[i].x, fit.weight[i] * cells[i].g, sigma2(cells[i]));
+    // No count when a column's residual power is zero in every bin (noise-free records): then the
+    // cells themselves.
+    const double count = sandwich_cells.count();
+    result.covariance_dof = std::isfinite(count) ? count : weight_sum;
+  }
   const double dof_correction = 2.0 * effective / (2.0 * effective - 3.0);
   Eigen::Matrix<double, 9, 9> bread = Eigen::Matrix<double, 9, 9>::Zero();
   for (int l = 0; l < 3; ++l) bread.block<3, 3>(3 * l, 3 * l) = fit.a_inverse;

@@ -96,12 +96,15 @@ double quadratic_form_tail_probability(double q, int p, double nu) {
   return f_tail_probability(q * d2 / (p * nu), p, d2);
 }
 
-double combined_covariance_dof(const Matrix9d& first, double first_dof, const Matrix9d& second, double second_dof) {
-  const double t1 = first.trace(), t2 = second.trace();
+double combined_variance_dof(double t1, double first_dof, double t2, double second_dof) {
   const double spread = (std::isfinite(first_dof) ? t1 * t1 / first_dof : 0.0) +
                         (std::isfinite(second_dof) ? t2 * t2 / second_dof : 0.0);
   if (!(spread > 0.0)) return std::numeric_limits<double>::infinity();
   return (t1 + t2) * (t1 + t2) / spread;
+}
+
+double combined_covariance_dof(const Matrix9d& first, double first_dof, const Matrix9d& second, double second_dof) {
+  return combined_variance_dof(first.trace(), first_dof, second.trace(), second_dof);
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -141,7 +141,10 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
        << " their intervals: joint chi2 " << out.joint_chi2 << " / " << out.joint_dof << " dof";
   if (std::abs(out.joint_expected_chi2 - out.joint_dof) > 0.05 * out.joint_dof)
     text << ", expected " << out.joint_expected_chi2 << " (covariances from few cells)";
-  text << " (p " << out.joint_p_value;
+  if (std::isfinite(out.joint_p_value))
+    text << " (p " << out.joint_p_value;
+  else
+    text << " (p undefined: T^2's moments need more than 12 cells";
   if (!out.joint_tested)
     text << ", not tested: a covariance from " << fewest_cells << " cells, under "
          << WindowAgreement::kJointTestMinCells << "; the parameters one by one";

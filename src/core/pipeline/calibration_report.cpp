@@ -103,6 +103,7 @@ json window_to_json(const CalibrationWindow& w) {
       {"downweighted_fraction", e.downweighted_fraction},
       {"eiv", e.eiv},
       {"weights", e.weights},
+      {"covariance_cells", number(e.covariance_dof)},
       {"intervals", e.intervals},
       {"relative_response", response_to_json(w.relative_response)},
       {"response_model", model_to_json(w.response_model)},

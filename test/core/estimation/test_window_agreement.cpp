@@ -102,8 +102,8 @@ TEST(WindowAgreement, CovariancesFromFewCellsRaiseTheExpectedChiSquare) {
 TEST(WindowAgreement, JointTestDecidesOnlyOnCovariancesOfEnoughCells) {
   // Three windows whose x-y coupling (n(0, 1), 0 +- 0.01) is 0, +0.1, -0.1 while their reported
   // parameters all agree: the joint test over vec(n) sees it (chi2 200 on n(0, 1) alone, 18
-  // dof), the parameters do not (chi2 0). With known covariances or 90 cells each the joint test
-  // decides; with one window's covariance from 36 cells (a one-hour window) the parameters decide
+  // dof), the parameters do not (chi2 0). With known covariances or 36 cells each the joint test
+  // decides; with one window's covariance from 24 cells (a one-hour window) the parameters decide
   // one by one, and agree.
   std::vector<mic::WindowEstimate> windows = {window(1.0, 0.01), window(1.0, 0.01), window(1.0, 0.01)};
   windows[1].n(0, 1) = 0.1;
@@ -118,12 +118,12 @@ TEST(WindowAgreement, JointTestDecidesOnlyOnCovariancesOfEnoughCells) {
   const mic::WindowAgreement enough = mic::check_window_agreement(windows);
   EXPECT_TRUE(enough.joint_tested);
   EXPECT_FALSE(enough.agree) << enough.text;
-  windows[1].covariance_dof = 36.0;
+  windows[1].covariance_dof = 24.0;
   const mic::WindowAgreement few = mic::check_window_agreement(windows);
   EXPECT_FALSE(few.joint_tested);
   EXPECT_NEAR(few.joint_chi2, 200.0, 1e-9);  // still computed and printed
   EXPECT_TRUE(few.agree) << few.text;
-  EXPECT_NE(few.text.find("not tested: a covariance from 36 cells, under 90"), std::string::npos) << few.text;
+  EXPECT_NE(few.text.find("not tested: a covariance from 24 cells, under 36"), std::string::npos) << few.text;
 }
 
 TEST(WindowAgreement, WindowsOfAnotherQualityAreLeftOut) {
