@@ -19,7 +19,8 @@
 // error| of the three axes (%) and of the largest |non-orthogonality error| (deg), and the
 // share of the six parameters
 // (3 scale ratios, 3 non-orthogonalities) inside their 95 % intervals. Per-seed lines start
-// with "seed". Environment knobs (MC_*) change one disturbance at a time; see scenario().
+// with "seed". Environment knobs (MC_*) change one disturbance at a time; see scenario() in
+// unmodelled_scenario.hpp.
 // MC_METHODS (default "default,plain") lists the estimators, each on the same records: default
 // (the package's defaults), plain (Eq. 2), ratio1 (robust, EIV ratio 1: the default before
 // issue 13), none (robust, no EIV correction), given (robust, EIV with the simulated reference
@@ -33,6 +34,7 @@
 // MC_PRINT_MODEL=1 adds, after each pipeline line, the window's response model and its
 // reference-noise-from-the-pair line ("#   ...").
 #include "bias_scatter.hpp"
+#include "unmodelled_scenario.hpp"
 #include "window_agreement.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
@@ -61,10 +63,7 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-double knob(const char* name, double value) {
-  const char* text = std::getenv(name);
-  return text != nullptr ? std::atof(text) : value;
-}
+using monte_carlo::knob;
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return NAN;
@@ -106,58 +105,6 @@ struct Tally {
   }
 };
 
-/// The station of one seed. kind "disturbed": weak vertical, traffic, spikes, gaps, pier tilt
-/// walk, heater, response mismatch; "quiet": simulator defaults, nothing else.
-void scenario(const std::string& kind, std::uint64_t seed, double days, mic::SimulationSettings& s,
-              mic::StationDisturbanceSettings& d, mic::UnmodelledDisturbanceSettings& u) {
-  std::mt19937_64 rng(seed * 7919 + 17);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  s = mic::SimulationSettings{};
-  s.seed = seed;
-  s.duration_s = days * 86400.0;
-  s.keep_clean_field = false;
-  d = mic::StationDisturbanceSettings{};
-  d.seed = seed;
-  u = mic::UnmodelledDisturbanceSettings{};
-  u.seed = seed;
-  // Instrument noise (simulator defaults: white 0.01 nT per sample, 1/f 0.005 nT/sqrt(Hz) at 1 Hz).
-  s.reference_white_nT = knob("MC_REF_WHITE", s.reference_white_nT);
-  s.test_white_nT = knob("MC_TEST_WHITE", s.test_white_nT);
-  s.reference_pink_nT_per_sqrt_hz = knob("MC_REF_PINK", s.reference_pink_nT_per_sqrt_hz);
-  s.test_pink_nT_per_sqrt_hz = knob("MC_TEST_PINK", s.test_pink_nT_per_sqrt_hz);
-  if (kind == "quiet") return;
-  if (kind == "filter") {  // a quiet station whose test sits behind a filter and a delay (issue 14)
-    s.variation_rms_nT = knob("MC_RMS", s.variation_rms_nT);
-    u.test_corner_hz = knob("MC_CORNER", 0.03);
-    u.test_delay_s = knob("MC_DELAY", 2.0);
-    return;
-  }
-  // Weak in-band signal, weak vertical (rms over the record; the f^-2 spectrum puts most of it
-  // in the lowest harmonics).
-  s.variation_rms_nT = knob("MC_RMS", 5.0) * std::sqrt(days);
-  s.variation_z_ratio = knob("MC_ZRATIO", 0.2);
-  s.spikes_per_day = knob("MC_SPIKES", 20);     // 50 nT glitches, despiked
-  s.gap_count = static_cast<int>(knob("MC_GAPS", 2) * days);
-  s.gap_length_s = knob("MC_GAP_S", 600.0);
-  // Traffic: vehicles seen by the two sensors with different gains and directions.
-  d.vehicles_per_day = knob("MC_VEHICLES", 150);
-  d.road_distance_m = knob("MC_ROAD_M", 80.0);
-  d.test_sensor_offset_m = Eigen::Vector3d(3.0, 4.0, 0.0) * knob("MC_SENSOR_SPACING", 1.0);
-  d.parking_probability = knob("MC_PARKING", 0.03);
-  d.small_spikes_per_day = knob("MC_SMALL_SPIKES", 50);
-  d.steps = 0;
-  // Test pier tilt walk: ~0.6 nT after 5 days.
-  u.tilt_walk_nT_per_sqrt_day = knob("MC_TILT_WALK", 0.27);
-  // Heater in the test sensor: 0.02-0.05 nT, random direction, ~30 min cycles.
-  const double heater = knob("MC_HEATER", 1.0) * (0.02 + 0.03 * uniform(rng));
-  Eigen::Vector3d dir(uniform(rng) - 0.5, uniform(rng) - 0.5, uniform(rng) - 0.5);
-  u.heater_nT = heater * dir.normalized();
-  u.heater_period_s = knob("MC_HEATER_PERIOD", 1800.0);
-  // Response mismatch: test low-passed at MC_CORNER Hz (0: none) and delayed by MC_DELAY s.
-  u.test_corner_hz = knob("MC_CORNER", 0.5);
-  u.test_delay_s = knob("MC_DELAY", 0.2);
-}
-
 int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t first_seed) {
   std::vector<std::string> names;
   {
@@ -184,14 +131,9 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < seeds; ++k) {
     const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
+    const bool third = std::find(names.begin(), names.end(), "hat") != names.end();  // needs the clean field
     mic::SimulationSettings s;
-    mic::StationDisturbanceSettings d;
-    mic::UnmodelledDisturbanceSettings u;
-    scenario(kind, seed, days, s, d, u);
-    s.keep_clean_field = std::find(names.begin(), names.end(), "hat") != names.end();  // the third's field
-    mic::SimulatedPair pair = mic::simulate_pair(s);
-    if (kind == "disturbed") mic::add_station_disturbances(pair, d);
-    if (kind != "quiet") mic::add_unmodelled_disturbances(pair, u);
+    const mic::SimulatedPair pair = monte_carlo::station_records(kind, seed, days, third, &s);
     const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, base.preprocess);
     mic::IdentifiedNoise third_noise;
     if (std::find(names.begin(), names.end(), "hat") != names.end()) {

@@ -8,8 +8,10 @@
 //   monte_carlo_window_agreement [seeds=200] [days=1] [intervals=4] [step_pct=0] [first_seed=14000]
 //
 // Records: the simulator's defaults (a quiet station, equal noise in both instruments) of `days`
-// days at 1 Hz. The step multiplies the test's z variations about their mean from the middle
-// sample on, so that the second half's z scale ratio is (1 + step) times the first's.
+// days at 1 Hz; MC_STATION=disturbed, the disturbed station of monte_carlo_unmodelled (traffic,
+// spikes, gaps, a tilting test pier, heater, response mismatch; unmodelled_scenario.hpp). The
+// step multiplies the test's z variations about their mean from the middle sample on, so that the
+// second half's z scale ratio is (1 + step) times the first's.
 //
 // Also printed: the calibration node's change check (estimation/calibration_change.hpp) between
 // each pair of consecutive windows, at the node's default false-alarm probability 1e-3: the share
@@ -20,6 +22,7 @@
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "unmodelled_scenario.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -101,15 +104,18 @@ int main(int argc, char** argv) {
                  "usage: monte_carlo_window_agreement [seeds>=1] [days>0] [intervals>=2] [step_pct] [first_seed]\n");
     return 2;
   }
+  const char* station_env = std::getenv("MC_STATION");
+  const std::string station = station_env != nullptr ? station_env : "quiet";
+  if (station != "quiet" && station != "disturbed" && station != "filter") {
+    std::fprintf(stderr, "MC_STATION: quiet, disturbed or filter (unmodelled_scenario.hpp), not '%s'\n", station.c_str());
+    return 2;
+  }
   const char* names[2] = {"default", "plain Eq. 2"};
   Rates rates[2];
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < seeds; ++k) {
-    mic::SimulationSettings s;
-    s.seed = first_seed + static_cast<unsigned long long>(k);
-    s.duration_s = days * 86400.0;
-    s.keep_clean_field = false;
-    mic::SimulatedPair pair = mic::simulate_pair(s);
+    const unsigned long long seed = first_seed + static_cast<unsigned long long>(k);
+    mic::SimulatedPair pair = monte_carlo::station_records(station, seed, days);
     if (step_pct != 0.0) {
       auto z = pair.test.values_nT.col(2);
       const double mean = z.mean();
@@ -137,13 +143,14 @@ int main(int argc, char** argv) {
         rates[m].bucket_below_1pct[b] += a.joint_p_value < 0.01;
       }
       tally_changes(disjoint, rates[m]);
-      std::printf("seed %llu %s: %s\n", static_cast<unsigned long long>(s.seed), names[m], a.text.c_str());
+      std::printf("seed %llu %s: %s\n", seed, names[m], a.text.c_str());
     }
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf(
-      "\n# %d records of %.2f days, %d intervals, z scale step %+.2f %% at the middle, seeds %llu-%llu, %.0f s\n",
-      seeds, days, intervals, step_pct, first_seed, first_seed + seeds - 1, seconds);
+      "\n# %d records of %.2f days of a %s station, %d intervals, z scale step %+.2f %% at the middle, seeds %llu-%llu, "
+      "%.0f s\n",
+      seeds, days, station.c_str(), intervals, step_pct, first_seed, first_seed + seeds - 1, seconds);
   std::printf(
       "| estimator | called disagreeing | of those, naming scale z | joint p < 0.05 | parameters with p < 0.05 | mean "
       "joint chi2/dof | change check, consecutive windows at 1e-3 (joint test alone; chi2's tail) |\n|---|---|---|---|---|---|---|\n");

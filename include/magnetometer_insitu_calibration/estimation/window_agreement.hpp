@@ -31,7 +31,8 @@
 // A disagreement means that n is not one matrix through the record (a real change, or a relation
 // that depends on the field's frequencies or directions, which change through a day) or that the
 // windows' intervals are too narrow; either way the whole record's interval is then optimistic,
-// by up to the largest Birge ratio. Windows whose quality is not ok are left out.
+// by up to the largest Birge ratio. Windows whose quality is not ok are left out, and so are
+// windows whose covariance rests on 4 cells or fewer (no reference distribution; the text says so).
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"

@@ -80,15 +80,22 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
                                        const WindowAgreementSettings& settings) {
   settings.validate();
   WindowAgreement out;
+  // A parameter's reference needs the variance of each window's t^2, which exists above 4 cells
+  // (quadratic_form_moments): a window whose covariance rests on fewer (one strong harmonic
+  // carrying its sandwich) is left out, and the text says so.
   std::vector<const WindowEstimate*> ok;
+  int too_few_cells = 0;
   for (const WindowEstimate& w : windows) {
-    if (w.quality == Quality::kOk) ok.push_back(&w);
+    if (w.quality != Quality::kOk) continue;
+    if (w.covariance_dof > 4.0) ok.push_back(&w);
+    else ++too_few_cells;
   }
   out.windows = static_cast<int>(ok.size());
   std::ostringstream text;
   text << std::setprecision(3);
   if (ok.size() < 2) {
     text << "not assessed: " << ok.size() << " of " << windows.size() << " windows ok (2 needed)";
+    if (too_few_cells > 0) text << "; " << too_few_cells << " ok windows left out, covariances from 4 cells or fewer";
     out.text = text.str();
     return out;
   }
@@ -151,6 +158,7 @@ WindowAgreement check_window_agreement(const std::vector<WindowEstimate>& window
   const ParameterAgreement& worst = out.parameters[largest];
   text << "); largest sqrt(chi2/" << worst.expected_chi2 << ") " << worst.birge_ratio
        << ", " << WindowAgreement::kParameterNames[largest] << " (p " << worst.p_value << ")";
+  if (too_few_cells > 0) text << "; " << too_few_cells << " ok windows left out, covariances from 4 cells or fewer";
   if (!out.agree) {
     text << ": n is not one matrix through the record, or the intervals are too narrow; the whole record's "
             "intervals are optimistic by up to that factor";

@@ -147,6 +147,17 @@ TEST(WindowAgreement, WindowsOfAnotherQualityAreLeftOut) {
   EXPECT_FALSE(none.assessed);
   EXPECT_NE(none.text.find("no usable interval for scale z"), std::string::npos) << none.text;
 
+  // A covariance from 4 cells or fewer (one strong harmonic carrying the sandwich) has no
+  // reference distribution: that window is left out, and the text says so.
+  std::vector<mic::WindowEstimate> few_cells = {window(1.00, 0.01), window(1.02, 0.01), window(0.99, 0.02),
+                                                window(1.5, 0.001)};
+  few_cells[3].covariance_dof = 3.5;
+  const mic::WindowAgreement left_out = mic::check_window_agreement(few_cells);
+  EXPECT_EQ(left_out.windows, 3);
+  EXPECT_NEAR(left_out.parameters[2].chi2, 26.0 / 9.0, 1e-9);
+  EXPECT_NE(left_out.text.find("1 ok windows left out, covariances from 4 cells or fewer"), std::string::npos)
+      << left_out.text;
+
   mic::WindowAgreementSettings wrong;
   wrong.significance = 0.7;
   EXPECT_THROW(mic::check_window_agreement(no_interval, wrong), mic::InputError);
