@@ -107,7 +107,8 @@ int main(int argc, char** argv) {
   const char* station_env = std::getenv("MC_STATION");
   const std::string station = station_env != nullptr ? station_env : "quiet";
   if (station != "quiet" && station != "disturbed" && station != "filter") {
-    std::fprintf(stderr, "MC_STATION: quiet, disturbed or filter (unmodelled_scenario.hpp), not '%s'\n", station.c_str());
+    std::fprintf(stderr, "MC_STATION: quiet, disturbed or filter (unmodelled_scenario.hpp), not '%s'\n",
+                 station.c_str());
     return 2;
   }
   const char* names[2] = {"default", "plain Eq. 2"};
@@ -148,12 +149,14 @@ int main(int argc, char** argv) {
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf(
-      "\n# %d records of %.2f days of a %s station, %d intervals, z scale step %+.2f %% at the middle, seeds %llu-%llu, "
+      "\n# %d records of %.2f days of a %s station, %d intervals, z scale step %+.2f %% at the middle, "
+      "seeds %llu-%llu, "
       "%.0f s\n",
       seeds, days, station.c_str(), intervals, step_pct, first_seed, first_seed + seeds - 1, seconds);
   std::printf(
       "| estimator | called disagreeing | of those, naming scale z | joint p < 0.05 | parameters with p < 0.05 | mean "
-      "joint chi2/dof | change check, consecutive windows at 1e-3 (joint test alone; chi2's tail) |\n|---|---|---|---|---|---|---|\n");
+      "joint chi2/dof | change check, consecutive windows at 1e-3 (joint test alone; chi2's tail) |\n"
+      "|---|---|---|---|---|---|---|\n");
   for (int m = 0; m < 2; ++m) {
     const Rates& r = rates[m];
     const double n = r.assessed > 0 ? r.assessed : 1;
@@ -165,7 +168,9 @@ int main(int argc, char** argv) {
                 100.0 * r.change_significant / pairs, r.change_significant, r.change_pairs,
                 100.0 * r.change_significant_joint / pairs, 100.0 * r.change_significant_chi2 / pairs);
   }
-  std::printf("\n| estimator | joint chi2 / its expected value (T^2) | joint test decided | fewest cells of a window (mean) |\n|---|---|---|---|\n");
+  std::printf(
+      "\n| estimator | joint chi2 / its expected value (T^2) | joint test decided | fewest cells of a window (mean) "
+      "|\n|---|---|---|---|\n");
   for (int m = 0; m < 2; ++m) {
     const Rates& r = rates[m];
     const double n = r.assessed > 0 ? r.assessed : 1;
@@ -182,12 +187,14 @@ int main(int argc, char** argv) {
         std::printf(" [%.0f, %s): %d, %.1f %%, %.1f %%;", low,
                     b + 1 < Rates::kBuckets ? std::to_string(static_cast<int>(Rates::kBucketTop[b])).c_str() : "inf",
                     r.bucket_records[b],
-                    100.0 * r.bucket_below_5pct[b] / r.bucket_records[b], 100.0 * r.bucket_below_1pct[b] / r.bucket_records[b]);
+                    100.0 * r.bucket_below_5pct[b] / r.bucket_records[b],
+                    100.0 * r.bucket_below_1pct[b] / r.bucket_records[b]);
       low = Rates::kBucketTop[b];
     }
     std::printf(" |\n");
   }
-  std::printf("\n| estimator | first window against each of the second half's, at 1e-3 (joint test alone) |\n|---|---|\n");
+  std::printf(
+      "\n| estimator | first window against each of the second half's, at 1e-3 (joint test alone) |\n|---|---|\n");
   for (int m = 0; m < 2; ++m) {
     const Rates& r = rates[m];
     const double pairs = r.late_pairs > 0 ? r.late_pairs : 1;

@@ -165,8 +165,9 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
       status.add("change status", calibration_change_status_name(ch.last_change.status));
       status.add("change chi2 (9 dof)", ch.last_change.chi2);
       status.add("change p-value", ch.last_change.p_value);
-      status.add("change decided by", ch.last_change.joint_tested ? "joint test (9 entries of n)"
-                                                                  : "parameters one by one (covariances from few cells)");
+      status.add("change decided by", ch.last_change.joint_tested
+                                          ? "joint test (9 entries of n)"
+                                          : "parameters one by one (covariances from few cells)");
       status.add("change smallest parameter p-value", ch.last_change.parameter_p_value);
       status.add("change max z (scale)", ch.last_change.scale_z.maxCoeff());
       status.add("change max z (nonorthogonality)", ch.last_change.nonorthogonality_z.maxCoeff());

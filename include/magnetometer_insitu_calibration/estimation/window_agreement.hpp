@@ -14,9 +14,10 @@
 // 9 (K - 1) dof. Each window's covariance is itself estimated, from nu_k = covariance_dof
 // cells (fd_wlse.hpp: as many as share its sandwich equally), so each window's term is
 // Hotelling's T^2, not chi2: mean p nu / (nu - p - 1) over p entries (1.6 x chi2's for p = 9 at
-// nu = 26, a simulated one-hour window's; 2 x at a real WIC hour's 20) and a heavier tail. Both statistics are referred to a chi2 scaled to
-// the sum's mean and variance, each window contributing (K - 1) / K of its T^2's moments
-// (Satterthwaite); for known covariances that is chi2 with K - 1 and 9 (K - 1) dof, as above.
+// nu = 26, a simulated one-hour window's; 2 x at a real WIC hour's 20) and a heavier tail. Both
+// statistics are referred to a chi2 scaled to the sum's mean and variance, each window
+// contributing (K - 1) / K of its T^2's moments (Satterthwaite); for known covariances that is
+// chi2 with K - 1 and 9 (K - 1) dof, as above.
 // The Birge ratio is sqrt(chi2 / its mean).
 // The windows disagree when the joint tail probability is below `significance`, or
 // a parameter's is below significance / 9 (Bonferroni over the nine parameters): a false alarm

@@ -273,7 +273,8 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
     for (int pass = 0; pass < 2; ++pass) {
       for (long j = m0; j <= m; ++j) {
         load_bin(static_cast<std::size_t>(j));
-        const VectorP x = scale.cast<std::complex<double>>().asDiagonal() * wx;  // the trend column at the field's scale
+        // The trend column at the field columns' scale, as in the solve.
+        const VectorP x = scale.cast<std::complex<double>>().asDiagonal() * wx;
         if (pass == 0) sandwich_cells.add(x, weight(j), one);
         else sandwich_cells.share(x, weight(j), one);
       }

@@ -353,8 +353,10 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
   {  // the cells behind the sandwich, as many as share it equally (sandwich_cells.hpp)
     detail::SandwichCells sandwich_cells(3);
     auto sigma2 = [&](const Cell& cell) { return scale2[static_cast<std::size_t>(cell.bin)]; };
-    for (std::size_t i = 0; i < cells.size(); ++i) sandwich_cells.add(cells[i].x, fit.weight[i] * cells[i].g, sigma2(cells[i]));
-    for (std::size_t i = 0; i < cells.size(); ++i) sandwich_cells.share(cells[i].x, fit.weight[i] * cells[i].g, sigma2(cells[i]));
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      sandwich_cells.add(cells[i].x, fit.weight[i] * cells[i].g, sigma2(cells[i]));
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      sandwich_cells.share(cells[i].x, fit.weight[i] * cells[i].g, sigma2(cells[i]));
     // No count when a column's residual power is zero in every bin (noise-free records): then the
     // cells themselves.
     const double count = sandwich_cells.count();

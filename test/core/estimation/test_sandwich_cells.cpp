@@ -78,6 +78,7 @@ TEST(SandwichCells, OneStrongHarmonicLeavesTheSandwichFewerCells) {
     EXPECT_LE(a.covariance_dof, 36.0 + 1e-9) << a.method;
     EXPECT_GT(a.covariance_dof, 18.0) << a.method;
     EXPECT_LT(b.covariance_dof, 0.5 * a.covariance_dof) << a.method;
-    std::printf("%s: %.1f cells of 36; with the pulsation %.1f\n", a.method.c_str(), a.covariance_dof, b.covariance_dof);
+    std::printf("%s: %.1f cells of 36; with the pulsation %.1f\n", a.method.c_str(), a.covariance_dof,
+                b.covariance_dof);
   }
 }
