@@ -14,6 +14,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 
@@ -107,13 +108,8 @@ int covered_with(const mic::WindowEstimate& e, const mic::Matrix9d& cov, const E
   return errors_of(copy, truth).covered;
 }
 
-double student_t975(double dof) {
-  const double z = 1.959963985;
-  const double z2 = z * z, z3 = z2 * z, z5 = z3 * z2, z7 = z5 * z2, z9 = z7 * z2;
-  return z + (z3 + z) / (4.0 * dof) + (5 * z5 + 16 * z3 + 3 * z) / (96.0 * dof * dof) +
-         (3 * z7 + 19 * z5 + 17 * z3 - 15 * z) / (384.0 * dof * dof * dof) +
-         (79 * z9 + 776 * z7 + 1482 * z5 - 1920 * z3 - 945 * z) / (92160.0 * dof * dof * dof * dof);
-}
+/// Student's t 97.5 % quantile with dof degrees of freedom.
+double student_t975(double dof) { return mic::student_t_two_sided_quantile(0.05, dof); }
 
 int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
   std::printf("# disturbed station: %d seeds from %llu, %.1f days at 1 Hz, whole record as one window\n", seeds,

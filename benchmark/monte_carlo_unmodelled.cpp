@@ -77,8 +77,13 @@ double percentile(std::vector<double> v, double p) {
 struct Tally {
   std::vector<double> scale_pct, angle_deg;
   int covered = 0, checked = 0;
+  // The same intervals with the normal quantile 1.96 instead of the window's Student t (the
+  // intervals before session 20), to compare the two on the same records.
+  int covered_normal = 0;
+  std::vector<double> quantile;  // each window's half-width in standard errors
   // Per parameter (scale x, y, z; non-orthogonality xy, xz, yz): inside its interval, and the
-  // error in standard errors (ci95 / 1.96), to tell a biased parameter from a wide scatter.
+  // error in standard errors (ci95 / interval_quantile), to tell a biased parameter from a wide
+  // scatter.
   Eigen::Matrix<double, 6, 1> inside = Eigen::Matrix<double, 6, 1>::Zero(), z_sum = inside, z2_sum = inside;
   void add(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth, int (&cov)[6]) {
     const mic::CalibrationParameters t = mic::decompose(truth);
@@ -91,7 +96,10 @@ struct Tally {
       worst_angle = std::max(worst_angle, std::abs(da));
       cov[l] = std::abs(ds) <= q.scale_ratio_ci95(l);
       cov[3 + l] = std::abs(da) <= q.nonorthogonality_ci95_deg(l);
-      const double z[2] = {ds / (q.scale_ratio_ci95(l) / 1.96), da / (q.nonorthogonality_ci95_deg(l) / 1.96)};
+      const double se[2] = {q.scale_ratio_ci95(l) / q.interval_quantile,
+                            q.nonorthogonality_ci95_deg(l) / q.interval_quantile};
+      const double z[2] = {ds / se[0], da / se[1]};
+      covered_normal += (std::abs(z[0]) <= 1.959964) + (std::abs(z[1]) <= 1.959964);
       for (int k = 0; k < 2; ++k) {
         inside(3 * k + l) += cov[3 * k + l];
         z_sum(3 * k + l) += z[k];
@@ -102,6 +110,7 @@ struct Tally {
     }
     scale_pct.push_back(worst_scale);
     angle_deg.push_back(worst_angle);
+    quantile.push_back(q.interval_quantile);
   }
 };
 
@@ -214,12 +223,16 @@ int run_simulated(const std::string& kind, int seeds, double days, std::uint64_t
     std::fflush(stdout);
   }
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf("\n| estimator | max scale error median / 95th pct | max non-orthogonality error median / 95th pct | 6 parameters inside 95 %% interval |\n|---|---|---|---|\n");
+  std::printf("\n| estimator | max scale error median / 95th pct | max non-orthogonality error median / 95th pct "
+              "| 6 parameters inside 95 %% interval | the same with 1.96 se | half-width in se, median (5th-95th "
+              "pct) |\n|---|---|---|---|---|---|\n");
   for (int m = 0; m < methods; ++m) {
     const Tally& t = tally[static_cast<std::size_t>(m)];
-    std::printf("| %s | %.3f / %.3f %% | %.3f / %.3f deg | %.1f %% |\n", names[static_cast<std::size_t>(m)].c_str(), percentile(t.scale_pct, 0.5),
-                percentile(t.scale_pct, 0.95), percentile(t.angle_deg, 0.5), percentile(t.angle_deg, 0.95),
-                100.0 * t.covered / std::max(1, t.checked));
+    std::printf("| %s | %.3f / %.3f %% | %.3f / %.3f deg | %.1f %% | %.1f %% | %.3f (%.3f-%.3f) |\n",
+                names[static_cast<std::size_t>(m)].c_str(), percentile(t.scale_pct, 0.5), percentile(t.scale_pct, 0.95),
+                percentile(t.angle_deg, 0.5), percentile(t.angle_deg, 0.95), 100.0 * t.covered / std::max(1, t.checked),
+                100.0 * t.covered_normal / std::max(1, t.checked), percentile(t.quantile, 0.5),
+                percentile(t.quantile, 0.05), percentile(t.quantile, 0.95));
   }
   for (int m = 0; m < methods; ++m) {
     const Tally& t = tally[static_cast<std::size_t>(m)];

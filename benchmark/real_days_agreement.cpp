@@ -27,7 +27,6 @@
 #include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
-using monte_carlo::kZ95;
 using monte_carlo::quarters_scatter;
 using monte_carlo::six_parameters;
 using Six = monte_carlo::SixParameters;
@@ -90,7 +89,7 @@ int main(int argc, char** argv) {
         print_row((tag + ": value").c_str(), whole.back().value, " %10.5f");
         print_row("  ci95", [&] {
           std::array<double, 6> c{};
-          for (int k = 0; k < 6; ++k) c[k] = kZ95 * whole.back().se[k];
+          for (int k = 0; k < 6; ++k) c[k] = whole.back().ci95(k);
           return c;
         }(), " %10.5f");
         print_row("  quarters' sqrt(chi2/3)", quarters_scatter(result.windows), " %10.2f");

@@ -189,7 +189,7 @@ void what_if(const mic::PreparedPair& prepared, const std::vector<mic::Calibrati
     std::vector<monte_carlo::SixParameters> quarters;
     for (std::size_t w = 0; w + 1 < windows.size(); ++w) quarters.push_back(monte_carlo::six_parameters(windows[w]));
     const monte_carlo::SixParameters day = monte_carlo::six_parameters(windows.back());
-    std::printf("  %-17s scale z %.5f +- %.5f; quarters' z", run.first, day.value[2], monte_carlo::kZ95 * day.se[2]);
+    std::printf("  %-17s scale z %.5f +- %.5f; quarters' z", run.first, day.value[2], day.ci95(2));
     for (const auto& q : quarters) std::printf(" %.5f", q.value[2]);
     const std::array<double, 6> scatter = monte_carlo::quarters_scatter(windows);
     std::printf("; sqrt(chi2/3) %.2f %.2f %.2f; %.2f %.2f %.2f\n", scatter[0], scatter[1], scatter[2], scatter[3],

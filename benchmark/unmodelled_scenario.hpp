@@ -78,6 +78,28 @@ inline void scenario(const std::string& kind, std::uint64_t seed, double days, m
   u.test_delay_s = knob("MC_DELAY", 0.2);
 }
 
+/// A geomagnetic pulsation seen by both instruments as the field is (reference += b, test += b n,
+/// before any one-sensor disturbance or filter): MC_PULSATION_NT nT amplitude (0, the default:
+/// none), a steady sinusoid through the record at a frequency drawn uniformly in 2-7 mHz (Pc5,
+/// inside the default band), random phase and direction. A few harmonics then carry most of a
+/// short window's signal, as in the real WIC hours whose covariances rest on 9-12 cells (B25, B26).
+inline void add_pulsation(mic::SimulatedPair& pair, std::uint64_t seed) {
+  const double amplitude = knob("MC_PULSATION_NT", 0.0);
+  if (amplitude == 0.0) return;
+  std::mt19937_64 rng(seed * 104729 + 3);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal;
+  const double frequency_hz = 0.002 + 0.005 * uniform(rng), phase = 2.0 * M_PI * uniform(rng);
+  const Eigen::RowVector3d direction = Eigen::RowVector3d(normal(rng), normal(rng), normal(rng)).normalized();
+  for (Eigen::Index i = 0; i < pair.reference.values_nT.rows(); ++i) {
+    const double t = pair.reference.time_s[static_cast<std::size_t>(i)] - pair.reference.time_s.front();
+    const Eigen::RowVector3d b = amplitude * std::sin(2.0 * M_PI * frequency_hz * t + phase) * direction;
+    pair.reference.values_nT.row(i) += b;
+    pair.test.values_nT.row(i) += b * pair.n_true;
+    if (pair.field_nT.rows() == pair.reference.values_nT.rows()) pair.field_nT.row(i) += b;  // a third's field
+  }
+}
+
 /// The records of one seed of `kind` ("quiet", "disturbed" or "filter"), `days` long; with
 /// keep_clean_field, the clean field too (a third instrument's); the simulator's settings in
 /// `settings` when given.
@@ -90,6 +112,7 @@ inline mic::SimulatedPair station_records(const std::string& kind, std::uint64_t
   s.keep_clean_field = keep_clean_field;
   if (settings != nullptr) *settings = s;
   mic::SimulatedPair pair = mic::simulate_pair(s);
+  add_pulsation(pair, seed);
   if (kind == "disturbed") mic::add_station_disturbances(pair, d);
   if (kind != "quiet") mic::add_unmodelled_disturbances(pair, u);
   return pair;

@@ -12,13 +12,13 @@
 
 namespace monte_carlo {
 
-/// ci95 half-width / standard error.
-constexpr double kZ95 = 1.959964;
-
 /// The scale ratios x, y, z and the non-orthogonalities xy, xz, yz (deg) of one window, with their
-/// standard errors (ci95 / kZ95).
+/// standard errors (ci95 / quantile) and the window's ci95 half-width in standard errors (Student's
+/// t with the covariance's cells, CalibrationParameters::interval_quantile).
 struct SixParameters {
   std::array<double, 6> value{}, se{};
+  double quantile = 1.959964;
+  double ci95(int k) const { return quantile * se[static_cast<std::size_t>(k)]; }
 };
 
 inline SixParameters six_parameters(const magnetometer_insitu_calibration::CalibrationWindow& w) {
@@ -28,6 +28,7 @@ inline SixParameters six_parameters(const magnetometer_insitu_calibration::Calib
     s.value[k] = p.value;
     s.se[k] = p.se;
   }
+  s.quantile = w.estimate.parameters.interval_quantile;
   return s;
 }
 

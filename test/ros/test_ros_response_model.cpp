@@ -47,7 +47,7 @@ double worst_scale_error(const mic::WindowEstimate& e, const Eigen::Matrix3d& tr
   const mic::CalibrationParameters t = mic::decompose(truth);
   double worst = 0.0;
   for (int k = 0; k < 3; ++k) {
-    const double se = in_se ? e.parameters.scale_ratio_ci95(k) / 1.96 : 1.0;
+    const double se = in_se ? e.parameters.scale_ratio_ci95(k) / e.parameters.interval_quantile : 1.0;
     worst = std::max(worst, std::abs(e.parameters.scale_ratio(k) - t.scale_ratio(k)) / se);
   }
   return worst;

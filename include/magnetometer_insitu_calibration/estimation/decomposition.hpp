@@ -1,5 +1,6 @@
 // Decomposition of the calibration matrix n into scale-factor ratios, non-orthogonality,
-// misalignment and axis deviations, with 95 % intervals by the delta method.
+// misalignment and axis deviations, with 95 % intervals by the delta method: +- a Student t
+// quantile times the standard error, the t's degrees of freedom those of the covariance.
 //
 // Convention (as in Marusenkov et al., Eq. 1, rows are samples): T = R n, so test reading l is
 // the projection of the field (reference coordinates) on column l of n: column l of n is test
@@ -8,6 +9,8 @@
 #pragma once
 
 #include <Eigen/Core>
+
+#include <limits>
 
 namespace magnetometer_insitu_calibration {
 
@@ -33,14 +36,27 @@ struct CalibrationParameters {
   Eigen::Vector3d nonorthogonality_ci95_deg = Eigen::Vector3d::Zero();
   Eigen::Vector3d misalignment_ci95_deg = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis_deviation_ci95_deg = Eigen::Vector3d::Zero();
+
+  /// Degrees of freedom behind the intervals: the spectral cells n's covariance rests on
+  /// (WindowEstimate::covariance_dof); infinite when the covariance is taken as known.
+  double interval_dof = std::numeric_limits<double>::infinity();
+  /// Half-width of each 95 % interval in standard errors: Student's t two-sided 5 % quantile with
+  /// interval_dof degrees of freedom (1.960 when infinite, 2.064 at 24 cells, 2.228 at 10). A
+  /// parameter's standard error is its ci95 / interval_quantile.
+  double interval_quantile = 1.959963984540054;
 };
 
 /// Point values only (no intervals).
 CalibrationParameters decompose(const Eigen::Matrix3d& n);
 
 /// Point values and 95 % intervals from the 9x9 covariance of row-major vec(n), by the delta
-/// method: the Jacobian of the decomposition is taken by central differences.
-CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covariance);
+/// method: the Jacobian of the decomposition is taken by central differences. covariance_dof: the
+/// covariance's degrees of freedom (spectral cells); the half-widths are Student's t quantile
+/// with as many degrees of freedom times the standard errors (the normal's 1.960 when infinite).
+/// A covariance from few cells is itself uncertain: with the normal quantile a window of 10
+/// cells would cover 93 % at most, 10 % too narrow (docs/estimator_validation.md B26).
+CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covariance,
+                                double covariance_dof = std::numeric_limits<double>::infinity());
 
 /// Rotation matrix from a rotation vector (radians), and back (the principal logarithm).
 Eigen::Matrix3d rotation_from_vector(const Eigen::Vector3d& rotation_vector_rad);

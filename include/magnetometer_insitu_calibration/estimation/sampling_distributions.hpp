@@ -42,6 +42,13 @@ double combined_covariance_dof(const Matrix9d& a, double a_dof, const Matrix9d& 
 /// (Bonferroni), whose tests hold from fewer cells.
 constexpr double kJointTestMinCells = 36.0;
 
+/// Two-sided quantile of Student's t with nu (> 0, not necessarily whole) degrees of freedom: the
+/// x with P(|t_nu| > x) = tail, e.g. 2.064 for tail 0.05 and nu = 24, 1.960 (the normal's) for an
+/// infinite nu; NaN for nu <= 0 or a tail outside (0, 1). A 95 % interval from a standard error
+/// whose variance is estimated from nu spectral cells is +- x(0.05, nu) standard errors
+/// (decomposition.hpp, WindowEstimate::covariance_dof).
+double student_t_two_sided_quantile(double tail, double nu);
+
 /// Upper tail probability of the chi^2 distribution with `dof` (> 0, not necessarily whole)
 /// degrees of freedom at x (regularised incomplete gamma function Q(dof/2, x/2)).
 double chi2_tail_probability(double x, double dof);

@@ -77,7 +77,7 @@ struct WindowAgreementSettings {
   void validate() const;  ///< throws InputError naming the field
 };
 
-/// Value and standard error (ci95 half-width / 1.959964) of parameter k of a decomposition, in
+/// Value and standard error (ci95 half-width / interval_quantile) of parameter k of a decomposition, in
 /// WindowAgreement::kParameterNames order (0-2 scale ratios, 3-5 non-orthogonality deg, 6-8
 /// misalignment deg).
 struct ValueAndError {

@@ -1,5 +1,6 @@
 // Decomposition of n (T = R n, column l = test axis l in reference coordinates).
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
@@ -10,7 +11,6 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 constexpr double kDegPerRad = 180.0 / M_PI;
-constexpr double kZ95 = 1.959963984540054;  // two-sided 95 % normal quantile
 
 /// Angle between two vectors, radians, stable for nearly (anti)parallel vectors.
 double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
@@ -65,7 +65,7 @@ Eigen::Matrix3d polar_orthogonal_factor(const Eigen::Matrix3d& m) {
 
 CalibrationParameters decompose(const Eigen::Matrix3d& n) { return from_values(derived_values(n)); }
 
-CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covariance) {
+CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covariance, double covariance_dof) {
   // Delta method: Cov(f(vec n)) ~= J Cov(vec n) J^T with J = d f / d vec(n) (12 x 9), taken by
   // central differences. The step is small against the entries of n (~1) and large against
   // rounding; the derived values are smooth except axis deviation at exactly zero (a norm),
@@ -80,9 +80,13 @@ CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covari
     jacobian.col(k) = (derived_values(plus) - derived_values(minus)) / (2.0 * h);
   }
   const Eigen::Matrix<double, 12, 12> cov = jacobian * covariance * jacobian.transpose();
-  const Values12 half_width = kZ95 * cov.diagonal().cwiseMax(0.0).cwiseSqrt();
+  // No cells (a failed window): the normal quantile, the intervals being NaN or zero anyway.
+  const double quantile = covariance_dof > 0.0 ? student_t_two_sided_quantile(0.05, covariance_dof) : 1.959963984540054;
+  const Values12 half_width = quantile * cov.diagonal().cwiseMax(0.0).cwiseSqrt();
 
   CalibrationParameters p = from_values(centre);
+  p.interval_dof = covariance_dof;
+  p.interval_quantile = quantile;
   p.scale_ratio_ci95 = half_width.segment<3>(0);
   p.nonorthogonality_ci95_deg = half_width.segment<3>(3);
   p.misalignment_ci95_deg = half_width.segment<3>(6);

@@ -301,7 +301,7 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
       result.trend_stderr_nT_per_day(l) = std::sqrt(std::max(0.0, cov_b(l * p + 3, l * p + 3)));
     }
   }
-  result.parameters = decompose(result.n, result.n_covariance);
+  result.parameters = decompose(result.n, result.n_covariance, result.covariance_dof);
 
   result.coherence = (Eigen::Vector3d::Ones() - residual_power.cwiseQuotient(test_power));
   // Parseval for the unnormalised DFT: in-band variance = 2 sum_band |E_j|^2 / N^2.

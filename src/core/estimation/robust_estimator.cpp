@@ -398,7 +398,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
     result.n_covariance += level_term;
     result.intervals += ", plus the identified reference noise's uncertainty";
   }
-  result.parameters = decompose(result.n, result.n_covariance);
+  result.parameters = decompose(result.n, result.n_covariance, result.covariance_dof);
   result.downweighted_fraction = 1.0 - weight_sum / std::max(weight_max_sum, 1.0);
 
   // Trend (test frame, nT/day): the trend column of Eq. 2 on the screened records, with its

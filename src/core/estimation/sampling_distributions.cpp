@@ -81,6 +81,23 @@ double f_tail_probability(double f, double d1, double d2) {
   return incomplete_beta(d2 / (d2 + d1 * f), 0.5 * d2, 0.5 * d1);
 }
 
+double student_t_two_sided_quantile(double tail, double nu) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  if (!(nu > 0.0) || !(tail > 0.0) || !(tail < 1.0)) return kNaN;
+  // P(|t_nu| > x) = P(F(1, nu) > x^2); for an infinite nu the normal's tail, erfc(x / sqrt 2).
+  const auto tail_at = [&](double x) {
+    return std::isfinite(nu) ? f_tail_probability(x * x, 1.0, nu) : std::erfc(x / std::sqrt(2.0));
+  };
+  // The tail falls with x; bracket the root, then bisect (the tail is continuous and monotone).
+  double low = 0.0, high = 2.0;
+  while (tail_at(high) > tail && high < 1e12) high *= 2.0;
+  for (int i = 0; i < 200 && high - low > 1e-13 * high; ++i) {
+    const double mid = 0.5 * (low + high);
+    (tail_at(mid) > tail ? low : high) = mid;
+  }
+  return 0.5 * (low + high);
+}
+
 QuadraticFormMoments quadratic_form_moments(double nu, int p) {
   if (!std::isfinite(nu)) return {static_cast<double>(p), 2.0 * p};
   const double d2 = nu - p + 1.0;

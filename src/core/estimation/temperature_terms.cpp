@@ -28,7 +28,7 @@ TemperatureFit with_temperature_terms(const WindowEstimateFunction& estimate_aga
   estimate = estimate_again(reference_nT, test_nT, sample_period_s);
   if (estimate.n.allFinite()) {
     estimate.n_covariance += fit.coupling * fit.covariance * fit.coupling.transpose();
-    estimate.parameters = decompose(estimate.n, estimate.n_covariance);
+    estimate.parameters = decompose(estimate.n, estimate.n_covariance, estimate.covariance_dof);
     // c = a - s F with F from the n published with the terms, not n0 (correction_node's lever).
     refer_offset_to_mean_field(fit, (reference_nT.colwise().mean() * estimate.n).transpose());
   }

@@ -18,11 +18,11 @@ const std::array<const char*, 9> WindowAgreement::kParameterNames = {
     "nonorthogonality yz", "misalignment x", "misalignment y", "misalignment z"};
 
 ValueAndError agreement_parameter(const CalibrationParameters& p, int k) {
-  constexpr double kZ95 = 1.959964;  // ci95 half-width / standard error
+  const double q = p.interval_quantile;  // ci95 half-width / standard error
   const int c = k % 3;
-  if (k < 3) return {p.scale_ratio(c), p.scale_ratio_ci95(c) / kZ95};
-  if (k < 6) return {p.nonorthogonality_deg(c), p.nonorthogonality_ci95_deg(c) / kZ95};
-  return {p.misalignment_deg(c), p.misalignment_ci95_deg(c) / kZ95};
+  if (k < 3) return {p.scale_ratio(c), p.scale_ratio_ci95(c) / q};
+  if (k < 6) return {p.nonorthogonality_deg(c), p.nonorthogonality_ci95_deg(c) / q};
+  return {p.misalignment_deg(c), p.misalignment_ci95_deg(c) / q};
 }
 
 void WindowAgreementSettings::validate() const {

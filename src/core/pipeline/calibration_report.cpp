@@ -104,6 +104,7 @@ json window_to_json(const CalibrationWindow& w) {
       {"eiv", e.eiv},
       {"weights", e.weights},
       {"covariance_cells", number(e.covariance_dof)},
+      {"interval_quantile", number(p.interval_quantile)},
       {"intervals", e.intervals},
       {"relative_response", response_to_json(w.relative_response)},
       {"response_model", model_to_json(w.response_model)},
@@ -213,7 +214,8 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
   std::ostringstream out;
   const PreprocessReport& r = c.report;
   out << "reference: " << inputs.reference << "\ntest:      " << inputs.test << "\n"
-      << "model T = R n + trend; values ± half-width of the 95 % interval\n"
+      << "model T = R n + trend; values ± half-width of the 95 % interval (n's parameters: Student's t with the "
+         "cells n's covariance rests on)\n"
       << "pre-processing: " << r.paired << " pairs (" << r.unpaired_reference << " reference and "
       << r.unpaired_test << " test samples unpaired), spikes removed " << r.spikes_reference << " / "
       << r.spikes_test << (r.decimated ? ", Gaussian FIR decimated" : "") << ", " << r.grid_samples
@@ -263,6 +265,11 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     });
     row("harmonics m0..m", [](const CalibrationWindow& w) {
       return std::to_string(w.estimate.harmonic_first) + ".." + std::to_string(w.estimate.harmonic_last);
+    });
+    row("cells, 95 % in se", [](const CalibrationWindow& w) {
+      char b[48];
+      std::snprintf(b, sizeof b, "%.1f, %.3f", w.estimate.covariance_dof, w.estimate.parameters.interval_quantile);
+      return std::string(b);
     });
     row("delay test-ref s", [](const CalibrationWindow& w) {
       return with_ci(w.estimate.delay_s, w.estimate.delay_ci95_s, 3);

@@ -87,9 +87,10 @@ mic::WindowEstimate hand_window(double z, double cells) {
   w.n_covariance = mic::Matrix9d::Identity() * 1e-4;
   w.covariance_dof = cells;
   w.parameters.scale_ratio = Eigen::Vector3d(1.0, 1.0, z);
-  w.parameters.scale_ratio_ci95.setConstant(0.01 * 1.959964);
-  w.parameters.nonorthogonality_ci95_deg.setConstant(0.5 * 1.959964);
-  w.parameters.misalignment_ci95_deg.setConstant(0.5 * 1.959964);
+  const double q = w.parameters.interval_quantile;  // the normal's: no cells given to decompose
+  w.parameters.scale_ratio_ci95.setConstant(0.01 * q);
+  w.parameters.nonorthogonality_ci95_deg.setConstant(0.5 * q);
+  w.parameters.misalignment_ci95_deg.setConstant(0.5 * q);
   return w;
 }
 

@@ -78,7 +78,7 @@ TEST(ErrorsInVariables, NoisyReferenceAttenuatesEq2AndTheCorrectionRemovesIt) {
     es.robust.reference_pink_nT_per_sqrt_hz.setConstant(0.05);
     const mic::WindowEstimate g = mic::WindowEstimator(es).estimate(pair.reference.values_nT, pair.test.values_nT, 1.0);
     given_error += g.parameters.scale_ratio - truth;
-    se += g.parameters.scale_ratio_ci95 / 1.96;
+    se += g.parameters.scale_ratio_ci95 / g.parameters.interval_quantile;
     es.robust.eiv = mic::EivCorrection::kNoiseRatio;
     es.robust.eiv_noise_ratio = 100.0;
     ratio_error += mic::WindowEstimator(es).estimate(pair.reference.values_nT, pair.test.values_nT, 1.0).parameters.scale_ratio - truth;

@@ -70,7 +70,7 @@ TEST(SectionTrend, RemovesTheRampAndIsIdempotent) {
 
 namespace {
 
-/// rms over 6-hour windows of (estimate - truth) / (ci95 / 1.96), scale ratios and
+/// rms over 6-hour windows of (estimate - truth) / (ci95 / interval_quantile), scale ratios and
 /// non-orthogonalities, for days of a station whose test pier tilts.
 double rms_z_of_six_hour_windows(bool section_trend, int days) {
   double sum = 0.0;
@@ -93,9 +93,10 @@ double rms_z_of_six_hour_windows(bool section_trend, int days) {
       const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT.middleRows(first, 21600),
                                                        pair.test.values_nT.middleRows(first, 21600), 1.0);
       for (int k = 0; k < 3; ++k) {
-        const double zs = (e.parameters.scale_ratio(k) - truth.scale_ratio(k)) / (e.parameters.scale_ratio_ci95(k) / 1.96);
+        const double zs = (e.parameters.scale_ratio(k) - truth.scale_ratio(k)) /
+                          (e.parameters.scale_ratio_ci95(k) / e.parameters.interval_quantile);
         const double za = (e.parameters.nonorthogonality_deg(k) - truth.nonorthogonality_deg(k)) /
-                          (e.parameters.nonorthogonality_ci95_deg(k) / 1.96);
+                          (e.parameters.nonorthogonality_ci95_deg(k) / e.parameters.interval_quantile);
         sum += zs * zs + za * za;
         count += 2;
       }

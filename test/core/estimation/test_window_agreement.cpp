@@ -29,9 +29,10 @@ mic::WindowEstimate window(double z, double se_z) {
   w.n_covariance(8, 8) = se_z * se_z;
   mic::CalibrationParameters& p = w.parameters;
   p.scale_ratio = Eigen::Vector3d(1.0, 1.0, z);
-  p.scale_ratio_ci95 = Eigen::Vector3d(0.01, 0.01, se_z) * 1.959964;
-  p.nonorthogonality_ci95_deg.setConstant(0.5 * 1.959964);
-  p.misalignment_ci95_deg.setConstant(0.5 * 1.959964);
+  // Half-widths in the parameters' own quantile (the normal's: no cells set here).
+  p.scale_ratio_ci95 = Eigen::Vector3d(0.01, 0.01, se_z) * p.interval_quantile;
+  p.nonorthogonality_ci95_deg.setConstant(0.5 * p.interval_quantile);
+  p.misalignment_ci95_deg.setConstant(0.5 * p.interval_quantile);
   return w;
 }
 

@@ -1,5 +1,6 @@
 // The offline chain on simulated records with known truth: 10 Hz records with spikes and gaps
 // through despiking, pairing, Gaussian FIR decimation, gap filling, windows and FD-WLSE.
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
@@ -86,17 +87,20 @@ TEST(CalibrationPipeline, IntervalsThenWholeRecordAreConsistent) {
   EXPECT_EQ(j["window_agreement"]["joint_dof"], 27);
   EXPECT_EQ(j["window_agreement"]["parameters"].size(), 9u);
   // Scale z's chi2 worked here from the quarters' values and half-widths: about their
-  // inverse-variance weighted mean, se = half-width / 1.959964.
+  // inverse-variance weighted mean, se = half-width / the quarter's Student quantile (t with the
+  // cells its covariance rests on).
   double sw = 0.0, swx = 0.0, chi2 = 0.0;
   for (int i = 0; i < 4; ++i) {
     const auto& p = result.windows[i].estimate.parameters;
-    const double se = p.scale_ratio_ci95(2) / 1.959964;
+    EXPECT_DOUBLE_EQ(p.interval_dof, result.windows[i].estimate.covariance_dof);
+    EXPECT_EQ(p.interval_quantile, mic::student_t_two_sided_quantile(0.05, p.interval_dof));
+    const double se = p.scale_ratio_ci95(2) / p.interval_quantile;
     sw += 1.0 / (se * se);
     swx += p.scale_ratio(2) / (se * se);
   }
   for (int i = 0; i < 4; ++i) {
     const auto& p = result.windows[i].estimate.parameters;
-    chi2 += std::pow((p.scale_ratio(2) - swx / sw) / (p.scale_ratio_ci95(2) / 1.959964), 2);
+    chi2 += std::pow((p.scale_ratio(2) - swx / sw) / (p.scale_ratio_ci95(2) / p.interval_quantile), 2);
   }
   EXPECT_NEAR(j["window_agreement"]["parameters"]["scale z"]["chi2"].get<double>(), chi2, 1e-9 * (1.0 + chi2));
   // Its expected value, from each quarter's cells nu: 3/4 of the mean of t^2, nu / (nu - 2), per

@@ -404,8 +404,10 @@ TEST(IdentifyReferenceNoiseFromPair, TheDefaultCorrectsTheAttenuationWithoutAFig
   EXPECT_NE(after.estimate.eiv.find("from the pair above the band"), std::string::npos) << after.estimate.eiv;
   double before_z2 = 0.0, after_z2 = 0.0;
   for (int c = 0; c < 3; ++c) {
-    const double se_before = before.estimate.parameters.scale_ratio_ci95(c) / 1.96;
-    const double se_after = after.estimate.parameters.scale_ratio_ci95(c) / 1.96;
+    const mic::CalibrationParameters& pb = before.estimate.parameters;
+    const mic::CalibrationParameters& pa = after.estimate.parameters;
+    const double se_before = pb.scale_ratio_ci95(c) / pb.interval_quantile;
+    const double se_after = pa.scale_ratio_ci95(c) / pa.interval_quantile;
     before_z2 += std::pow((before.estimate.parameters.scale_ratio(c) - truth(c)) / se_before, 2) / 3.0;
     after_z2 += std::pow((after.estimate.parameters.scale_ratio(c) - truth(c)) / se_after, 2) / 3.0;
   }

@@ -168,9 +168,9 @@ TEST(ResponseModel, FilterMismatchDoesNotBiasNThroughTheModel) {
     const auto floor = mic::calibrate_records(flat.reference, flat.test, settings).windows.back();
     const Eigen::Vector3d truth = mic::decompose(p.n).scale_ratio;
     const Eigen::Vector3d z_without = (without.estimate.parameters.scale_ratio - truth).cwiseQuotient(
-        without.estimate.parameters.scale_ratio_ci95 / 1.96);
+        without.estimate.parameters.scale_ratio_ci95 / without.estimate.parameters.interval_quantile);
     const Eigen::Vector3d z_with = (with.estimate.parameters.scale_ratio - truth).cwiseQuotient(
-        with.estimate.parameters.scale_ratio_ci95 / 1.96);
+        with.estimate.parameters.scale_ratio_ci95 / with.estimate.parameters.interval_quantile);
     const Errors a = errors(without, p.n), b = errors(with, p.n), c = errors(floor, p.n);
     std::printf("seed %u: scale/angle error without the model %.3f %% %.3f deg, with it %.3f %% %.3f deg, "
                 "unfiltered pair %.3f %% %.3f deg; z with %+.2f %+.2f %+.2f (%s)\n",

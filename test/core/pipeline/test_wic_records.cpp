@@ -61,7 +61,7 @@ TEST(WicRecords, SixHourIntervalsAgreeWithTheWholeDay) {
   EXPECT_LT(day.parameters.misalignment_deg.cwiseAbs().maxCoeff(), 2.0);
   // Each quarter against the day that contains it: the quarter's error minus the day's has
   // variance se_q^2 - se_day^2 (the day is the efficient combination of its quarters), so
-  // z = (q - day) / sqrt(se_q^2 - se_day^2), se = half-width / 1.96. Honest intervals give z of
+  // z = (q - day) / sqrt(se_q^2 - se_day^2), se = half-width / interval_quantile. Honest intervals give z of
   // unit variance: over the 36 (4 quarters x 9 parameters) an rms near 1 (the real pair, whose
   // piers differ, was measured at 1.47 with the per-section trend column of session 11; about
   // 1.3 over the 35 defined before it), and no |z| beyond 4 (measured largest 3.28: the third quarter's misalignment
@@ -72,8 +72,8 @@ TEST(WicRecords, SixHourIntervalsAgreeWithTheWholeDay) {
     EXPECT_EQ(e.quality, mic::Quality::kOk) << result.windows[i].label << ": " << e.quality_text;
     // Evaluated into matrices: an Eigen expression held in `auto` would keep references to
     // temporaries that are gone by the next line.
-    const Eigen::Matrix<double, 9, 1> se_q = half_widths(e.parameters) / 1.96;
-    const Eigen::Matrix<double, 9, 1> se_day = half_widths(day.parameters) / 1.96;
+    const Eigen::Matrix<double, 9, 1> se_q = half_widths(e.parameters) / e.parameters.interval_quantile;
+    const Eigen::Matrix<double, 9, 1> se_day = half_widths(day.parameters) / day.parameters.interval_quantile;
     for (int k = 0; k < 9; ++k) {
       // A quarter is never more precise than the day that contains it (before session 11 the
       // third quarter's H scale ratio was: +-0.00318 against the day's +-0.00358).
