@@ -71,6 +71,8 @@ MagnetometerCalibration CalibrationNode::calibration_message(const Job& job, con
   for (int r = 0; r < 9; ++r) {
     for (int c = 0; c < 9; ++c) m.matrix_covariance[9 * r + c] = e.n_covariance(r, c);
   }
+  m.covariance_cells = e.covariance_dof;
+  m.interval_quantile = e.parameters.interval_quantile;
   copy3(m.trend_nT_per_day, e.trend_nT_per_day);
   copy3(m.trend_ci95_nT_per_day, kZ95 * e.trend_stderr_nT_per_day);
   const CalibrationParameters& p = e.parameters;
@@ -156,7 +158,8 @@ void CalibrationNode::resume_from_file(Channel& ch) {
     e->sample_period_s = m.sample_period;
     e->quality = Quality::kOk;
     e->method = m.method;
-    e->parameters = decompose(e->n, e->n_covariance);
+    e->covariance_dof = m.covariance_cells;  // infinite from a file of format 4 or older: taken as known
+    e->parameters = decompose(e->n, e->n_covariance, e->covariance_dof);
     const std::string window = time_for_message(m.window_start.toSec()) + " .. " + time_for_message(m.window_end.toSec());
     ch.baseline = std::move(e);
     ch.baseline_window = window;

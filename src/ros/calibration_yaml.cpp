@@ -20,7 +20,9 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-constexpr int kFormatVersion = 4;  // 4: temperature terms; 3: reference mean; 2: method, band used, delay, offset (1-3 still load)
+// 5: the covariance's cells and the intervals' quantile; 4: temperature terms; 3: reference mean;
+// 2: method, band used, delay, offset (1-4 still load)
+constexpr int kFormatVersion = 5;
 
 std::string number(double value) {
   if (std::isnan(value)) return ".nan";
@@ -156,6 +158,8 @@ std::string calibration_to_yaml(const MagnetometerCalibration& c, const std::str
   y << "delay_ci95_s: " << number(c.delay_ci95_s) << "\n";
   y << "matrix: " << list(c.matrix) << "  # n, row-major, T = R n\n";
   y << "matrix_covariance: " << list(c.matrix_covariance) << "  # 9x9, row-major vec(n)\n";
+  y << "covariance_cells: " << number(c.covariance_cells) << "  # its degrees of freedom\n";
+  y << "interval_quantile: " << number(c.interval_quantile) << "  # *_ci95 / standard error\n";
   y << "trend_nT_per_day: " << list(c.trend_nT_per_day) << "\n";
   y << "trend_ci95_nT_per_day: " << list(c.trend_ci95_nT_per_day) << "\n";
   y << "offset_nT: " << list(c.offset_nT) << "  # test relative to reference at window_end, test frame\n";
@@ -238,6 +242,17 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
   }
   r.array("matrix", c.matrix);
   r.array("matrix_covariance", c.matrix_covariance);
+  if (version >= 5) {
+    c.covariance_cells = r.real("covariance_cells");
+    if (!(c.covariance_cells > 0.0)) r.fail("covariance_cells", "must be positive (.inf: taken as known)");
+    c.interval_quantile = r.real("interval_quantile");
+    // Student's two-sided 5 % quantile lies between the normal's 1.96 and 12.71 (one dof).
+    if (!(c.interval_quantile >= 1.95 && c.interval_quantile <= 12.8))
+      r.fail("interval_quantile", "must be in [1.95, 12.8]");
+  } else {  // formats 1-4: the covariance taken as known, intervals of 1.96 standard errors
+    c.covariance_cells = std::numeric_limits<double>::infinity();
+    c.interval_quantile = 1.959963984540054;
+  }
   r.array("trend_nT_per_day", c.trend_nT_per_day);
   r.array("trend_ci95_nT_per_day", c.trend_ci95_nT_per_day);
   if (version >= 2) {
@@ -366,6 +381,8 @@ bool calibrations_equal(const MagnetometerCalibration& a, const MagnetometerCali
   MIC_SAME(matrix, arrays_equal(a.matrix, b.matrix))
   MIC_SAME(matrix_covariance, arrays_equal(a.matrix_covariance, b.matrix_covariance))
   MIC_SAME(trend_nT_per_day, arrays_equal(a.trend_nT_per_day, b.trend_nT_per_day))
+  MIC_SAME(covariance_cells, reals_equal(a.covariance_cells, b.covariance_cells))
+  MIC_SAME(interval_quantile, reals_equal(a.interval_quantile, b.interval_quantile))
   MIC_SAME(trend_ci95_nT_per_day, arrays_equal(a.trend_ci95_nT_per_day, b.trend_ci95_nT_per_day))
   MIC_SAME(offset_nT, arrays_equal(a.offset_nT, b.offset_nT))
   MIC_SAME(offset_ci95_nT, arrays_equal(a.offset_ci95_nT, b.offset_ci95_nT))

@@ -1,6 +1,7 @@
 // rostest_calibration, correction_reload.test (Calibration.CorrectionFileReload): correction_node
 // fed by its calibration file only (~reload_period): missing, valid, half-written, replaced.
 #include "calibration_harness.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
 #include <Eigen/LU>
@@ -51,6 +52,8 @@ TEST(Calibration, CorrectionFileReload) {
   const Eigen::Matrix3d n_true = h.pair().n_true;
   for (int k = 0; k < 9; ++k) c.matrix[k] = n_true(k / 3, k % 3);
   for (int k = 0; k < 9; ++k) c.matrix_covariance[10 * k] = 1e-12;
+  c.covariance_cells = 200.0;
+  c.interval_quantile = mic::student_t_two_sided_quantile(0.05, 200.0);
   mic::write_file_atomically(file, mic::calibration_to_yaml(c, "test"));
   ASSERT_TRUE(h.wait([&] {
     const DiagnosticRecord* d = diagnostic();

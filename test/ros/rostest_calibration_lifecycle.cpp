@@ -7,6 +7,7 @@
 //                                                                 and (~publish_tf) its rotation
 //                                                                 on /tf_static
 #include "calibration_harness.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
 #include <tf2_msgs/TFMessage.h>
@@ -87,7 +88,8 @@ TEST(Calibration, ChangeDetected) {
   // The windows wholly after the step measure the new scale ratio.
   const auto& last_window = h.calibrations().back();
   EXPECT_GE(last_window.window_start.toSec(), change_s);
-  EXPECT_NEAR(last_window.scale_ratio[0], after.scale_ratio(0), 3.0 * last_window.scale_ratio_ci95[0] / 1.96 + 1e-12);
+  EXPECT_NEAR(last_window.scale_ratio[0], after.scale_ratio(0),
+              3.0 * last_window.scale_ratio_ci95[0] / last_window.interval_quantile + 1e-12);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -181,6 +183,11 @@ TEST(Calibration, ResumeAfterRestart) {
   ASSERT_NO_THROW(persisted = mic::load_calibration_file(file));
   std::string difference;
   EXPECT_TRUE(mic::calibrations_equal(persisted, last_published, &difference)) << "file differs in " << difference;
+  // The file keeps the cells of the window's covariance (a 30-min window: at most its 18 band
+  // harmonics) and its intervals' Student quantile, which the restarted node resumes with.
+  EXPECT_GT(persisted.covariance_cells, 1.0);
+  EXPECT_LE(persisted.covariance_cells, 18.0);
+  EXPECT_DOUBLE_EQ(persisted.interval_quantile, mic::student_t_two_sided_quantile(0.05, persisted.covariance_cells));
 
   // Restart: no data, no clock advance until the calibration is in.
   std::size_t before_restart = 0, tf_before_restart = 0;

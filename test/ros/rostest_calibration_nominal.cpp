@@ -3,6 +3,7 @@
 // equal to the clean field in absolute level, every raw sample accounted for under a burst, and
 // correction nodes started from malformed / half-written calibration files.
 #include "calibration_harness.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
 #include <Eigen/LU>
@@ -104,8 +105,14 @@ TEST(Calibration, Nominal) {
           << "entry " << k << ": " << n_hat(k / 3, k % 3) << " vs n_true " << n_true(k / 3, k % 3) << ", se "
           << se(k / 3, k % 3);
     }
+    // The covariance's cells (a 3-hour window: at most its 106 band harmonics) and the intervals'
+    // Student quantile at them, as the offline estimator gives.
+    EXPECT_GT(c.covariance_cells, 9.0);
+    EXPECT_LE(c.covariance_cells, 106.0);
+    EXPECT_DOUBLE_EQ(c.interval_quantile, mic::student_t_two_sided_quantile(0.05, c.covariance_cells));
     for (int l = 0; l < 3; ++l) {
-      EXPECT_NEAR(c.scale_ratio[l], h.settings().scale_ratio(l), 4.0 * c.scale_ratio_ci95[l] / 1.96 + 1e-12);
+      EXPECT_NEAR(c.scale_ratio[l], h.settings().scale_ratio(l),
+                  4.0 * c.scale_ratio_ci95[l] / c.interval_quantile + 1e-12);
       EXPECT_GT(c.coherence[l], 0.9);
       EXPECT_TRUE(std::isfinite(c.misalignment_deg[l]) && std::isfinite(c.nonorthogonality_deg[l]) &&
                   std::isfinite(c.axis_deviation_deg[l]) && std::isfinite(c.trend_ci95_nT_per_day[l]));

@@ -368,6 +368,8 @@ TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
   c.window_end = ros::Time(1747184399.0);
   for (int k = 0; k < 9; ++k) c.matrix[k] = pair.n_true(k / 3, k % 3);
   c.scale_ratio = {0.9996, 1.0004, 1.0004};
+  c.covariance_cells = std::numeric_limits<double>::infinity();  // no covariance: taken as known
+  c.interval_quantile = 1.959963984540054;
   c.quality = mic::MagnetometerCalibration::QUALITY_OK;
   c.quality_text = "ok";
   c.accepted = true;

@@ -43,6 +43,8 @@ mic::MagnetometerCalibration filled_calibration() {
   c.trend_column = true;
   for (auto& v : c.matrix) v = 1.0 + 1e-4 * normal(random);
   for (auto& v : c.matrix_covariance) v = 1e-12 * normal(random);
+  c.covariance_cells = 23.75;
+  c.interval_quantile = 2.0646;
   for (auto* array : {&c.trend_nT_per_day, &c.trend_ci95_nT_per_day, &c.scale_ratio, &c.scale_ratio_ci95,
                       &c.nonorthogonality_deg, &c.nonorthogonality_ci95_deg, &c.misalignment_deg,
                       &c.misalignment_ci95_deg, &c.axis_deviation_deg, &c.axis_deviation_ci95_deg, &c.coherence,
@@ -91,7 +93,7 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   // A format-2 file (before reference_mean_nT): loads, with the mean 0 (the whole-field
   // propagation correction_node used before); a format it does not know is refused.
   std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
-  const std::size_t version = text.find("format_version: 4\n");
+  const std::size_t version = text.find("format_version: 5\n");
   ASSERT_NE(version, std::string::npos) << text;
   const std::size_t mean_line = text.find("reference_mean_nT: ");
   ASSERT_NE(mean_line, std::string::npos);
@@ -101,12 +103,12 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "old.yaml");
   for (double v : loaded.reference_mean_nT) EXPECT_EQ(v, 0.0);
   EXPECT_EQ(loaded.offset_nT, filled_calibration().offset_nT);
-  // Format 4 without the field is incomplete.
+  // Format 5 without the field is incomplete.
   std::string cut = text;
   cut.erase(mean_line, cut.find('\n', mean_line) + 1 - mean_line);
   EXPECT_THROW(mic::calibration_from_yaml(cut, "cut.yaml"), mic::CalibrationFileError);
   std::string future = text;
-  future.replace(version, 17, "format_version: 5");
+  future.replace(version, 17, "format_version: 6");
   EXPECT_THROW(mic::calibration_from_yaml(future, "future.yaml"), mic::CalibrationFileError);
 }
 
@@ -120,7 +122,7 @@ TEST(CalibrationYaml, Format3LoadsWithoutTemperatureTerms) {
     old.erase(line + 1, old.find('\n', line + 1) - line);
   }
   ASSERT_EQ(old.find("temperature"), std::string::npos) << old;
-  const std::size_t version = old.find("format_version: 4\n");
+  const std::size_t version = old.find("format_version: 5\n");
   ASSERT_NE(version, std::string::npos);
   old.replace(version, 17, "format_version: 3");
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v3.yaml");
@@ -138,7 +140,7 @@ TEST(CalibrationYaml, Format3LoadsWithoutTemperatureTerms) {
   cut.erase(scale, cut.find('\n', scale) + 1 - scale);
   try {
     mic::calibration_from_yaml(cut, "cut.yaml");
-    ADD_FAILURE() << "a format-4 file without temperature_scale_ppm_per_C loaded";
+    ADD_FAILURE() << "a format-5 file without temperature_scale_ppm_per_C loaded";
   } catch (const mic::CalibrationFileError& e) {
     EXPECT_NE(std::string(e.what()).find("cut.yaml: field 'temperature_scale_ppm_per_C' is missing"), std::string::npos)
         << e.what();
@@ -149,6 +151,52 @@ TEST(CalibrationYaml, Format3LoadsWithoutTemperatureTerms) {
   std::string difference;
   EXPECT_FALSE(mic::calibrations_equal(c, other, &difference));
   EXPECT_EQ(difference, "temperature_offset_nT_per_C");
+}
+
+TEST(CalibrationYaml, Format4LoadsAsACovarianceTakenAsKnown) {
+  // A format-4 file (before the covariance's cells and the intervals' quantile): loads with the
+  // covariance taken as known (infinite cells) and its intervals' 1.96; a format-5 file without
+  // either line is incomplete, and impossible values are refused naming the field.
+  const std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
+  EXPECT_NE(text.find("covariance_cells: 23.75  #"), std::string::npos) << text;
+  auto without = [](std::string t, const std::string& key) {
+    const std::size_t line = t.find("\n" + key + ": ");
+    if (line != std::string::npos) t.erase(line + 1, t.find('\n', line + 1) - line);
+    return t;
+  };
+  std::string old = without(without(text, "covariance_cells"), "interval_quantile");
+  ASSERT_EQ(old.find("interval_quantile"), std::string::npos);
+  const std::size_t version = old.find("format_version: 5\n");
+  ASSERT_NE(version, std::string::npos);
+  old.replace(version, 17, "format_version: 4");
+  const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v4.yaml");
+  EXPECT_TRUE(std::isinf(loaded.covariance_cells));
+  EXPECT_NEAR(loaded.interval_quantile, 1.959964, 1e-6);
+  EXPECT_EQ(loaded.matrix_covariance, filled_calibration().matrix_covariance);
+  for (const char* key : {"covariance_cells", "interval_quantile"}) {
+    try {
+      mic::calibration_from_yaml(without(text, key), "cut.yaml");
+      ADD_FAILURE() << "a format-5 file without " << key << " loaded";
+    } catch (const mic::CalibrationFileError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("cut.yaml: field '") + key + "' is missing"), std::string::npos)
+          << e.what();
+    }
+  }
+  std::string known = text;
+  known.replace(known.find("covariance_cells: 23.75"), 23, "covariance_cells: .inf");
+  EXPECT_TRUE(std::isinf(mic::calibration_from_yaml(known, "known.yaml").covariance_cells));
+  for (const auto& bad : {std::make_pair("covariance_cells: 23.75", "covariance_cells: 0"),
+                          std::make_pair("interval_quantile: 2.0646", "interval_quantile: 1.5")}) {
+    std::string wrong = text;
+    wrong.replace(wrong.find(bad.first), std::string(bad.first).size(), bad.second);
+    try {
+      mic::calibration_from_yaml(wrong, "bad.yaml");
+      ADD_FAILURE() << bad.second << " loaded";
+    } catch (const mic::CalibrationFileError& e) {
+      const std::string key = std::string(bad.second).substr(0, std::string(bad.second).find(':'));
+      EXPECT_NE(std::string(e.what()).find("bad.yaml: field '" + key + "'"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(CalibrationYaml, EveryTruncationIsRefused) {
