@@ -53,8 +53,8 @@ CalibrationParameters decompose(const Eigen::Matrix3d& n);
 /// method: the Jacobian of the decomposition is taken by central differences. covariance_dof: the
 /// covariance's degrees of freedom (spectral cells); the half-widths are Student's t quantile
 /// with as many degrees of freedom times the standard errors (the normal's 1.960 when infinite).
-/// A covariance from few cells is itself uncertain: with the normal quantile a window of 10
-/// cells would cover 93 % at most, 10 % too narrow (docs/estimator_validation.md B26).
+/// A covariance from few cells is itself uncertain: with the normal quantile an interval from 10
+/// cells would cover 92 %, its half-width 12 % too narrow (docs/estimator_validation.md B26).
 CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covariance,
                                 double covariance_dof = std::numeric_limits<double>::infinity());
 
