@@ -108,9 +108,6 @@ int covered_with(const mic::WindowEstimate& e, const mic::Matrix9d& cov, const E
   return errors_of(copy, truth).covered;
 }
 
-/// Student's t 97.5 % quantile with dof degrees of freedom.
-double student_t975(double dof) { return mic::student_t_two_sided_quantile(0.05, dof); }
-
 int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
   std::printf("# disturbed station: %d seeds from %llu, %.1f days at 1 Hz, whole record as one window\n", seeds,
               static_cast<unsigned long long>(first_seed), days);
@@ -166,7 +163,8 @@ int run_disturbed(int seeds, double days, std::uint64_t first_seed) {
         const mic::Matrix9d& sw = d->covariance_sandwich;
         const mic::Matrix9d& jk = d->covariance_jackknife;
         if (jk.allFinite() && d->jackknife_sections >= 2) {
-          const double t = student_t975(static_cast<double>(d->jackknife_sections - 1)) / 1.959963985;
+          const double t = mic::student_t_two_sided_quantile(0.05, static_cast<double>(d->jackknife_sections - 1)) /
+                           mic::kNormalQuantile95;
           auto dmax = [&](const mic::Matrix9d& j) {
             Eigen::Matrix<double, 9, 1> f;
             for (int q = 0; q < 9; ++q) f(q) = std::sqrt(std::max(1.0, j(q, q) / sw(q, q)));

@@ -99,7 +99,7 @@ struct Tally {
       const double se[2] = {q.scale_ratio_ci95(l) / q.interval_quantile,
                             q.nonorthogonality_ci95_deg(l) / q.interval_quantile};
       const double z[2] = {ds / se[0], da / se[1]};
-      covered_normal += (std::abs(z[0]) <= 1.959964) + (std::abs(z[1]) <= 1.959964);
+      covered_normal += (std::abs(z[0]) <= mic::kNormalQuantile95) + (std::abs(z[1]) <= mic::kNormalQuantile95);
       for (int k = 0; k < 2; ++k) {
         inside(3 * k + l) += cov[3 * k + l];
         z_sum(3 * k + l) += z[k];

@@ -91,12 +91,13 @@ inline void add_pulsation(mic::SimulatedPair& pair, std::uint64_t seed) {
   std::normal_distribution<double> normal;
   const double frequency_hz = 0.002 + 0.005 * uniform(rng), phase = 2.0 * M_PI * uniform(rng);
   const Eigen::RowVector3d direction = Eigen::RowVector3d(normal(rng), normal(rng), normal(rng)).normalized();
+  const bool third_field = pair.field_nT.rows() == pair.reference.values_nT.rows();  // kept for a third
   for (Eigen::Index i = 0; i < pair.reference.values_nT.rows(); ++i) {
     const double t = pair.reference.time_s[static_cast<std::size_t>(i)] - pair.reference.time_s.front();
     const Eigen::RowVector3d b = amplitude * std::sin(2.0 * M_PI * frequency_hz * t + phase) * direction;
     pair.reference.values_nT.row(i) += b;
     pair.test.values_nT.row(i) += b * pair.n_true;
-    if (pair.field_nT.rows() == pair.reference.values_nT.rows()) pair.field_nT.row(i) += b;  // a third's field
+    if (third_field) pair.field_nT.row(i) += b;
   }
 }
 

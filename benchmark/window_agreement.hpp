@@ -17,7 +17,7 @@ namespace monte_carlo {
 /// t with the covariance's cells, CalibrationParameters::interval_quantile).
 struct SixParameters {
   std::array<double, 6> value{}, se{};
-  double quantile = 1.959964;
+  double quantile = magnetometer_insitu_calibration::kNormalQuantile95;
   double ci95(int k) const { return quantile * se[static_cast<std::size_t>(k)]; }
 };
 

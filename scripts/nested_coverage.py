@@ -16,14 +16,14 @@ import json
 import math
 import sys
 
-PARAMETERS = [("scale_ratio", k) for k in range(3)] + [("nonorthogonality_deg", k) for k in range(3)]
+# (value key, interval key, index): scale ratios are lists x, y, z; non-orthogonalities are
+# objects keyed "xy", "xz", "yz" (docs/programs.md).
+PARAMETERS = [("scale_ratio", "scale_ratio_ci95", k) for k in range(3)] + \
+    [("nonorthogonality_deg", "nonorthogonality_ci95_deg", pair) for pair in ("xy", "xz", "yz")]
 
 
-def value_and_se(window, name, k):
-    value = window[name][k] if name == "scale_ratio" else list(window[name].values())[k]
-    ci_name = "scale_ratio_ci95" if name == "scale_ratio" else "nonorthogonality_ci95_deg"
-    ci = window[ci_name][k] if name == "scale_ratio" else list(window[ci_name].values())[k]
-    return value, ci / window["interval_quantile"]
+def value_and_se(window, name, ci_name, index):
+    return window[name][index], window[ci_name][index] / window["interval_quantile"]
 
 
 def main():
@@ -36,9 +36,9 @@ def main():
     quantiles = []
     for w in windows:
         quantiles.append(w["interval_quantile"])
-        for name, k in PARAMETERS:
-            v, se = value_and_se(w, name, k)
-            v0, se0 = value_and_se(whole, name, k)
+        for parameter in PARAMETERS:
+            v, se = value_and_se(w, *parameter)
+            v0, se0 = value_and_se(whole, *parameter)
             if not se > se0:
                 left_out += 1
                 continue

@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -251,7 +252,7 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
       r.fail("interval_quantile", "must be in [1.95, 12.8]");
   } else {  // formats 1-4: the covariance taken as known, intervals of 1.96 standard errors
     c.covariance_cells = std::numeric_limits<double>::infinity();
-    c.interval_quantile = 1.959963984540054;
+    c.interval_quantile = kNormalQuantile95;
   }
   r.array("trend_nT_per_day", c.trend_nT_per_day);
   r.array("trend_ci95_nT_per_day", c.trend_ci95_nT_per_day);

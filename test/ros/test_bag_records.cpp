@@ -5,6 +5,7 @@
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/ros/bag_records.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
@@ -369,7 +370,7 @@ TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
   for (int k = 0; k < 9; ++k) c.matrix[k] = pair.n_true(k / 3, k % 3);
   c.scale_ratio = {0.9996, 1.0004, 1.0004};
   c.covariance_cells = std::numeric_limits<double>::infinity();  // no covariance: taken as known
-  c.interval_quantile = 1.959963984540054;
+  c.interval_quantile = mic::kNormalQuantile95;
   c.quality = mic::MagnetometerCalibration::QUALITY_OK;
   c.quality_text = "ok";
   c.accepted = true;

@@ -16,6 +16,10 @@ namespace magnetometer_insitu_calibration {
 
 using Matrix9d = Eigen::Matrix<double, 9, 9>;
 
+/// Two-sided 95 % quantile of the normal distribution: the half-width of a 95 % interval in
+/// standard errors when the covariance is taken as known.
+constexpr double kNormalQuantile95 = 1.959963984540054;
+
 /// Index of n(row, col) in vec(n): row-major, k = 3 * row + col (as in the JSON "matrix").
 constexpr int vec_index(int row, int col) { return 3 * row + col; }
 
@@ -43,7 +47,7 @@ struct CalibrationParameters {
   /// Half-width of each 95 % interval in standard errors: Student's t two-sided 5 % quantile with
   /// interval_dof degrees of freedom (1.960 when infinite, 2.064 at 24 cells, 2.228 at 10). A
   /// parameter's standard error is its ci95 / interval_quantile.
-  double interval_quantile = 1.959963984540054;
+  double interval_quantile = kNormalQuantile95;
 };
 
 /// Point values only (no intervals).

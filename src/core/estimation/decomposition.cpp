@@ -82,7 +82,7 @@ CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covari
   const Eigen::Matrix<double, 12, 12> cov = jacobian * covariance * jacobian.transpose();
   // No cells (a failed window): the normal quantile, the intervals being NaN or zero anyway.
   const double quantile =
-      covariance_dof > 0.0 ? student_t_two_sided_quantile(0.05, covariance_dof) : 1.959963984540054;
+      covariance_dof > 0.0 ? student_t_two_sided_quantile(0.05, covariance_dof) : kNormalQuantile95;
   const Values12 half_width = quantile * cov.diagonal().cwiseMax(0.0).cwiseSqrt();
 
   CalibrationParameters p = from_values(centre);
