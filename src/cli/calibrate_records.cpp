@@ -37,6 +37,28 @@ void parse_band(const std::string& text, mic::EstimatorSettings& s) {
   }
 }
 
+/// The robust estimator's own steps (robust_estimator.hpp; docs/method.md), for studies of
+/// what each step does; the defaults are the package's.
+void add_robust_options(CLI::App& app, mic::RobustSettings& robust) {
+  const char* group = "Robust estimator steps";
+  app.add_flag("--screen,!--no-screen", robust.screen, "residual screen (step 1)")->group(group);
+  app.add_option("--screen-threshold", robust.screen_threshold, "screen threshold, robust sigmas")
+      ->capture_default_str()->group(group);
+  app.add_option("--screen-baseline", robust.screen_baseline_s, "screen's running-median baseline, s")
+      ->capture_default_str()->group(group);
+  app.add_option("--screen-margin", robust.screen_margin_s, "margin around a screened run, s")
+      ->capture_default_str()->group(group);
+  app.add_option("--section-length", robust.section_s, "section length, s (at least 2 / band low)")
+      ->capture_default_str()->group(group);
+  app.add_flag("--section-trend,!--no-section-trend", robust.section_trend, "Eq. 2's trend column in every section")
+      ->group(group);
+  app.add_option("--huber-k", robust.huber_k, "Huber constant of the cell weights, sigmas")
+      ->capture_default_str()->group(group);
+  app.add_option("--section-rejection", robust.section_rejection, "section level above which a section gets weight 0")
+      ->capture_default_str()->group(group);
+  app.add_option("--iterations", robust.iterations, "IRLS iterations at most")->capture_default_str()->group(group);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -53,7 +75,9 @@ int main(int argc, char** argv) {
   auto* test_option = app.add_option("--test", test_paths, "test record (same formats, one or several files)")->required();
   mic::BagInputOptions bag(app, reference_option, test_option);  // or both records from one bag
   app.add_option("--band", band, "estimation band LOW:HIGH, Hz")->capture_default_str();
-  app.add_option("--gamma", settings.estimator.gamma, "weight exponent: lambda_j^gamma")->capture_default_str();
+  mic::WindowCalibrationSettings& window_settings = settings.window;
+  mic::EstimatorSettings& estimator = window_settings.estimator;
+  app.add_option("--gamma", estimator.gamma, "weight exponent: lambda_j^gamma")->capture_default_str();
   app.add_flag("--no-trend", no_trend, "no linear-trend column");
   auto* intervals = app.add_option("--intervals", settings.windows.intervals,
                                    "K equal intervals, then the whole record (the paper's layout)");
@@ -69,88 +93,77 @@ int main(int argc, char** argv) {
                  "estimation sample period, s (faster records are Gaussian-FIR decimated)")
       ->capture_default_str();
   app.add_flag("--no-despike", no_despike, "keep spikes");
-  app.add_option("--max-fill", settings.preprocess.gaps.max_fill_s,
+  app.add_option("--max-fill", window_settings.gaps.max_fill_s,
                  "gaps longer than this (s) flag the windows that overlap them")
       ->capture_default_str();
-  app.add_option("--min-coherence", settings.estimator.min_coherence, "quality rule")->capture_default_str();
-  app.add_option("--max-condition", settings.estimator.max_condition_number, "quality rule")->capture_default_str();
+  app.add_option("--min-coherence", estimator.min_coherence, "quality rule")->capture_default_str();
+  app.add_option("--max-condition", estimator.max_condition_number, "quality rule")->capture_default_str();
   std::string method = "robust", eiv = "given";
-  double reference_noise_pT = 0.0;
-  auto* eiv_option = app.add_option(
-      "--eiv", eiv,
-      "robust: errors-in-variables correction: given (the reference's identified noise, "
-      "--reference-noise-pT; none when not given), none, or ratio (a share of the residual, --eiv-ratio)")
+  app.add_option("--eiv", eiv,
+                 "robust: errors-in-variables correction: given (for the reference's noise: its figure, "
+                 "--reference-noise-pT, else identified from --third or from the pair above the band) or none")
       ->capture_default_str();
-  auto* ratio_option = app.add_option("--eiv-ratio", settings.estimator.robust.eiv_noise_ratio,
-                                      "robust, --eiv ratio (implied when given alone): reference noise PSD / test "
-                                      "noise PSD")
-                           ->capture_default_str();
   auto* third_option = app.add_option(
       "--third", third_paths,
       "a third co-located instrument's record (same formats, one or several files), used only to identify the "
-      "reference's noise by the three-cornered hat for --eiv given");
+      "reference's noise by the three-cornered hat in each window");
+  double reference_noise_pT = 0.0;
   auto* noise_option = app.add_option("--reference-noise-pT", reference_noise_pT,
                  "robust, --eiv given: the reference's noise figure, pT/sqrt(Hz) at 1 Hz (maker's data "
-                 "sheet; taken as 1/f noise below 1 Hz); 0: not identified, no correction")
+                 "sheet; taken as 1/f noise below 1 Hz); 0: identified from the data")
       ->capture_default_str();
   third_option->excludes(noise_option);
   auto* model_option = app.add_flag(
-      "--response-model,!--no-response-model", settings.response_model,
+      "--response-model,!--no-response-model", window_settings.response_model,
       "fit a delay + 1-pole low-pass per component to the relative response and estimate n through a "
       "significant corner (default with --method robust; off with --method plain unless given)");
-  app.add_flag("--pair-noise,!--no-pair-noise", settings.pair_noise,
+  app.add_flag("--pair-noise,!--no-pair-noise", window_settings.pair_noise,
                "robust, --eiv given, no figure and no --third: identify the reference's noise from the pair above "
                "the band (0.03-0.25 Hz at 1 s) and correct n for it (default); off: no correction");
+  add_robust_options(app, estimator.robust);
   app.add_option("--temperature-channel", settings.preprocess.temperature_channel,
                  "the test record's sensor temperature: auto (sensor_temperature, a T_sensor channel, "
                  "temperature), none, or a channel name; fits nT/degC and ppm/degC terms when it varies")
       ->capture_default_str();
-  app.add_option("--temperature-min-range", settings.temperature.min_range_C,
+  app.add_option("--temperature-min-range", window_settings.temperature.min_range_C,
                  "peak-to-peak temperature (degC) in a window below which no temperature terms are fitted")
       ->capture_default_str();
   app.add_option("--method", method, "estimator: robust (default) or plain (Eq. 2 as printed)")->capture_default_str();
-  app.add_flag("--auto-band", settings.estimator.robust.auto_band,
+  app.add_flag("--auto-band", estimator.robust.auto_band,
                "choose the band from the coherence between the instruments (reported per window)");
   CLI11_PARSE(app, argc, argv);
 
   try {
-    parse_band(band, settings.estimator);
-    settings.estimator.trend = !no_trend;
+    parse_band(band, estimator);
+    estimator.trend = !no_trend;
     settings.preprocess.despike = !no_despike;
-    settings.estimator.method = mic::parse_estimator_method(method, "--method");
+    estimator.method = mic::parse_estimator_method(method, "--method");
     // --method plain is Eq. 2 as printed: no modelled filter unless asked for.
-    if (settings.estimator.method == mic::EstimatorMethod::kPlain && model_option->count() == 0) {
-      settings.response_model = false;
+    if (estimator.method == mic::EstimatorMethod::kPlain && model_option->count() == 0) {
+      window_settings.response_model = false;
     }
-    // --eiv-ratio alone keeps meaning what it meant: the ratio mode, asked for explicitly.
-    if (ratio_option->count() > 0 && eiv_option->count() == 0) eiv = "ratio";
-    settings.estimator.robust.eiv = mic::parse_eiv_correction(eiv, "--eiv");
+    if (eiv != "given" && eiv != "none") throw mic::InputError("--eiv", "expected given or none, got '" + eiv + "'");
+    estimator.robust.errors_in_variables = eiv == "given";
     if (!(reference_noise_pT >= 0.0) || !std::isfinite(reference_noise_pT)) {
       throw mic::InputError("--reference-noise-pT", "must be a noise figure >= 0 pT/sqrt(Hz)");
     }
-    if (reference_noise_pT > 0.0 && settings.estimator.robust.eiv != mic::EivCorrection::kGiven) {
+    window_settings.reference_noise_figure = mic::NoiseSpectrum::fluxgate_figure(reference_noise_pT);
+    if (reference_noise_pT > 0.0 && !estimator.robust.errors_in_variables) {
       throw mic::InputError("--reference-noise-pT", "is used by --eiv given only (got --eiv " + eiv + ")");
     }
-    settings.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(reference_noise_pT / 1000.0);
-    if (!third_paths.empty() && settings.estimator.robust.eiv != mic::EivCorrection::kGiven) {
+    if (!third_paths.empty() && !estimator.robust.errors_in_variables) {
       throw mic::InputError("--third", "identifies the noise for --eiv given only (got --eiv " + eiv + ")");
     }
     settings.validate();
     const auto [reference, test] = bag.records(reference_paths, test_paths);
-    // calibrate_records() in two steps, so that --third uses the pair as prepared.
-    mic::PairCalibration result;
-    const mic::PreparedPair prepared = mic::prepare_pair(reference, test, settings.preprocess, &result.report);
+    mic::VectorRecord third;
     if (!third_paths.empty()) {
       std::vector<std::string> warnings;
-      const mic::VectorRecord third = mic::read_records(third_paths, &warnings);
+      third = mic::read_records(third_paths, &warnings);
       for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
-      const mic::IdentifiedNoise noise =
-          mic::identify_reference_noise(prepared, reference, third, settings.preprocess, settings.estimator.band_low_hz,
-                                        settings.estimator.band_high_hz);
-      std::cout << noise.text << "\n";
-      settings.estimator = mic::with_identified_noise(settings.estimator, noise, "three-cornered hat with --third");
     }
-    result.windows = mic::calibrate_prepared(prepared, settings);
+    const mic::PairCalibration result =
+        mic::calibrate_records(reference, test, settings, third_paths.empty() ? nullptr : &third);
     const mic::ReportInputs inputs = bag.inputs(reference_paths, test_paths);
     std::cout << mic::format_calibration_table(result, inputs);
     if (!json_path.empty()) {

@@ -1,7 +1,6 @@
-// calibration_node, the input side: parameters, subscriptions, the two streams' monitors, pairing
-// and decimation into each test instrument's sliding windows (see calibration_node.hpp).
-// Runs on the ROS callback thread; windows go to the worker by enqueue()
-// (calibration_node_windows.cpp).
+// calibration_node, the input side: parameters, subscriptions, the streams' monitors, and the
+// messages into the core's live streams (see calibration_node.hpp). Runs on the ROS callback
+// thread; completed windows go to the worker by enqueue() (calibration_node_windows.cpp).
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 
 #include "calibration_node_channel.hpp"
@@ -12,7 +11,6 @@
 
 namespace magnetometer_insitu_calibration {
 
-using calibration_node_detail::add_counters;
 using calibration_node_detail::nanotesla;
 using diagnostic_updater::DiagnosticStatusWrapper;
 
@@ -30,10 +28,12 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   updater_.setHardwareID("reference " + nh_.resolveName(settings_.reference_topic));
   updater_.add("reference", [this](DiagnosticStatusWrapper& status) { diagnose_reference(status); });
-  if (settings_.hat_active()) coincident_ = std::make_unique<CoincidentWindows>(settings_.tests.size());
+  std::vector<std::pair<std::string, bool>> tests;
+  for (const TestInstrumentSettings& t : settings_.tests) tests.emplace_back(t.name, !t.temperature_topic.empty());
+  streams_ = std::make_unique<LiveCalibrationStreams>(settings_.streams, tests, settings_.hat_active());
   for (std::size_t i = 0; i < settings_.tests.size(); ++i) {
     const TestInstrumentSettings& t = settings_.tests[i];
-    channels_.push_back(std::make_unique<Channel>(t, settings_));
+    channels_.push_back(std::make_unique<Channel>(t));
     Channel& ch = *channels_.back();
     if (settings_.publish_tf) ch.tf_state = "on, nothing accepted yet";
     ch.test.topic = t.topic;
@@ -58,13 +58,14 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   }
   reference_subscriber_ = nh_.subscribe(settings_.reference_topic, static_cast<std::uint32_t>(settings_.queue_size),
                                         &CalibrationNode::on_reference, this, hints);
-  ROS_INFO("%s: reference %s; window %g s every %g s at %g s (%s); band %g-%g Hz%s; method %s", node_name_.c_str(),
-           nh_.resolveName(settings_.reference_topic).c_str(), settings_.window_s, settings_.step_s,
-           settings_.estimation_period_s(),
-           settings_.decimating() ? "low-passed and decimated" : "input rate", settings_.estimator.band_low_hz,
-           settings_.estimator.band_high_hz, settings_.estimator.robust.auto_band ? " (auto band)" : "",
-           estimator_method_name(settings_.estimator.method));
-  ROS_INFO("%s: errors in variables: %s", node_name_.c_str(), settings_.hat_state().c_str());
+  const LiveStreamSettings& streams = settings_.streams;
+  const EstimatorSettings& estimator = settings_.window.estimator;
+  ROS_INFO("%s: reference %s; window %g s every %g s at %g s (%s%s); band %g-%g Hz%s; method %s", node_name_.c_str(),
+           nh_.resolveName(settings_.reference_topic).c_str(), streams.window_s, streams.step_s,
+           streams.estimation_period_s(), streams.decimating() ? "low-passed and decimated" : "input rate",
+           streams.despike ? ", despiked" : "", estimator.band_low_hz, estimator.band_high_hz,
+           estimator.robust.auto_band ? " (auto band)" : "", estimator_method_name(estimator.method));
+  ROS_INFO("%s: errors in variables: %s", node_name_.c_str(), settings_.noise_model_state().c_str());
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });
   worker_ = std::thread([this] { run_worker(); });
@@ -88,13 +89,10 @@ void CalibrationNode::on_reference(const sensor_msgs::MagneticField::ConstPtr& m
              jump == StreamMonitor::Jump::kForward ? "forward" : "backward", time_for_message(t).c_str());
   }
   if (jump == StreamMonitor::Jump::kBackward) {
-    for (auto& ch : channels_) reset_pipeline(*ch);
+    streams_->restart_all();
+    ROS_WARN("%s: reference stamps went backwards: pairing and windows of every test restarted", node_name_.c_str());
   }
-  const Eigen::Vector3d value = nanotesla(*message);
-  for (std::size_t i = 0; i < channels_.size(); ++i) {
-    channels_[i]->pairer.push_reference(t, value);
-    drain_pairs(i);
-  }
+  enqueue(streams_->push_reference(t, nanotesla(*message)));
 }
 
 void CalibrationNode::on_test(std::size_t index, const sensor_msgs::MagneticField::ConstPtr& message) {
@@ -106,9 +104,12 @@ void CalibrationNode::on_test(std::size_t index, const sensor_msgs::MagneticFiel
     ROS_WARN("%s: test '%s' stamps jumped %s to %s", node_name_.c_str(), ch.settings.name.c_str(),
              jump == StreamMonitor::Jump::kForward ? "forward" : "backward", time_for_message(t).c_str());
   }
-  if (jump == StreamMonitor::Jump::kBackward) reset_pipeline(ch);
-  ch.pairer.push_test(t, nanotesla(*message));
-  drain_pairs(index);
+  if (jump == StreamMonitor::Jump::kBackward) {
+    streams_->restart(index);
+    ROS_WARN("%s: test '%s': stamps went backwards, pairing and windows restarted", node_name_.c_str(),
+             ch.settings.name.c_str());
+  }
+  enqueue(streams_->push_test(index, t, nanotesla(*message)));
 }
 
 void CalibrationNode::on_temperature(std::size_t index, const sensor_msgs::Temperature::ConstPtr& message) {
@@ -116,60 +117,7 @@ void CalibrationNode::on_temperature(std::size_t index, const sensor_msgs::Tempe
   ++ch.temperature_messages;
   ch.temperature_last_C = message->temperature;  // deg C (NaN: the sensor had none)
   ch.temperature_last_stamp_s = message->header.stamp.toSec();
-  ch.temperature.push(ch.temperature_last_stamp_s, message->temperature);
-}
-
-void CalibrationNode::reset_pipeline(Channel& ch) {
-  add_counters(ch.counters_before_reset, ch.pairer.counters());
-  ch.pairer.reset();
-  if (ch.reference_decimator) {
-    ch.reference_decimator->reset();
-    ch.test_decimator->reset();
-  }
-  ch.windows.reset();
-  for (std::size_t i = 0; coincident_ && i < channels_.size(); ++i) {
-    if (channels_[i].get() == &ch) coincident_->reset(i);
-  }
-  ch.temperature.reset();
-  ch.any_pair = false;
-  ++ch.pipeline_resets;
-  ROS_WARN("%s: test '%s': stamps went backwards, pairing and window restarted", node_name_.c_str(),
-           ch.settings.name.c_str());
-}
-
-void CalibrationNode::drain_pairs(std::size_t index) {
-  Channel& ch = *channels_[index];
-  for (const PairedSample& pair : ch.pairer.take_pairs()) {
-    auto feed = [&](double t, const Eigen::Vector3d& r, const Eigen::Vector3d& s) {
-      const double margin = settings_.gap_rule.temperature_max_gap_s;
-      bool completed = false;
-      for (WindowData& w : ch.windows.push(t, r, s)) {
-        if (!ch.settings.temperature_topic.empty()) {
-          w.temperature = ch.temperature.copy(w.start_s - w.period_s - margin, w.end_s() + w.period_s + margin);
-        }
-        submit(index, std::move(w));
-        completed = true;
-      }
-      if (completed) ch.temperature.drop_before(ch.windows.next_start_s() - ch.windows.period_s() - margin);
-    };
-    if (!ch.reference_decimator) {
-      feed(pair.time_s, pair.reference_nT, pair.test_nT);
-    } else {
-      // A jump in the paired stamps would make the decimator emit one (NaN) output per missing
-      // epoch; restart it instead (the window sees the epochs as missing either way).
-      if (ch.any_pair && pair.time_s - ch.last_pair_s > settings_.time_jump_threshold_s) {
-        ch.reference_decimator->reset();
-        ch.test_decimator->reset();
-        ++ch.decimator_restarts;
-      }
-      const auto r = ch.reference_decimator->push(pair.time_s, pair.reference_nT);
-      const auto s = ch.test_decimator->push(pair.time_s, pair.test_nT);
-      // Both decimators see the same stamps, so they complete the same epochs.
-      for (std::size_t k = 0; k < std::min(r.size(), s.size()); ++k) feed(r[k].first, r[k].second, s[k].second);
-    }
-    ch.any_pair = true;
-    ch.last_pair_s = pair.time_s;
-  }
+  streams_->push_temperature(index, ch.temperature_last_stamp_s, message->temperature);
 }
 
 }  // namespace magnetometer_insitu_calibration

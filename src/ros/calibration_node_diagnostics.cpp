@@ -8,12 +8,57 @@
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <utility>
 
 namespace magnetometer_insitu_calibration {
 
 using diagnostic_msgs::DiagnosticStatus;
 using diagnostic_updater::DiagnosticStatusWrapper;
+
+namespace {
+
+/// The last window's estimate in words: method, noise model, weights, band, delay, offset,
+/// response, response model and temperature terms.
+void describe_window(const CalibrationWindow& w, DiagnosticStatusWrapper& status) {
+  const WindowEstimate& e = w.estimate;
+  std::ostringstream band, offset, apparent;
+  band << e.band_low_hz << " .. " << e.band_high_hz;
+  offset.precision(6);
+  for (int k = 0; k < 3; ++k) offset << (k ? " " : "") << w.offset_end_nT(k);
+  offset << " (95 % +-";
+  for (int k = 0; k < 3; ++k) offset << " " << w.offset_end_ci95_nT(k);
+  offset << ")";
+  status.add("method", e.method);
+  status.add("EIV (last window)", e.eiv_text());
+  status.add("reference noise (last window)", w.reference_noise.text.empty() ? std::string("none identified")
+                                                                             : w.reference_noise.text);
+  status.add("weights (last window)", e.weights);
+  status.add("intervals (last window)", e.intervals);
+  status.add("last band used (Hz)", band.str());
+  status.add("last delay (s)", e.delay_s);
+  status.add("last delay ci95 (s)", e.delay_ci95_s);
+  status.add("last offset at window end (nT)", offset.str());
+  status.add("temperature terms (last window)", w.temperature.text);
+  if (w.temperature.fitted) {
+    apparent.precision(4);
+    for (int k = 0; k < 3; ++k) apparent << (k ? " " : "") << w.temperature.apparent_nT_per_C(k);
+    apparent << " (95 % +-";
+    for (int k = 0; k < 3; ++k) apparent << " " << w.temperature.apparent_ci95_nT_per_C(k);
+    apparent << ") at " << w.temperature.reference_C << " degC";
+  }
+  status.add("temperature apparent coefficients (nT/degC)", apparent.str());
+  status.add("response model (last window)", w.response_model.text);
+  // Relative frequency response of the test against R n over the band used (relative_response.hpp).
+  if (w.response.bands > 0) {
+    status.add("response bands in the band used", w.response.bands);
+    status.add("response largest |gain - 1| in the band", w.response.max_gain_departure);
+    status.add("response largest |gain - 1| ci95", w.response.max_gain_departure_ci95);
+    status.add("response group delay (s)", w.response.group_delay_s);
+  }
+}
+
+}  // namespace
 
 void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   const double now = ros::Time::now().toSec();
@@ -59,15 +104,16 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
                                                       : "no test message yet");
   }
 
-  const PairingCounters c = ch.counters();
+  const LiveTestStream& stream = streams_->test(index);
+  const PairingCounters c = stream.counters();
   status.add("paired", c.paired);
   status.add("unpaired reference", c.unpaired_reference);
   status.add("unpaired test", c.unpaired_test);
   status.add("late", c.late);
   status.add("duplicates", c.duplicates);
   status.add("invalid stamps", c.invalid);
-  status.add("pending reference", ch.pairer.pending_reference());
-  status.add("pending test", ch.pairer.pending_test());
+  status.add("pending reference", stream.pairer.pending_reference());
+  status.add("pending test", stream.pairer.pending_test());
   if (c.late > ch.reported_late || c.duplicates > ch.reported_duplicates) {
     problems.emplace_back(DiagnosticStatus::WARN, std::to_string(c.late - ch.reported_late) + " late and " +
                                                       std::to_string(c.duplicates - ch.reported_duplicates) +
@@ -75,23 +121,26 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   }
   ch.reported_late = c.late;
   ch.reported_duplicates = c.duplicates;
-  status.add("decimating", settings_.decimating());
-  status.add("decimator restarts", ch.decimator_restarts);
-  status.add("pipeline resets (stamps backwards)", ch.pipeline_resets);
-  status.add("buffered samples", ch.windows.buffered());
+  status.add("despiking", settings_.streams.despike);
+  status.add("spikes removed (reference, test)", std::to_string(streams_->reference_spikes()) + ", " +
+                                                     std::to_string(stream.despiker.spikes()));
+  status.add("decimating", settings_.streams.decimating());
+  status.add("decimator restarts", stream.decimator_restarts);
+  status.add("pipeline resets (stamps backwards)", stream.pipeline_resets);
+  status.add("buffered samples", stream.windows.buffered());
   // The thermometer (temperature terms).
   const std::string& temperature_topic = ch.settings.temperature_topic;
   status.add("temperature topic", temperature_topic.empty() ? std::string("none") : nh_.resolveName(temperature_topic));
   if (!temperature_topic.empty()) {
     status.add("temperature samples", ch.temperature_messages);
-    status.add("temperature samples buffered", ch.temperature.buffered());
-    status.add("temperature samples out of order", ch.temperature.out_of_order());
+    status.add("temperature samples buffered", stream.thermometer.buffered());
+    status.add("temperature samples out of order", stream.thermometer.out_of_order());
     status.add("temperature last (degC)", ch.temperature_last_C);
     status.add("temperature last stamp",
                ch.temperature_messages > 0 ? time_for_message(ch.temperature_last_stamp_s) : std::string("none"));
   }
-  status.add("windows queued", ch.windows.windows_emitted());
-  status.add("windows skipped (no data)", ch.windows.windows_skipped_empty());
+  status.add("windows queued", stream.windows.windows_emitted());
+  status.add("windows skipped (no data)", stream.windows.windows_skipped_empty());
   const std::size_t dropped = ch.dropped_busy.load();
   status.add("windows dropped (worker busy)", dropped);
   if (dropped > ch.reported_dropped) {
@@ -120,41 +169,12 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
     status.add("last accepted window", ch.last_accepted_window.empty() ? std::string("none") : ch.last_accepted_window);
     status.add("last accepted stamp", ch.last_accepted_stamp);
     status.add("calibration files written", ch.files_written);
-    status.add("method", ch.last_method.empty() ? estimator_method_name(settings_.estimator.method) : ch.last_method);
-    status.add("EIV (last window)", ch.last_eiv.empty() ? std::string("no window yet") : ch.last_eiv);
-    status.add("spikes removed (all windows)", ch.spikes_removed);
-    status.add("weights (last window)", ch.last_weights.empty() ? std::string("no window yet") : ch.last_weights);
-    status.add("intervals (last window)", ch.last_intervals.empty() ? std::string("no window yet") : ch.last_intervals);
-    status.add("three-cornered hat", settings_.hat_state());
-    if (coincident_) {
-      status.add("reference noise (last window)",
-                 ch.last_reference_noise.empty() ? std::string("no window yet") : ch.last_reference_noise);
-      status.add("windows corrected with the hat's reference noise", ch.hat_identified_windows);
-    }
-    status.add("reference noise from the pair", settings_.pair_noise_active() ? "on: where no figure and no hat"
-                                                : (settings_.pair_noise ? "off (a figure, the hat or ~eiv/~method)" : "off (~pair_noise false)"));
-    if (settings_.pair_noise_active()) {
-      status.add("reference noise (last window)",
-                 ch.last_reference_noise.empty() ? std::string("no window yet") : ch.last_reference_noise);
-      status.add("windows corrected with the pair's reference noise", ch.pair_identified_windows);
-    }
-    status.add("last band used (Hz)", ch.last_band);
-    status.add("last delay (s)", ch.last_delay_s);
-    status.add("last delay ci95 (s)", ch.last_delay_ci95_s);
-    status.add("last offset at window end (nT)", ch.last_offset);
-    status.add("temperature terms (last window)", ch.last_temperature.empty() ? std::string("no window yet") : ch.last_temperature);
-    status.add("temperature apparent coefficients (nT/degC)", ch.last_temperature_apparent);
+    status.add("reference noise model", settings_.noise_model_state());
+    status.add("windows corrected with the hat's reference noise", ch.hat_windows);
+    status.add("windows corrected with the pair's reference noise", ch.pair_windows);
+    status.add("windows estimated through a modelled filter", ch.model_applied_windows);
     status.add("windows with temperature terms", ch.temperature_fitted_windows);
-    status.add("response model (last window)",
-               ch.last_response_model.empty() ? std::string("no window yet") : ch.last_response_model);
-    status.add("windows estimated through a modelled filter", ch.response_model_applied_windows);
-    // Relative frequency response of the test against R n over the band used (relative_response.hpp).
-    if (ch.last_response.bands > 0) {
-      status.add("response bands in the band used", ch.last_response.bands);
-      status.add("response largest |gain - 1| in the band", ch.last_response.max_gain_departure);
-      status.add("response largest |gain - 1| ci95", ch.last_response.max_gain_departure_ci95);
-      status.add("response group delay (s)", ch.last_response.group_delay_s);
-    }
+    if (ch.last) describe_window(*ch.last, status);
     status.add("resume at start", ch.resume_state);
     status.add("loaded from file", ch.resume_state == "resumed from file");
     status.add("accepted calibration (change check)", ch.baseline ? ch.baseline_window : std::string("none"));

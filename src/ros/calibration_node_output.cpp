@@ -18,8 +18,6 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-constexpr double kZ95 = 1.959963984540054;  // two-sided 95 % normal quantile
-
 static_assert(static_cast<int>(Quality::kOk) == MagnetometerCalibration::QUALITY_OK &&
                   static_cast<int>(Quality::kTooFewSamples) == MagnetometerCalibration::QUALITY_TOO_FEW_SAMPLES &&
                   static_cast<int>(Quality::kTooFewHarmonics) == MagnetometerCalibration::QUALITY_TOO_FEW_HARMONICS &&
@@ -36,8 +34,8 @@ void copy3(Array& out, const Eigen::Vector3d& v) {
 
 }  // namespace
 
-MagnetometerCalibration CalibrationNode::calibration_message(const Job& job, const WindowResult& result,
-                                                             double period) const {
+MagnetometerCalibration CalibrationNode::calibration_message(const Job& job, const CalibrationWindow& result) const {
+  const double period = settings_.streams.estimation_period_s();
   const TestInstrumentSettings& t = channels_[job.channel]->settings;
   const WindowEstimate& e = result.estimate;
   MagnetometerCalibration m;
@@ -51,12 +49,12 @@ MagnetometerCalibration CalibrationNode::calibration_message(const Job& job, con
   m.sample_period = period;
   m.samples = static_cast<std::uint32_t>(e.samples);
   m.filled_samples = static_cast<std::uint32_t>(result.missing());
-  m.band_low_hz = settings_.estimator.band_low_hz;
-  m.band_high_hz = settings_.estimator.band_high_hz;
+  m.band_low_hz = settings_.window.estimator.band_low_hz;
+  m.band_high_hz = settings_.window.estimator.band_high_hz;
   m.harmonic_first = static_cast<std::uint32_t>(std::max(0, e.harmonic_first));
   m.harmonic_last = static_cast<std::uint32_t>(std::max(0, e.harmonic_last));
-  m.gamma = settings_.estimator.gamma;
-  m.trend_column = settings_.estimator.trend;
+  m.gamma = settings_.window.estimator.gamma;
+  m.trend_column = settings_.window.estimator.trend;
   m.method = e.method;
   m.band_used_low_hz = e.band_low_hz;
   m.band_used_high_hz = e.band_high_hz;
@@ -74,7 +72,7 @@ MagnetometerCalibration CalibrationNode::calibration_message(const Job& job, con
   m.covariance_cells = e.covariance_dof;
   m.interval_quantile = e.parameters.interval_quantile;
   copy3(m.trend_nT_per_day, e.trend_nT_per_day);
-  copy3(m.trend_ci95_nT_per_day, kZ95 * e.trend_stderr_nT_per_day);
+  copy3(m.trend_ci95_nT_per_day, kNormalQuantile95 * e.trend_stderr_nT_per_day);
   const CalibrationParameters& p = e.parameters;
   copy3(m.scale_ratio, p.scale_ratio);
   copy3(m.scale_ratio_ci95, p.scale_ratio_ci95);

@@ -22,9 +22,11 @@ const std::vector<std::string> kKnownParameters = {
     "pairing_max_wait", "window", "step", "max_filled_fraction", "max_fill", "band_low", "band_high",
     "gamma", "trend", "min_harmonics", "max_condition_number", "min_coherence", "silent_timeout",
     "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
-    "eiv_noise_ratio", "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
+    "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
-    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike"};
+    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike",
+    "screen", "screen_threshold", "screen_baseline", "screen_margin", "section_length", "section_trend", "huber_k",
+    "section_rejection", "iterations"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -33,8 +35,9 @@ const std::map<std::string, std::string> kCoreFieldToParameter = {
     {"min_coherence", "min_coherence"}, {"output_period_s", "output_period"}, {"sigma_s", "decimation_sigma"},
     {"half_width_sigmas", "decimation_half_width"}, {"input_period_s", "input_period"},
     {"tolerance_s", "pairing_tolerance"}, {"max_wait_s", "pairing_max_wait"}, {"window", "window"},
-    {"step", "step"}, {"max_fill_s", "max_fill"}, {"max_filled_fraction", "max_filled_fraction"},
-    {"eiv_noise_ratio", "eiv_noise_ratio"}, {"false_alarm_probability", "change_false_alarm_probability"},
+    {"step", "step"}, {"max_fill_s", "max_fill"}, {"max_fill", "max_fill"}, {"max_filled_fraction", "max_filled_fraction"},
+    {"screen_baseline_s", "screen_baseline"}, {"screen_margin_s", "screen_margin"}, {"section_s", "section_length"},
+    {"false_alarm_probability", "change_false_alarm_probability"},
     {"scale_tolerance", "change_scale_tolerance"}, {"angle_tolerance_deg", "change_angle_tolerance"}};
 
 std::string struct_string(XmlRpc::XmlRpcValue& entry, const std::string& key, const std::string& where, bool required,
@@ -58,17 +61,28 @@ std::string optional_topic(XmlRpc::XmlRpcValue& entry, const std::string& key, c
   return value;
 }
 
+void load_streams(const ros::NodeHandle& p, CalibrationNodeSettings& s);
+void load_estimator(const ros::NodeHandle& p, CalibrationNodeSettings& s);
+void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s);
+
 }  // namespace
 
 const std::vector<std::string>& CalibrationNodeSettings::known_parameters() { return kKnownParameters; }
 
-std::string CalibrationNodeSettings::hat_state() const {
-  if (hat_active()) return "on: the reference's noise from the reference and two tests, every window";
-  if (!three_cornered_hat) return "off (~three_cornered_hat false)";
-  if (tests.size() < 2) return "off (one test instrument: a third is needed)";
-  if (estimator.method != EstimatorMethod::kRobust) return "off (~method plain)";
-  if (estimator.robust.eiv != EivCorrection::kGiven) return "off (~eiv is not given)";
-  return "off (~reference_noise_pT given: the maker's figure is used)";
+std::string CalibrationNodeSettings::noise_model_state() const {
+  if (window.estimator.method != EstimatorMethod::kRobust) return "none (~method plain: Eq. 2 as printed)";
+  if (!window.estimator.robust.errors_in_variables) return "off (~eiv none)";
+  if (window.reference_noise_figure.any())
+    return "the reference's noise figure, " + number_text(1e3 * window.reference_noise_figure.pink_nT_per_sqrt_hz.maxCoeff()) +
+           " pT/sqrt(Hz) at 1 Hz (~reference_noise_pT)";
+  std::string text;
+  if (hat_active()) text = "identified in every window by the three-cornered hat with another test instrument";
+  if (window.pair_noise) {
+    text += text.empty() ? "identified in every window from the pair above the band"
+                         : "; from the pair above the band where the hat identifies none";
+  }
+  if (text.empty()) text = "none: no figure, ~pair_noise false" + std::string(tests.size() >= 2 ? " and ~three_cornered_hat false" : "");
+  return text;
 }
 
 CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) {
@@ -154,146 +168,160 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     }
   }
 
-  // Periods and decimation.
-  s.input_period_s = param_double(p, "input_period", s.input_period_s);
-  require_positive("input_period", s.input_period_s, "s");
-  s.decimation.output_period_s = param_double(p, "output_period", s.decimation.output_period_s);
-  require_positive("output_period", s.decimation.output_period_s, "s");
-  s.decimation.sigma_s = param_double(p, "decimation_sigma", s.decimation.sigma_s);
-  require_non_negative("decimation_sigma", s.decimation.sigma_s, "s (0 = default)");
-  s.decimation.half_width_sigmas = param_double(p, "decimation_half_width", s.decimation.half_width_sigmas);
-  require_positive("decimation_half_width", s.decimation.half_width_sigmas, "sigmas");
-  const double period = s.estimation_period_s();
-
-  // Pairing.
-  s.pairing_tolerance_s = param_double(p, "pairing_tolerance", s.pairing_tolerance_s);
-  require_non_negative("pairing_tolerance", s.pairing_tolerance_s, "s");
-  if (!(s.pairing_tolerance_s < 0.5 * s.input_period_s)) {
-    throw ParameterError("pairing_tolerance", "must be below half of ~input_period (" + number_text(0.5 * s.input_period_s) +
-                                                  " s): a sample could pair with its partner's neighbour");
-  }
-  s.pairing_max_wait_s = param_double(p, "pairing_max_wait", s.pairing_max_wait_s);
-  require_non_negative("pairing_max_wait", s.pairing_max_wait_s, "s");
-
-  // Windows.
-  s.window_s = param_double(p, "window", s.window_s);
-  require_positive("window", s.window_s, "s");
-  s.step_s = param_double(p, "step", s.step_s);
-  require_positive("step", s.step_s, "s");
-  if (s.step_s > s.window_s) {
-    throw ParameterError("step", "(" + number_text(s.step_s) + " s) is longer than ~window (" + number_text(s.window_s) +
-                                     " s): samples between windows would never be used");
-  }
-  if (s.step_s < period) throw ParameterError("step", "must be at least one sample period (" + number_text(period) + " s)");
-  s.gap_rule.max_filled_fraction = param_double(p, "max_filled_fraction", s.gap_rule.max_filled_fraction);
-  require_in_range("max_filled_fraction", s.gap_rule.max_filled_fraction, 0.0, 1.0);
-  s.gap_rule.gaps.max_fill_s = param_double(p, "max_fill", s.gap_rule.gaps.max_fill_s);
-  require_non_negative("max_fill", s.gap_rule.gaps.max_fill_s, "s");
-
-  // Estimator.
-  s.estimator.band_low_hz = param_double(p, "band_low", s.estimator.band_low_hz);
-  require_positive("band_low", s.estimator.band_low_hz, "Hz");
-  s.estimator.band_high_hz = param_double(p, "band_high", s.estimator.band_high_hz);
-  if (!(s.estimator.band_high_hz > s.estimator.band_low_hz)) {
-    throw ParameterError("band_high", "(" + number_text(s.estimator.band_high_hz) + " Hz) must be above ~band_low (" +
-                                          number_text(s.estimator.band_low_hz) + " Hz): the band is empty");
-  }
-  if (s.estimator.band_high_hz > 0.5 / period) {
-    throw ParameterError("band_high", "(" + number_text(s.estimator.band_high_hz) + " Hz) is above the Nyquist frequency " +
-                                          number_text(0.5 / period) + " Hz of the " + number_text(period) + " s estimation period");
-  }
-  s.estimator.gamma = param_double(p, "gamma", s.estimator.gamma);
-  s.estimator.trend = param_bool(p, "trend", s.estimator.trend);
-  const int min_harmonics = param_int(p, "min_harmonics", static_cast<int>(s.estimator.min_harmonics));
-  if (min_harmonics < 1) throw ParameterError("min_harmonics", "must be >= 1");
-  s.estimator.min_harmonics = static_cast<std::size_t>(min_harmonics);
-  s.estimator.max_condition_number = param_double(p, "max_condition_number", s.estimator.max_condition_number);
-  s.estimator.min_coherence = param_double(p, "min_coherence", s.estimator.min_coherence);
-  // The offline CLI's estimator (robust_estimator.hpp): method and the options that matter live.
-  try {
-    s.estimator.method = parse_estimator_method(param_string(p, "method", "robust"), "method");
-    s.estimator.robust.eiv = parse_eiv_correction(param_string(p, "eiv", "given"), "eiv");
-  } catch (const InputError& e) {
-    throw ParameterError(e.where(), e.problem());
-  }
-  // ~reference_noise_pT: the reference's noise figure, pT/sqrt(Hz) at 1 Hz (1/f below); 0 (the
-  // default): not identified, no errors-in-variables correction (eiv given).
-  const double reference_noise_pT = param_double(p, "reference_noise_pT", 0.0);
-  require_non_negative("reference_noise_pT", reference_noise_pT, "(pT/sqrt(Hz) at 1 Hz)");
-  s.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(reference_noise_pT / 1000.0);
-  s.estimator.robust.auto_band = param_bool(p, "auto_band", s.estimator.robust.auto_band);
-  s.estimator.robust.eiv_noise_ratio = param_double(p, "eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio);
-  require_non_negative("eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio, "(PSD ratio reference / test)");
-  s.estimator.robust.estimate_delay = param_bool(p, "estimate_delay", s.estimator.robust.estimate_delay);
-  s.estimator.robust.correct_delay = param_bool(p, "correct_delay", s.estimator.robust.correct_delay);
-  if (s.estimator.robust.correct_delay && !s.estimator.robust.estimate_delay) {
-    throw ParameterError("correct_delay", "is true but ~estimate_delay is false (nothing to correct)");
-  }
-  // ~three_cornered_hat: with two or more test instruments, the reference's noise identified in
-  // every window from the reference and two tests (live_three_cornered_hat.hpp; hat_active()).
-  s.three_cornered_hat = param_bool(p, "three_cornered_hat", s.three_cornered_hat);
-  // ~pair_noise: where the hat is not used, the reference's noise from each window's pair above
-  // the band (reference_noise.hpp, identify_reference_noise_from_pair; pair_noise_active()).
-  s.pair_noise = param_bool(p, "pair_noise", s.pair_noise);
-  // Calibration change check against the accepted calibration.
-  s.change.false_alarm_probability =
-      param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);
-  s.change.scale_tolerance = param_double(p, "change_scale_tolerance", s.change.scale_tolerance);
-  s.change.angle_tolerance_deg = param_double(p, "change_angle_tolerance", s.change.angle_tolerance_deg);
-  // A window must be able to hold min_harmonics harmonics j / window inside the band.
-  const double harmonics = std::floor(s.estimator.band_high_hz * s.window_s) -
-                           std::ceil(s.estimator.band_low_hz * s.window_s) + 1.0;
-  if (harmonics < static_cast<double>(s.estimator.min_harmonics)) {
-    throw ParameterError("window", "(" + number_text(s.window_s) + " s) holds only " + number_text(std::max(0.0, harmonics)) +
-                                       " DFT harmonics in [~band_low, ~band_high], fewer than ~min_harmonics (" +
-                                       std::to_string(s.estimator.min_harmonics) + "): every window would be flagged");
-  }
-
-  // Monitoring and queues.
-  s.silent_timeout_s = param_double(p, "silent_timeout", s.silent_timeout_s);
-  require_positive("silent_timeout", s.silent_timeout_s, "s");
-  s.time_jump_threshold_s = param_double(p, "time_jump_threshold", s.time_jump_threshold_s);
-  if (!(s.time_jump_threshold_s > s.input_period_s)) {
-    throw ParameterError("time_jump_threshold", "must be longer than ~input_period (" + number_text(s.input_period_s) + " s)");
-  }
-  s.queue_size = param_int(p, "queue_size", s.queue_size);
-  if (s.queue_size < 1) throw ParameterError("queue_size", "must be >= 1 message");
-  s.max_pending_windows = param_int(p, "max_pending_windows", s.max_pending_windows);
-  if (s.max_pending_windows < 1) throw ParameterError("max_pending_windows", "must be >= 1");
-  s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
-  require_positive("diagnostic_period", s.diagnostic_period_s, "s");
-
-  // Temperature terms (when an instrument has a temperature topic).
-  s.gap_rule.temperature.min_range_C = param_double(p, "temperature_min_range", s.gap_rule.temperature.min_range_C);
-  require_non_negative("temperature_min_range", s.gap_rule.temperature.min_range_C, "degC");
-  // Default: the gap rule's longest filled gap, at least two estimation periods.
-  s.gap_rule.temperature_max_gap_s =
-      param_double(p, "temperature_max_gap", std::max(s.gap_rule.gaps.max_fill_s, 2.0 * period));
-  require_positive("temperature_max_gap", s.gap_rule.temperature_max_gap_s, "s");
-
-  // Spikes removed from each window before its gaps are filled, as offline.
-  s.gap_rule.despike = param_bool(p, "despike", s.gap_rule.despike);
-  // Response model: n estimated through a significant 1-pole corner of a test component.
-  s.gap_rule.response_model = param_bool(p, "response_model", s.gap_rule.response_model);
-
-  // TF: the rotation part of accepted calibrations on /tf_static (calibration_node_tf.cpp).
-  s.publish_tf = param_bool(p, "publish_tf", s.publish_tf);
-  s.tf_child_frame_suffix = param_string(p, "tf_child_frame_suffix", s.tf_child_frame_suffix);
-  if (s.tf_child_frame_suffix.find_first_of(" \t/") != std::string::npos) {
-    throw ParameterError("tf_child_frame_suffix", "'" + s.tf_child_frame_suffix + "' must not contain spaces or '/'");
-  }
-
+  load_streams(p, s);
+  load_estimator(p, s);
+  load_monitoring(p, s);
   // The core's own checks, reported under the parameter's name.
   try {
-    s.estimator.validate();
+    s.window.validate();
     s.change.validate();
-    s.decimation.validate();
-    WindowLayout{0, s.window_s, s.step_s}.validate();
+    s.streams.decimation.validate();
+    WindowLayout{0, s.streams.window_s, s.streams.step_s}.validate();
   } catch (const InputError& e) {
     const auto it = kCoreFieldToParameter.find(e.where());
     throw ParameterError(it != kCoreFieldToParameter.end() ? it->second : e.where(), e.problem());
   }
   return s;
 }
+
+namespace {
+
+/// Periods and decimation, pairing, windows and despiking (LiveStreamSettings), and the gap rule.
+void load_streams(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
+  LiveStreamSettings& l = s.streams;
+  l.input_period_s = param_double(p, "input_period", l.input_period_s);
+  require_positive("input_period", l.input_period_s, "s");
+  l.decimation.output_period_s = param_double(p, "output_period", l.decimation.output_period_s);
+  require_positive("output_period", l.decimation.output_period_s, "s");
+  l.decimation.sigma_s = param_double(p, "decimation_sigma", l.decimation.sigma_s);
+  require_non_negative("decimation_sigma", l.decimation.sigma_s, "s (0 = default)");
+  l.decimation.half_width_sigmas = param_double(p, "decimation_half_width", l.decimation.half_width_sigmas);
+  require_positive("decimation_half_width", l.decimation.half_width_sigmas, "sigmas");
+  const double period = l.estimation_period_s();
+  l.pairing_tolerance_s = param_double(p, "pairing_tolerance", l.pairing_tolerance_s);
+  require_non_negative("pairing_tolerance", l.pairing_tolerance_s, "s");
+  if (!(l.pairing_tolerance_s < 0.5 * l.input_period_s)) {
+    throw ParameterError("pairing_tolerance", "must be below half of ~input_period (" + number_text(0.5 * l.input_period_s) +
+                                                  " s): a sample could pair with its partner's neighbour");
+  }
+  l.pairing_max_wait_s = param_double(p, "pairing_max_wait", l.pairing_max_wait_s);
+  require_non_negative("pairing_max_wait", l.pairing_max_wait_s, "s");
+  l.window_s = param_double(p, "window", l.window_s);
+  require_positive("window", l.window_s, "s");
+  l.step_s = param_double(p, "step", l.step_s);
+  require_positive("step", l.step_s, "s");
+  if (l.step_s > l.window_s) {
+    throw ParameterError("step", "(" + number_text(l.step_s) + " s) is longer than ~window (" + number_text(l.window_s) +
+                                     " s): samples between windows would never be used");
+  }
+  if (l.step_s < period) throw ParameterError("step", "must be at least one sample period (" + number_text(period) + " s)");
+  // Spikes removed from each stream at its own rate, as calibrate_records removes them.
+  l.despike = param_bool(p, "despike", l.despike);
+  WindowCalibrationSettings& w = s.window;
+  w.max_filled_fraction = param_double(p, "max_filled_fraction", w.max_filled_fraction);
+  require_in_range("max_filled_fraction", w.max_filled_fraction, 0.0, 1.0);
+  w.gaps.max_fill_s = param_double(p, "max_fill", w.gaps.max_fill_s);
+  require_non_negative("max_fill", w.gaps.max_fill_s, "s");
+  // Temperature terms (when an instrument has a temperature topic). Default max gap: the gap
+  // rule's longest filled gap, at least two estimation periods.
+  w.temperature.min_range_C = param_double(p, "temperature_min_range", w.temperature.min_range_C);
+  require_non_negative("temperature_min_range", w.temperature.min_range_C, "degC");
+  w.temperature_max_gap_s = param_double(p, "temperature_max_gap", std::max(w.gaps.max_fill_s, 2.0 * period));
+  require_positive("temperature_max_gap", w.temperature_max_gap_s, "s");
+  l.temperature_margin_s = w.temperature_max_gap_s;
+}
+
+/// The estimator, its reference noise, response model and robust options (WindowCalibrationSettings).
+void load_estimator(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
+  EstimatorSettings& e = s.window.estimator;
+  const double period = s.streams.estimation_period_s();
+  e.band_low_hz = param_double(p, "band_low", e.band_low_hz);
+  require_positive("band_low", e.band_low_hz, "Hz");
+  e.band_high_hz = param_double(p, "band_high", e.band_high_hz);
+  if (!(e.band_high_hz > e.band_low_hz)) {
+    throw ParameterError("band_high", "(" + number_text(e.band_high_hz) + " Hz) must be above ~band_low (" +
+                                          number_text(e.band_low_hz) + " Hz): the band is empty");
+  }
+  if (e.band_high_hz > 0.5 / period) {
+    throw ParameterError("band_high", "(" + number_text(e.band_high_hz) + " Hz) is above the Nyquist frequency " +
+                                          number_text(0.5 / period) + " Hz of the " + number_text(period) + " s estimation period");
+  }
+  e.gamma = param_double(p, "gamma", e.gamma);
+  e.trend = param_bool(p, "trend", e.trend);
+  const int min_harmonics = param_int(p, "min_harmonics", static_cast<int>(e.min_harmonics));
+  if (min_harmonics < 1) throw ParameterError("min_harmonics", "must be >= 1");
+  e.min_harmonics = static_cast<std::size_t>(min_harmonics);
+  e.max_condition_number = param_double(p, "max_condition_number", e.max_condition_number);
+  e.min_coherence = param_double(p, "min_coherence", e.min_coherence);
+  const std::string eiv = param_string(p, "eiv", "given");
+  if (eiv != "given" && eiv != "none") throw ParameterError("eiv", "expected given or none, got '" + eiv + "'");
+  e.robust.errors_in_variables = eiv == "given";
+  try {
+    e.method = parse_estimator_method(param_string(p, "method", "robust"), "method");
+  } catch (const InputError& error) {
+    throw ParameterError(error.where(), error.problem());
+  }
+  // The reference's noise figure, pT/sqrt(Hz) at 1 Hz (1/f below); 0: identified from the data.
+  const double figure_pT = param_double(p, "reference_noise_pT", 0.0);
+  require_non_negative("reference_noise_pT", figure_pT, "(pT/sqrt(Hz) at 1 Hz)");
+  s.window.reference_noise_figure = NoiseSpectrum::fluxgate_figure(figure_pT);
+  s.window.three_cornered_hat = param_bool(p, "three_cornered_hat", s.window.three_cornered_hat);
+  s.window.pair_noise = param_bool(p, "pair_noise", s.window.pair_noise);
+  s.window.response_model = param_bool(p, "response_model", s.window.response_model);
+  RobustSettings& r = e.robust;
+  r.auto_band = param_bool(p, "auto_band", r.auto_band);
+  r.estimate_delay = param_bool(p, "estimate_delay", r.estimate_delay);
+  r.correct_delay = param_bool(p, "correct_delay", r.correct_delay);
+  if (r.correct_delay && !r.estimate_delay) {
+    throw ParameterError("correct_delay", "is true but ~estimate_delay is false (nothing to correct)");
+  }
+  // The robust estimator's own steps (robust_estimator.hpp; docs/method.md).
+  r.screen = param_bool(p, "screen", r.screen);
+  r.screen_threshold = param_double(p, "screen_threshold", r.screen_threshold);
+  r.screen_baseline_s = param_double(p, "screen_baseline", r.screen_baseline_s);
+  r.screen_margin_s = param_double(p, "screen_margin", r.screen_margin_s);
+  r.section_s = param_double(p, "section_length", r.section_s);
+  r.section_trend = param_bool(p, "section_trend", r.section_trend);
+  r.huber_k = param_double(p, "huber_k", r.huber_k);
+  r.section_rejection = param_double(p, "section_rejection", r.section_rejection);
+  r.iterations = param_int(p, "iterations", r.iterations);
+  // A window must be able to hold min_harmonics harmonics j / window inside the band.
+  const double window = s.streams.window_s;
+  const double harmonics = std::floor(e.band_high_hz * window) - std::ceil(e.band_low_hz * window) + 1.0;
+  if (harmonics < static_cast<double>(e.min_harmonics)) {
+    throw ParameterError("window", "(" + number_text(window) + " s) holds only " + number_text(std::max(0.0, harmonics)) +
+                                       " DFT harmonics in [~band_low, ~band_high], fewer than ~min_harmonics (" +
+                                       std::to_string(e.min_harmonics) + "): every window would be flagged");
+  }
+}
+
+/// The change check, monitoring, queues and TF.
+void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
+  s.change.false_alarm_probability = param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);
+  s.change.scale_tolerance = param_double(p, "change_scale_tolerance", s.change.scale_tolerance);
+  s.change.angle_tolerance_deg = param_double(p, "change_angle_tolerance", s.change.angle_tolerance_deg);
+  s.silent_timeout_s = param_double(p, "silent_timeout", s.silent_timeout_s);
+  require_positive("silent_timeout", s.silent_timeout_s, "s");
+  s.time_jump_threshold_s = param_double(p, "time_jump_threshold", s.time_jump_threshold_s);
+  if (!(s.time_jump_threshold_s > s.streams.input_period_s)) {
+    throw ParameterError("time_jump_threshold",
+                         "must be longer than ~input_period (" + number_text(s.streams.input_period_s) + " s)");
+  }
+  s.streams.time_jump_threshold_s = s.time_jump_threshold_s;
+  s.queue_size = param_int(p, "queue_size", s.queue_size);
+  if (s.queue_size < 1) throw ParameterError("queue_size", "must be >= 1 message");
+  s.max_pending_windows = param_int(p, "max_pending_windows", s.max_pending_windows);
+  if (s.max_pending_windows < 1) throw ParameterError("max_pending_windows", "must be >= 1");
+  s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
+  require_positive("diagnostic_period", s.diagnostic_period_s, "s");
+  // TF: the rotation part of accepted calibrations on /tf_static (calibration_node_tf.cpp).
+  s.publish_tf = param_bool(p, "publish_tf", s.publish_tf);
+  s.tf_child_frame_suffix = param_string(p, "tf_child_frame_suffix", s.tf_child_frame_suffix);
+  if (s.tf_child_frame_suffix.find_first_of(" \t/") != std::string::npos) {
+    throw ParameterError("tf_child_frame_suffix", "'" + s.tf_child_frame_suffix + "' must not contain spaces or '/'");
+  }
+}
+
+}  // namespace
 
 }  // namespace magnetometer_insitu_calibration

@@ -10,13 +10,10 @@
 #catkin_lint: ignore external_directory
 #catkin_lint: ignore external_interface_path
 
-# Shared ROS-layer code: parameter reading, the calibration YAML file, the live sliding window,
-# the correction model.
+# Shared ROS-layer code: parameter reading, the calibration YAML file, the correction model.
 add_library(${PROJECT_NAME}_ros
   src/ros/calibration_yaml.cpp
   src/ros/correction_model.cpp
-  src/ros/live_three_cornered_hat.cpp
-  src/ros/live_window.cpp
   src/ros/parameters.cpp)
 target_include_directories(${PROJECT_NAME}_ros PUBLIC include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS})
 target_link_libraries(${PROJECT_NAME}_ros PUBLIC ${PROJECT_NAME}_core ${catkin_LIBRARIES} ${YAML_CPP_LIBRARIES})

@@ -1,8 +1,6 @@
-// ROS layer without a master: the calibration YAML file, the live sliding window, the window
-// estimate with its gap flags, and the correction model.
+// ROS layer without a master: the calibration YAML file and the correction model.
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/correction_model.hpp"
-#include "magnetometer_insitu_calibration/ros/live_window.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <Eigen/LU>
@@ -245,128 +243,6 @@ TEST(CalibrationYaml, AtomicWriteReplacesAndLeavesNoTemporary) {
 
 // ---------------------------------------------------------------------------------------------
 
-TEST(SlidingWindowBuffer, WindowsAlignedOnStepAndComplete) {
-  mic::SlidingWindowBuffer buffer(100.0, 30.0, 1.0);
-  std::vector<mic::WindowData> windows;
-  const double t0 = 1000.0 + 7.0;  // not on a step boundary: the first window starts at 1020
-  for (int k = 0; k < 300; ++k) {
-    for (auto& w : buffer.push(t0 + k, Eigen::Vector3d::Constant(k), Eigen::Vector3d::Constant(-k))) {
-      windows.push_back(std::move(w));
-    }
-  }
-  ASSERT_GE(windows.size(), 6u);
-  for (std::size_t i = 0; i < windows.size(); ++i) {
-    EXPECT_DOUBLE_EQ(windows[i].start_s, 1020.0 + 30.0 * i);
-    EXPECT_EQ(windows[i].expected_samples, 100u);
-    ASSERT_EQ(windows[i].paired.size(), 100u);
-    EXPECT_DOUBLE_EQ(windows[i].paired.time_s.front(), windows[i].start_s);
-    EXPECT_DOUBLE_EQ(windows[i].paired.time_s.back(), windows[i].end_s());
-    EXPECT_DOUBLE_EQ(windows[i].paired.test_nT(0, 0), -(windows[i].start_s - t0));
-  }
-  EXPECT_LE(buffer.buffered(), 101u);
-  // Out of order and repeated stamps are ignored.
-  EXPECT_TRUE(buffer.push(t0 + 10, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()).empty());
-  EXPECT_EQ(buffer.out_of_order(), 1u);
-}
-
-TEST(SlidingWindowBuffer, JumpSkipsEmptyWindowsAndEmitsPartialOnes) {
-  mic::SlidingWindowBuffer buffer(100.0, 50.0, 1.0);
-  std::vector<mic::WindowData> windows;
-  auto push = [&](double t) {
-    for (auto& w : buffer.push(t, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero())) windows.push_back(std::move(w));
-  };
-  for (int k = 0; k < 120; ++k) push(k);        // 0..119
-  for (int k = 0; k < 1000; ++k) push(1.0e6 + k);  // a jump of ~11.6 days
-  // Before the jump: [0,100) complete; [50,150) and [100,200) partial; after: [1e6, 1e6+100) ...
-  ASSERT_GE(windows.size(), 4u);
-  EXPECT_DOUBLE_EQ(windows[0].start_s, 0.0);
-  EXPECT_EQ(windows[1].paired.size(), 70u);
-  EXPECT_EQ(windows[2].paired.size(), 20u);
-  for (std::size_t i = 3; i < windows.size(); ++i) EXPECT_GE(windows[i].start_s, 1.0e6 - 100.0);
-  EXPECT_GT(buffer.windows_skipped_empty(), 10000u);
-}
-
-// ---------------------------------------------------------------------------------------------
-
-namespace {
-
-mic::WindowData simulated_window(double duration_s, std::uint64_t seed, mic::SimulatedPair* pair_out = nullptr) {
-  mic::SimulationSettings s;
-  s.duration_s = duration_s;
-  s.seed = seed;
-  mic::SimulatedPair pair = mic::simulate_pair(s);
-  mic::WindowData w;
-  w.start_s = pair.reference.time_s.front();
-  w.period_s = 1.0;
-  w.expected_samples = pair.reference.size();
-  w.paired.time_s = pair.reference.time_s;
-  w.paired.reference_nT = pair.reference.values_nT;
-  w.paired.test_nT = pair.test.values_nT;
-  if (pair_out != nullptr) *pair_out = pair;
-  return w;
-}
-
-mic::WindowData without_rows(const mic::WindowData& w, std::size_t first, std::size_t count) {
-  mic::WindowData out = w;
-  const std::size_t n = w.paired.size(), keep = n - count;
-  out.paired.time_s.clear();
-  out.paired.reference_nT.resize(static_cast<Eigen::Index>(keep), 3);
-  out.paired.test_nT.resize(static_cast<Eigen::Index>(keep), 3);
-  Eigen::Index row = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (i >= first && i < first + count) continue;
-    out.paired.time_s.push_back(w.paired.time_s[i]);
-    out.paired.reference_nT.row(row) = w.paired.reference_nT.row(static_cast<Eigen::Index>(i));
-    out.paired.test_nT.row(row) = w.paired.test_nT.row(static_cast<Eigen::Index>(i));
-    ++row;
-  }
-  return out;
-}
-
-}  // namespace
-
-TEST(EstimateWindow, CompleteWindowIsAcceptedAndGapsAreFlagged) {
-  mic::SimulatedPair pair;
-  const mic::WindowData full = simulated_window(7200.0, 5, &pair);
-  mic::EstimatorSettings settings;
-  mic::FdWlseEstimator estimator(settings);
-  mic::WindowGapRule rule;  // 60 s, 5 %
-  const mic::WindowResult ok = mic::estimate_window(full, estimator, rule);
-  EXPECT_EQ(ok.estimate.quality, mic::Quality::kOk) << ok.estimate.quality_text;
-  EXPECT_EQ(ok.missing(), 0u);
-  const Eigen::Matrix3d z = (ok.estimate.n - pair.n_true).cwiseAbs().array() / ok.estimate.n_stderr().array();
-  EXPECT_LT(z.maxCoeff(), 4.0) << "|n - n_true| / se:\n" << z << "\nse:\n" << ok.estimate.n_stderr();
-  const Eigen::Vector3d mean_r = full.paired.reference_nT.colwise().mean().transpose();
-  EXPECT_LT((ok.reference_mean_nT - mean_r).norm(), 1e-9) << ok.reference_mean_nT.transpose();
-  // The simulated pair has no relative filter or delay: its response over the band is flat (for
-  // the diagnostics' summary) within the half-width and the group delay is near 0 s.
-  ASSERT_GT(ok.response.bands, 0u);
-  EXPECT_LE(ok.response.max_gain_departure, 2.0 * ok.response.max_gain_departure_ci95);
-  EXPECT_LT(std::abs(ok.response.group_delay_s), 1.0);
-
-  // 30 s inside: filled, not flagged.
-  const mic::WindowResult small = mic::estimate_window(without_rows(full, 1000, 30), estimator, rule);
-  EXPECT_EQ(small.estimate.quality, mic::Quality::kOk) << small.estimate.quality_text;
-  EXPECT_EQ(small.interpolated, 30u);
-  // 120 s inside: longer than max_fill.
-  const mic::WindowResult long_gap = mic::estimate_window(without_rows(full, 1000, 120), estimator, rule);
-  EXPECT_EQ(long_gap.estimate.quality, mic::Quality::kGaps);
-  EXPECT_TRUE(long_gap.long_gap);
-  // Missing at the end (a silent topic): counted although regularize_and_fill trims it.
-  const mic::WindowResult tail = mic::estimate_window(without_rows(full, 7000, 200), estimator, rule);
-  EXPECT_EQ(tail.trailing_missing, 200u);
-  EXPECT_EQ(tail.estimate.quality, mic::Quality::kGaps);
-  const mic::WindowResult head = mic::estimate_window(without_rows(full, 0, 90), estimator, rule);
-  EXPECT_EQ(head.leading_missing, 90u);
-  EXPECT_EQ(head.estimate.quality, mic::Quality::kGaps);
-  // Many short gaps: more than 5 % interpolated.
-  mic::WindowData holes = full;
-  for (std::size_t g = 0; g < 20; ++g) holes = without_rows(holes, 100 + g * 300, 20);
-  const mic::WindowResult many = mic::estimate_window(holes, estimator, rule);
-  EXPECT_EQ(many.interpolated, 400u);
-  EXPECT_EQ(many.estimate.quality, mic::Quality::kGaps) << many.estimate.quality_text;
-}
-
 // ---------------------------------------------------------------------------------------------
 
 TEST(CorrectionModel, InvertsTheCalibrationAndPropagatesCovariance) {
@@ -453,27 +329,3 @@ TEST(CorrectionModel, RefusesUnusableMatrices) {
 
 // ---------------------------------------------------------------------------------------------
 
-TEST(StreamMonitor, ForwardJumpsStrayStampsAndConfirmedBackwardJumps) {
-  using Jump = mic::StreamMonitor::Jump;
-  mic::StreamMonitor m;
-  const double threshold = 60.0;
-  double t = 1.0e9;
-  for (int k = 0; k < 10; ++k) EXPECT_EQ(m.observe(t += 1.0, 0.0, "f", threshold), Jump::kNone);
-  EXPECT_EQ(m.observe(t += 3600.0, 0.0, "f", threshold), Jump::kForward);  // clock jumps ahead
-  EXPECT_EQ(m.observe(t += 1.0, 0.0, "f", threshold), Jump::kNone);
-  EXPECT_EQ(m.observe(0.0, 0.0, "f", threshold), Jump::kNone);  // one stray stamp
-  EXPECT_EQ(m.observe(t += 1.0, 0.0, "f", threshold), Jump::kNone);
-  EXPECT_EQ(m.stray, 1u);
-  EXPECT_EQ(m.jumps_backward, 0u);
-  EXPECT_EQ(m.observe(t - 7200.0, 0.0, "f", threshold), Jump::kNone);  // clock set back: first sample
-  EXPECT_EQ(m.observe(t - 7199.0, 0.0, "f", threshold), Jump::kBackward);  // confirmed
-  EXPECT_EQ(m.observe(t - 7198.0, 0.0, "f", threshold), Jump::kNone);
-  EXPECT_EQ(m.jumps_forward, 1u);
-  EXPECT_EQ(m.jumps_backward, 1u);
-  EXPECT_EQ(m.stray, 1u);
-  EXPECT_EQ(m.messages, 17u);
-  EXPECT_DOUBLE_EQ(m.newest_stamp_s, t - 7198.0);
-  // Small disorder is neither.
-  EXPECT_EQ(m.observe(t - 7210.0, 0.0, "f", threshold), Jump::kNone);
-  EXPECT_EQ(m.stray, 1u);
-}

@@ -1,8 +1,6 @@
 # Tests of the ROS layer, included by CMakeLists.txt when CATKIN_ENABLE_TESTING.
-#  - test_ros_layer: gtest without a master (calibration YAML, sliding window, window
-#    estimate and gap flags, correction model; test_ros_temperature.cpp: temperature terms;
-#    test_ros_response_model.cpp: the response model of a live window;
-#    test_ros_three_cornered_hat.cpp: the reference noise from two tests);
+#  - test_ros_layer: gtest without a master (calibration YAML, correction model;
+#    test_ros_temperature.cpp: the correction model's temperature terms);
 #  - rostests with a real master (rostest starts one per .test file): simulated streams with a
 #    fast /clock into calibration_node + correction_node (launch/calibration.launch).
 # Test binaries are EXCLUDE_FROM_ALL: build the `tests` target before ctest.
@@ -15,7 +13,7 @@
 find_package(rostest REQUIRED)
 find_package(tf2_msgs REQUIRED)  # rostest_calibration_tf.cpp reads /tf_static
 
-catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp test/ros/test_ros_temperature.cpp test/ros/test_ros_response_model.cpp test/ros/test_ros_three_cornered_hat.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
+catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp test/ros/test_ros_temperature.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
 if(TARGET test_ros_layer)
   target_link_libraries(test_ros_layer ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
   target_compile_options(test_ros_layer PRIVATE -Wall -Wextra)

@@ -17,27 +17,21 @@
 //   n_c = (A - N_r)^-1 C.
 // N_r needs the reference noise spectrum S_r(f) (one-sided PSD, nT^2/Hz, per reference axis),
 // and for an unnormalised DFT of a section of L samples at period dt E|X_j|^2 = L S(f_j) / (2 dt).
-// Two ways to know S_r:
-//  - given: a white level (rms per sample) and a pink (1/f) level (amplitude spectral density at
-//    1 Hz) per axis, from the maker's figure or a noise test: S_r(f) = 2 white^2 dt + pink^2 / f;
-//  - from the residual with a known ratio rho = S_r / S_t of the two instruments' noise PSDs
-//    (e.g. 1 for two instruments of the same type, as in the paper): the residual e = T - R n
-//    has the spectrum S_t + n^T S_r n, which for axes that are nearly aligned (|n - I| << 1, the
-//    in-situ case) is S_t,k + S_r,k per axis, so S_r,k = rho / (1 + rho) S_e,k. The robust
-//    estimator takes E|X_noise|^2 of each cell from that cell's own residual power, capped at
-//    9 times the robust (median) scale of its frequency bin and divided by 1 - e^-9, so that an
-//    outlier cannot inflate it much while clean cells keep their own level (a per-bin level
-//    misses the 1/f change of the noise inside a bin, and a median has twice the variance of
-//    a mean). This is circular in n (the residual depends on n), so the robust estimator
-//    iterates it to its fixed point, the Deming solution; the uncertainty of the estimated
-//    noise enters the intervals through the robust estimator's section jackknife.
+// S_r comes from a noise model of the reference (ReferenceNoiseModel below): a white level (rms
+// per sample) and a pink (1/f) level (amplitude spectral density at 1 Hz) per axis,
+// S_r(f) = 2 white^2 dt + pink^2 / f, taken from the maker's figure or identified from the
+// instruments themselves (a third co-located instrument, or the pair above the band:
+// pipeline/reference_noise.hpp). Residual power is never taken for reference noise: the tilt of
+// one pier, a local source or a response mismatch would inflate n where the signal is weak.
 // The correction is refused (flag, no correction) when A - N_r is not positive definite,
 // i.e. when the noise would be as large as the signal in some direction of the band.
 #pragma once
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cstddef>
+#include <string>
 
 namespace magnetometer_insitu_calibration {
 
@@ -50,10 +44,60 @@ struct NoiseSpectrum {
   Eigen::Vector3d psd(double frequency_hz, double sample_period_s) const;
   /// Expected |X_j|^2 of the unnormalised DFT of `length` samples at f: length * PSD / (2 dt), nT^2.
   Eigen::Vector3d expected_periodogram(double frequency_hz, double sample_period_s, std::size_t length) const;
+  /// A positive level on at least one axis.
+  bool any() const;
+  /// A fluxgate maker's figure "figure_pT pT/sqrt(Hz) at 1 Hz", taken as 1/f noise below 1 Hz on
+  /// every axis (what fluxgates show in the band).
+  static NoiseSpectrum fluxgate_figure(double figure_pT);
 };
 
-/// Share of the residual PSD that belongs to the reference, rho / (1 + rho) for rho = S_r / S_t.
-double reference_share_of_residual(double noise_ratio);
+/// Covariance, per axis of the reference's frame, of an identified noise's two levels (white^2 in
+/// nT^2 rms^2 per sample, pink^2 in nT^2/Hz at 1 Hz), in that order: nT^4 and their products.
+using NoiseLevelCovariance = std::array<Eigen::Matrix2d, 3>;
+
+/// Where a reference noise model comes from.
+enum class NoiseSource : int {
+  kNone = 0,              ///< no model: no correction
+  kMakerFigure = 1,       ///< the maker's noise figure, given by the user
+  kThreeCorneredHat = 2,  ///< identified from a third co-located instrument (three-cornered hat)
+  kPairAboveBand = 3,     ///< identified from the pair itself above the band
+};
+/// "none", "maker's figure", "three-cornered hat", "pair above the band".
+const char* noise_source_name(NoiseSource source);
+
+/// The reference's noise as the errors-in-variables correction uses it: a measured input of the
+/// window's estimate (WindowInputs), never a setting.
+struct ReferenceNoiseModel {
+  NoiseSource source = NoiseSource::kNone;
+  NoiseSpectrum spectrum;  ///< per axis of the reference's frame, at the estimation period
+  /// Uncertainty of the levels when they were identified from the data; zero: taken as exact
+  /// (a maker's figure). Its effect on n is added to n's covariance.
+  NoiseLevelCovariance level_covariance{Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
+  std::string provider;  ///< who it was identified with: "--third", "test 'b'"; empty otherwise
+
+  /// A source and a positive level on at least one axis: there is noise to correct for.
+  bool has_noise() const;
+  /// A maker's figure (no model when it has no level).
+  static ReferenceNoiseModel maker_figure(const NoiseSpectrum& figure);
+  /// Throws InputError("reference noise", ...) for negative or non-finite levels or a level
+  /// covariance that is not symmetric positive semi-definite.
+  void validate() const;
+};
+
+/// What the errors-in-variables step did in a window.
+enum class ErrorsInVariables : int {
+  kNotApplicable = 0,  ///< plain Eq. 2: no correction by design
+  kOff = 1,            ///< switched off by the user (--eiv none, ~eiv none)
+  kNoNoiseModel = 2,   ///< no reference noise model for the window: no correction
+  kRefused = 3,        ///< the model's noise was as large as the signal in some direction: none
+  kApplied = 4,        ///< n corrected for the model's noise
+};
+/// "not_applicable", "off", "no_noise_model", "refused", "applied".
+const char* errors_in_variables_name(ErrorsInVariables applied);
+/// One line for reports and diagnostics: what was applied and, when applied, the noise model
+/// (source, provider and levels), e.g. "applied: reference noise from the pair above the band,
+/// white 20.4/18.1/22.0 pT rms, 1/f 2.95/3.1/2.2 pT/sqrt(Hz) at 1 Hz (x/y/z)".
+std::string errors_in_variables_text(ErrorsInVariables applied, const ReferenceNoiseModel& noise);
 
 /// n_c = (A - N)^-1 C for the field block (the first three regressors; N is 3 x 3 and is
 /// subtracted from the top-left block of A, p x p). Returns false and leaves `solution`

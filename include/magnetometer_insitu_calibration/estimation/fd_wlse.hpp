@@ -3,6 +3,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
+#include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <Eigen/Core>
@@ -30,23 +31,6 @@ const char* estimator_method_name(EstimatorMethod method);  ///< "plain", "robus
 /// Parses "plain" / "robust"; throws InputError(where, ...) otherwise.
 EstimatorMethod parse_estimator_method(const std::string& text, const std::string& where = "method");
 
-/// Errors-in-variables correction of the robust estimator (errors_in_variables.hpp). The default
-/// uses only IDENTIFIED reference noise (the maker's figure given as reference_pink_* /
-/// reference_white_nT); with none given it applies none and says so ("noise not identified"):
-/// residual power is not instrument noise (tilt of one pier, local sources, a response
-/// mismatch), and a share of it taken as reference noise inflates n where the signal is weak.
-enum class EivCorrection : int {
-  kNone = 0,        ///< none: the estimate is attenuated by the reference noise (as Eq. 2)
-  kNoiseRatio = 1,  ///< reference noise PSD = eiv_noise_ratio x residual-derived test noise PSD (only when asked)
-  kGiven = 2,       ///< default: reference noise spectrum given (reference_white_nT, reference_pink_*); none if zero
-};
-const char* eiv_correction_name(EivCorrection mode);  ///< "none", "ratio", "given"
-EivCorrection parse_eiv_correction(const std::string& text, const std::string& where = "eiv");
-
-/// Covariance, per axis of the reference's frame, of an identified noise's two levels (white^2 in
-/// nT^2 rms^2 per sample, pink^2 in nT^2/Hz at 1 Hz), in that order: nT^4 and their products.
-using NoiseLevelCovariance = std::array<Eigen::Matrix2d, 3>;
-
 /// Options of the robust estimator, of the automatic band and of the delay (robust_estimator.hpp
 /// explains each step). Ignored by FdWlseEstimator itself.
 struct RobustSettings {
@@ -70,25 +54,9 @@ struct RobustSettings {
   bool estimate_delay = true;
   bool correct_delay = true;         ///< remove a significant delay by a phase shift before fitting
   double delay_max_hz = 0.1;         ///< highest frequency used for the delay, Hz
-  // Errors in variables.
-  EivCorrection eiv = EivCorrection::kGiven;  ///< default: identified (given) noise only; none if not given
-  double eiv_noise_ratio = 1.0;      ///< kNoiseRatio: PSD_ref / PSD_test (dimensionless, >= 0)
-  Eigen::Vector3d reference_white_nT = Eigen::Vector3d::Zero();  ///< kGiven: rms per sample, nT
-  /// kGiven: ASD at 1 Hz of 1/f noise, nT/sqrt(Hz) (a fluxgate maker's figure "pT/sqrt(Hz) at
-  /// 1 Hz" / 1000, taken as 1/f below 1 Hz, which is what fluxgates show in the band).
-  Eigen::Vector3d reference_pink_nT_per_sqrt_hz = Eigen::Vector3d::Zero();
-  /// kGiven: where the figure came from, appended to WindowEstimate::eiv in parentheses when not
-  /// empty (e.g. "three-cornered hat"); empty: a maker's figure.
-  std::string reference_noise_source;
-  /// kGiven: the uncertainty of those levels when they were identified from the data (the pair
-  /// above the band); its effect on n, through the correction, is added to n's covariance
-  /// (robust_estimator.hpp, step 6d). Zero (the default): the levels are taken as exact, as a
-  /// maker's figure is.
-  NoiseLevelCovariance reference_noise_level_covariance{Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(),
-                                                        Eigen::Matrix2d::Zero()};
-
-  /// True when kGiven has a non-zero reference noise: the correction has noise to use.
-  bool reference_noise_identified() const;
+  /// Correct n for the reference's noise when the window comes with a noise model
+  /// (WindowInputs::reference_noise; errors_in_variables.hpp). Off: never.
+  bool errors_in_variables = true;
 
   /// Throws InputError naming the field when a value is impossible.
   void validate() const;
@@ -105,14 +73,6 @@ struct EstimatorSettings {
   double min_coherence = 0.5;          ///< any component below: LowCoherence
   EstimatorMethod method = EstimatorMethod::kRobust;  ///< used by WindowEstimator / the pipeline
   RobustSettings robust;                               ///< options of the robust method
-
-  /// The robust method with EIV "given" and no reference noise given yet: the correction waits
-  /// for a noise identified from the instruments (the three-cornered hat, the pair above the
-  /// band) and applies none without one.
-  bool awaits_identified_noise() const {
-    return method == EstimatorMethod::kRobust && robust.eiv == EivCorrection::kGiven &&
-           !robust.reference_noise_identified();
-  }
 
   /// Throws InputError naming the field when a value is impossible.
   void validate() const;
@@ -163,10 +123,10 @@ struct WindowEstimate {
   double delay_ci95_s = std::numeric_limits<double>::quiet_NaN();   ///< 95 % half-width, s
   double screened_fraction = 0.0;  ///< robust: share of samples masked by the residual screen
   double downweighted_fraction = 0.0;  ///< robust: share of cell weight removed by the M-step
-  /// Noise model of the errors-in-variables correction this window used, e.g. "none (noise not
-  /// identified)", "given reference noise: 1/f 10 pT/sqrt(Hz) at 1 Hz", "ratio 0.03 (share of
-  /// the residual)", "none (plain Eq. 2)".
-  std::string eiv = "none (plain Eq. 2)";
+  /// What the errors-in-variables step did, and the reference noise model it was given (source
+  /// kNone when none); errors_in_variables_text() prints both.
+  ErrorsInVariables eiv = ErrorsInVariables::kNotApplicable;
+  ReferenceNoiseModel eiv_noise;
   /// Weights of the sums: "lambda^gamma" (plain) or "lambda^gamma x Huber cell x section" (robust).
   std::string weights = "lambda^gamma";
   /// How the 95 % intervals were formed: "sandwich" (plain), or the robust estimator's
@@ -176,6 +136,16 @@ struct WindowEstimate {
 
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
   Eigen::Matrix3d n_stderr() const;
+  /// errors_in_variables_text(eiv, eiv_noise).
+  std::string eiv_text() const { return errors_in_variables_text(eiv, eiv_noise); }
+};
+
+/// Measured inputs of one window's estimate besides the pair itself: arguments of the
+/// estimators, never settings (a setting is what a user sets).
+struct WindowInputs {
+  /// The reference's noise for the errors-in-variables correction of the robust estimator
+  /// (source kNone: no correction); ignored by plain Eq. 2.
+  ReferenceNoiseModel reference_noise;
 };
 
 /// Estimates n of a window (reference nT, test nT, sample period s): the estimator the window was

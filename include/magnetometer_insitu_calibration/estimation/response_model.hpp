@@ -64,14 +64,8 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
 /// step) and put back with its filtered slope. Returns test unchanged when !model.applied.
 Readings remove_modelled_filter(const Readings& test, double period_s, const ResponseModel& model);
 
-/// `response` with the reference noise the estimator corrects n for (the robust method with an
-/// identified noise: a maker's figure or a three-cornered hat), so that the bands' gains are
-/// corrected for it too (RelativeResponseSettings::reference_noise); unchanged otherwise.
-RelativeResponseSettings with_identified_reference_noise(RelativeResponseSettings response,
-                                                         const EstimatorSettings& estimator);
-
-/// The response-model step of one window, shared by the offline pipeline (calibrate_prepared) and
-/// calibration_node (live_window): the relative response of test_nT against R n (estimate.n, as
+/// The response-model step of one window (the per-window stage, window_calibration.hpp): the
+/// relative response of test_nT against R n (estimate.n, as
 /// estimated from test_nT), the model fitted to it and, when a corner is applied, test_nT replaced
 /// by the record with the filter removed and estimate by estimate_again on it. A window whose
 /// estimate is not finite is left alone (model not fitted, text says why).

@@ -50,12 +50,12 @@
 //     8 each section's Y_c was multiplied by e^{+2 pi i f tau} instead; that takes the section's
 //     wrapped-around ends for data and biased n: a noise-free pair 2 s apart erred 0.05 % in
 //     scale and 0.022 deg (test_delay_estimation), a 10 / 30 pT white pair -0.027 % on average.
-//  5. Errors in variables (errors_in_variables.hpp): N_r = sum w g E|X_noise|^2 is subtracted
-//     from A at every iteration (mode given or ratio). Default: given, with the reference's
-//     identified noise (maker's figure) only; none when it is not given, and the window says
-//     so (WindowEstimate::eiv = "none (noise not identified)"). Ratio mode only when asked. In ratio mode each cell's E|X_noise|^2
-//     is share x its own residual power, capped at 9 robust sigmas^2 of its frequency bin, and
-//     the fixed point n = (A - N_r(n))^-1 C is iterated to convergence with the final weights.
+//  5. Errors in variables (errors_in_variables.hpp): with a reference noise model among the
+//     window's inputs (WindowInputs::reference_noise: a maker's figure, or the noise identified
+//     from a third instrument or from the pair above the band), N_r = sum w g E|X_noise|^2 is
+//     subtracted from A at every iteration; without one no correction, and the window says so
+//     (WindowEstimate::eiv, ErrorsInVariables::kNoNoiseModel). Residual power is never taken for
+//     reference noise.
 //  6. Covariance, from the final weights:
 //     a. the frequency-domain sandwich of fd_wlse.cpp over cells, Cov(vec n) =
 //        c (I (x) A^-1) [sum_c s_c s_c^T] (I (x) A^-1), s_c,l = w g (Re(X conj(e_l)) + D_c n_l)
@@ -74,7 +74,7 @@
 //        jackknife entry by entry, its correlations kept); the sandwich alone when the jackknife
 //        cannot be formed (a group held the whole signal of a direction);
 //     d. plus, with a given noise whose levels were identified from the data (the pair above
-//        the band: RobustSettings::reference_noise_level_covariance), the delta method's
+//        the band: ReferenceNoiseModel::level_covariance), the delta method's
 //        J Sigma J^T of those levels through the correction (noise_level_covariance_term): the
 //        jackknife re-solves with the same levels, so it cannot see their uncertainty.
 //     Measured coverage and the reasoning: section_jackknife.cpp (combine_covariances) and
@@ -122,14 +122,17 @@ class RobustFdEstimator {
   RobustFdEstimator(const RobustFdEstimator&) = delete;
   RobustFdEstimator& operator=(const RobustFdEstimator&) = delete;
 
-  /// reference_nT, test_nT: N x 3, regular sample period (s), no NaN (the pipeline fills gaps).
+  /// reference_nT, test_nT: N x 3, regular sample period (s), no NaN (the pipeline fills gaps);
+  /// inputs: the window's measured inputs (the reference noise model). Throws InputError for an
+  /// impossible noise model.
   WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
-                          double sample_period_s);
+                          double sample_period_s, const WindowInputs& inputs = {});
   const RobustDiagnostics& diagnostics() const { return diagnostics_; }
   const EstimatorSettings& settings() const { return settings_; }
 
  private:
   struct Impl;
+  class Window;  ///< one window's estimate, step by step (robust_estimator.cpp)
   EstimatorSettings settings_;
   std::unique_ptr<Impl> impl_;
   RobustDiagnostics diagnostics_;
@@ -149,7 +152,7 @@ class WindowEstimator {
   explicit WindowEstimator(const EstimatorSettings& settings);
   ~WindowEstimator();
   WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
-                          double sample_period_s);
+                          double sample_period_s, const WindowInputs& inputs = {});
   const EstimatorSettings& settings() const { return settings_; }
   /// The robust estimator's diagnostics of the last window (empty for the plain method).
   const RobustDiagnostics* robust_diagnostics() const;

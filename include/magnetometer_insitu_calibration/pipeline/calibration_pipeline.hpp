@@ -1,16 +1,12 @@
 // The offline calibration of a reference and a test record: pre-processing as the paper
-// describes it, the window layout, and one FD-WLSE estimate per window.
+// describes it, the window layout, and each window through the per-window stage
+// (window_calibration.hpp) that calibration_node uses too.
 #pragma once
 
-#include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
-#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
-#include "magnetometer_insitu_calibration/estimation/response_model.hpp"
-#include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
-#include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
-#include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
-#include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/pipeline/window_calibration.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include <cstddef>
 #include <string>
@@ -19,23 +15,19 @@
 namespace magnetometer_insitu_calibration {
 
 /// Order of the steps (each instrument in its own frame, nT):
-///  1. spikes removed in each record at its own rate (despike(): they become NaN);
+///  1. spikes removed in each record at its own rate (despike(): they become NaN), as
+///     calibration_node's StreamingDespiker removes them from each stream;
 ///  2. samples paired by stamp within pairing_tolerance_s (align_by_time(); reference stamps);
 ///  3. when the records are sampled faster than output_period_s (e.g. LEMI-025 at 10 Hz), both
 ///     are Gaussian-FIR low-passed and decimated to it, kernels centred on the same epochs;
-///  4. put on the regular grid, a NaN in either instrument masks both, and gaps interpolated
-///     linearly in both at the same epochs (regularize_and_fill(): keeps T = R n exactly);
-///  5. windows that hold more than max_filled_fraction interpolated samples, or overlap a gap
-///     longer than gaps.max_fill_s, are estimated but flagged Quality::kGaps.
+///  4. put on the regular grid, a NaN in either instrument masking both (regularize()); the
+///     gaps are filled window by window, by the per-window stage.
 struct PreprocessSettings {
   double pairing_tolerance_s = 0.010;  ///< largest stamp difference of a pair, s
   bool despike = true;
   DespikeSettings despike_settings;
-  GapSettings gaps;
   double output_period_s = 1.0;        ///< estimation sample period, s
-  double max_filled_fraction = 0.05;   ///< of a window's samples, [0, 1]
   /// The test's sensor temperature (temperature_channel.hpp): "auto", "none" or a channel name.
-  /// Interpolated onto the estimation grid (NaN across gaps longer than gaps.max_fill_s).
   std::string temperature_channel = "auto";
 
   void validate() const;
@@ -54,23 +46,9 @@ struct WindowLayout {
 
 struct CalibrationSettings {
   PreprocessSettings preprocess;
-  EstimatorSettings estimator;
   WindowLayout windows;
-  bool relative_response = true;  ///< estimate each window's relative frequency response
-  RelativeResponseSettings response;
-  /// Fit a delay + first-order low-pass per component to the response and, where a corner is
-  /// significant, estimate n again on the test record with that filter removed (response_model.hpp).
-  /// On by default since issue 14: where no corner is significant the estimate is unchanged.
-  bool response_model = true;
-  ResponseModelSettings model;
-  /// Temperature terms when the test record has a temperature (temperature_regression.hpp); the
-  /// band, gamma and trend follow each window's estimate, min_range_C is used as given.
-  TemperatureBand temperature;
-  /// With the robust method, EIV "given" and no reference noise given (no maker's figure, no
-  /// third instrument): identify the reference's noise from the pair itself above the band and
-  /// estimate each window again with it (identify_reference_noise_from_pair, reference_noise.hpp;
-  /// issue 13). Off: no EIV correction then, as before session 9.
-  bool pair_noise = true;
+  /// The per-window stage: estimator, reference noise, response model, temperature, gap rule.
+  WindowCalibrationSettings window;
 
   void validate() const;
 };
@@ -82,39 +60,17 @@ struct PreprocessReport {
   std::size_t spikes_reference = 0, spikes_test = 0;      ///< values set to NaN
   std::size_t paired = 0, unpaired_reference = 0, unpaired_test = 0, duplicates = 0;
   bool decimated = false;
-  std::size_t grid_samples = 0;       ///< samples on the regular estimation grid
-  std::size_t filled_samples = 0;     ///< of those, interpolated
-  std::size_t long_gaps = 0;
-  std::string temperature_channel;    ///< the test's channel used as its temperature, "" if none
+  std::size_t grid_samples = 0;     ///< epochs of the regular estimation grid
+  std::size_t missing_samples = 0;  ///< of those, without a complete pair (the windows fill them)
+  std::size_t long_gaps = 0;        ///< runs of missing epochs longer than the gap rule's max_fill_s
+  std::string temperature_channel;  ///< the test's channel used as its temperature, "" if none
 };
 
 /// The paired record on the regular estimation grid.
 struct PreparedPair {
-  PairedRecord paired;  ///< time_s on the grid; no NaN
-  GapReport gaps;
+  PairedRecord paired;  ///< time_s on the grid; NaN = missing (in all six values)
   double sample_period_s = 1.0;
-  Eigen::VectorXd test_temperature_C;  ///< on the grid, deg C; empty without a temperature channel
-};
-
-struct CalibrationWindow {
-  std::string label;            ///< "interval 2/4", "whole record", "window 7"
-  double start_s = 0.0;         ///< first sample, UNIX s
-  double end_s = 0.0;           ///< last sample, UNIX s
-  std::size_t first_index = 0;  ///< on the estimation grid
-  std::size_t filled_samples = 0;
-  bool overlaps_long_gap = false;
-  WindowEstimate estimate;
-  /// Gain and phase of T against R n per test component (relative_response.hpp), lowest band
-  /// first; empty when not asked for or when no band has enough harmonics.
-  std::vector<ResponseBand> relative_response;
-  ResponseModel response_model;  ///< fitted when CalibrationSettings::response_model
-  /// Temperature terms (fitted only when the test has a temperature that varies in the window);
-  /// when fitted, estimate.n is at temperature.reference_C and its covariance includes the
-  /// coefficients' uncertainty.
-  TemperatureFit temperature;
-  /// One line on the reference noise identified from the pair (CalibrationSettings::pair_noise),
-  /// or why none was; empty when that step does not apply. estimate.eiv says what was applied.
-  std::string reference_noise;
+  TemperatureSamples test_temperature;  ///< the test's sensor temperature as recorded; recorded false: none
 };
 
 struct PairCalibration {
@@ -123,8 +79,10 @@ struct PairCalibration {
 };
 
 /// Steps 1-4. Throws InputError naming the record (source) when the records cannot be paired.
+/// The report counts runs of missing epochs longer than max_fill_s as long gaps.
 PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& test,
-                          const PreprocessSettings& settings, PreprocessReport* report = nullptr);
+                          const PreprocessSettings& settings, PreprocessReport* report = nullptr,
+                          double max_fill_s = 60.0);
 
 /// Label of the window that spans the whole record (the paper's layout ends with it; the only
 /// window without a layout). Reports and `export_corrected --window` find it by this label.
@@ -137,13 +95,24 @@ struct WindowSpan {
 };
 std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const WindowLayout& layout);
 
-/// Estimates every window of a prepared pair (step 5 included).
-std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared,
-                                                  const CalibrationSettings& settings);
+/// The window [first, first + count) of a prepared pair as the per-window stage takes it: the
+/// grid's epochs (NaN = missing), the test's temperature samples within temperature_margin_s
+/// of it and, with `third` (a third instrument prepared against the same reference), the
+/// third's record on the same epochs.
+WindowRecords window_records(const PreparedPair& prepared, std::size_t first, std::size_t count,
+                             double temperature_margin_s, const PreparedPair* third = nullptr,
+                             const std::string& third_name = "--third");
 
-/// Everything: prepare_pair + calibrate_prepared.
+/// Calibrates every window of a prepared pair with one WindowCalibrator; `third`: a third
+/// instrument prepared against the same reference, for the three-cornered hat.
+std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings,
+                                                  const PreparedPair* third = nullptr);
+
+/// Everything: prepare_pair + calibrate_prepared. `third`: a third co-located instrument's
+/// record (any frame), prepared against the reference like the test; InputError("--third", ...)
+/// when it does not pair with the reference or has another estimation period.
 PairCalibration calibrate_records(const VectorRecord& reference, const VectorRecord& test,
-                                  const CalibrationSettings& settings);
+                                  const CalibrationSettings& settings, const VectorRecord* third = nullptr);
 
 /// The estimates whose agreement the reports assess (window_agreement.hpp): the K intervals of
 /// the paper's layout, or sliding windows that do not overlap (step >= window), in order. Empty

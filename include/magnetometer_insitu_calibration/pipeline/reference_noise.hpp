@@ -1,8 +1,10 @@
-// The reference's noise identified from the instruments themselves (issue 13): with a third
-// co-located instrument, the three-cornered hat (estimation/three_cornered_hat.hpp) gives each
-// instrument's noise PSD from the pairwise Eq. 2 residuals; the reference's is fitted by white +
-// 1/f noise per axis and given to the errors-in-variables correction (EivCorrection::kGiven) as
-// a maker's figure would be. calibrate_records --third FILE.
+// The reference's noise identified from the instruments themselves, for the errors-in-variables
+// correction (errors_in_variables.hpp) when no maker's figure is given: with a third co-located
+// instrument, the three-cornered hat (estimation/three_cornered_hat.hpp) gives each instrument's
+// noise PSD from the pairwise Eq. 2 residuals; without one, the part of the reference's PSD above
+// the band that is not coherent with the test (two_instrument_noise.hpp). The reference's PSD is
+// fitted by white + 1/f noise per axis and given to the correction as a ReferenceNoiseModel
+// (IdentifiedNoise::model). The per-window stage (window_calibration.hpp) chooses between them.
 //
 // What it assumes (three_cornered_hat.hpp): the three instruments' noises are independent. A
 // disturbance seen by the reference only counts as its noise (and is then corrected for, as an
@@ -16,7 +18,7 @@
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
 #include "magnetometer_insitu_calibration/estimation/two_instrument_noise.hpp"
-#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include <Eigen/Core>
 
@@ -39,6 +41,10 @@ struct IdentifiedNoise {
   std::size_t samples = 0;      ///< epochs used: all three records share them (hat); the pair's finite run
   double sample_period_s = 0.0; ///< of that grid, s
   std::string text;             ///< one line: levels, or why not identified
+
+  /// The noise as the errors-in-variables correction takes it (source kNone when not
+  /// identified), `provider` naming the instrument it was identified with.
+  ReferenceNoiseModel model(NoiseSource source, const std::string& provider) const;
 };
 
 /// Fits S(f) = 2 w^2 dt + p^2 / f per axis to a PSD given per bin (nT^2/Hz, bins [low, high) Hz;
@@ -74,25 +80,9 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz,
 bool fit_hat_instrument(const ThreeCorneredHatResult& hat, std::size_t instrument, double dt, Eigen::Vector3d& white_nT,
                         Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance = nullptr);
 
-/// The reference and test as already paired for calibration (prepare_pair(reference, test,
-/// preprocess), so they are prepared once) and a third instrument's record (any frame, nearly
-/// aligned), paired with the reference the same way and cut to the longest run of epochs all
-/// three share; the hat over [band_low_hz, band_high_hz] in `bins` log-spaced bins and on above
-/// the band to kPairNoiseTopOfNyquist of the Nyquist frequency in kPairNoiseBins more (the
-/// cross-spectral hat cancels the field in every bin; those bins hold most of the harmonics and
-/// fix the white levels); the reference's PSD fitted by fit_hat_instrument. Throws InputError("--third", ...) when the third
-/// does not pair with the reference or the three share fewer than 64 consecutive epochs; the
-/// hat's own errors name "three_cornered_hat".
-IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const VectorRecord& reference,
-                                         const VectorRecord& third, const PreprocessSettings& preprocess,
-                                         double band_low_hz, double band_high_hz, int bins = 4);
-
-/// `bins` is the most bins used over the band: fewer when the shared run is too short for 16
-/// harmonics in the lowest one (a 6-hour run over the default band: 2 bins; 1 hour: 1 bin).
-///
-/// The same from two records already paired with the reference on one estimation grid of period
-/// sample_period_s (time_s on the grid; NaN = missing, as calibration_node's live windows hold
-/// them): the epochs where the reference, the test and the third are all finite, cut to the
+/// The reference's noise by the three-cornered hat (three_cornered_hat.hpp) from two records
+/// paired with the reference on one estimation grid of period sample_period_s (time_s on the
+/// grid; NaN = missing): the epochs where the reference, the test and the third are all finite, cut to the
 /// longest run of consecutive ones; the reference's values are with_test's. `third_name` names
 /// the third in errors and in the text ("--third", "test 'b'"). Throws InputError(third_name,
 /// ...) when the three share fewer than 64 consecutive epochs; the hat's errors (a bin without
@@ -107,12 +97,6 @@ IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const Ve
 IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
                                          double sample_period_s, double band_low_hz, double band_high_hz,
                                          int bins = 4, const std::string& third_name = "--third");
-
-/// `settings` with noise's white and 1/f levels, and their covariance, as the reference noise the
-/// EIV correction uses (EivCorrection::kGiven), `source` named in each window's eiv text ("three-cornered hat with
-/// --third", "from the pair above the band").
-EstimatorSettings with_identified_noise(EstimatorSettings settings, const IdentifiedNoise& noise,
-                                        const std::string& source);
 
 /// The reference's noise from the pair alone, without a third instrument or a maker's figure
 /// (two_instrument_noise.hpp): over [max(band_high_hz, 0.03 / sample_period_s), 0.25 /

@@ -50,4 +50,13 @@ struct GapReport {
 GapReport regularize_and_fill(PairedRecord& paired, double sample_period_s,
                               const GapSettings& settings);
 
+/// Steps 1-3 alone: the regular grid, incomplete epochs NaN in all six values, trimmed. Fills
+/// inserted_epochs, masked_samples and the trimmed counts of the report.
+GapReport regularize(PairedRecord& paired, double sample_period_s);
+
+/// Step 4 alone, on a record that regularize() has put on its grid: fills filled,
+/// filled_samples and long_gaps. Throws InputError when the record starts or ends with an
+/// incomplete epoch.
+GapReport fill_gaps(PairedRecord& paired, double sample_period_s, const GapSettings& settings);
+
 }  // namespace magnetometer_insitu_calibration

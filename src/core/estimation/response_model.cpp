@@ -258,15 +258,6 @@ Readings remove_modelled_filter(const Readings& test, double period_s, const Res
   return out;
 }
 
-RelativeResponseSettings with_identified_reference_noise(RelativeResponseSettings response,
-                                                         const EstimatorSettings& estimator) {
-  if (estimator.method == EstimatorMethod::kRobust && estimator.robust.reference_noise_identified()) {
-    response.reference_noise.white_nT = estimator.robust.reference_white_nT;
-    response.reference_noise.pink_nT_per_sqrt_hz = estimator.robust.reference_pink_nT_per_sqrt_hz;
-  }
-  return response;
-}
-
 ResponseModel with_response_model(const WindowEstimateFunction& estimate_again, const Eigen::Ref<const Readings>& reference_nT,
                                   Readings& test_nT, double period_s, const RelativeResponseSettings& response,
                                   const ResponseModelSettings& model, WindowEstimate& estimate) {

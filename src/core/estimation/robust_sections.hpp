@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <limits>
+#include <string>
 #include <vector>
 
 namespace magnetometer_insitu_calibration::detail::robust {
@@ -18,14 +19,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kLn2 = 0.69314718055994531;
 constexpr double kCellRejection = 5.0;  // sigmas (d) beyond which a cell gets weight 0
 constexpr double kLevelCap = 25.0;      // cap of a cell's d^2 in its section's level
-// Errors in variables, ratio mode: a cell's residual power |e_l|^2 enters the reference-noise
-// estimate capped at kNoiseCap times its bin's robust scale and divided by
-// E[min(X, c)] = 1 - e^-c (X ~ Exp(1), the law of |e|^2 / sigma^2 for Gaussian noise), so that
-// the capped sum is unbiased on clean cells and an outlier adds at most c times its share.
-// c = 9, not lower: inside a low-frequency bin the noise PSD (1/f) varies by up to 2x, and a
-// cell whose mean is r times the bin's scale keeps 1 - e^{-c/r} of it under the cap (r = 1.5:
-// 93 % for c = 4, 99.75 % for c = 9), so a low cap under-estimates N (measured 1-2 % low).
-constexpr double kNoiseCap = 9.0;
 // Fewest weighted sections for which the section jackknife enters the covariance (step 6c);
 // below, the jackknife is over kFrequencyGroups interleaved frequency groups instead.
 constexpr std::size_t kMinJackknifeSections = 6;
@@ -67,8 +60,8 @@ struct IrlsResult : WeightedSolution {
 
 /// Weighted sums of Eq. 2 over the cells (cell weight w times lambda^gamma g; cells of weight 0
 /// and of section `exclude` left out, -1 for none): A = sum w g Re(x x^H) and
-/// C = sum w g Re(x y^H) (nT^2), and in given mode the reference's expected noise periodogram
-/// N = sum w g E|X_noise|^2 (nT^2, diagonal; zero in the other modes).
+/// C = sum w g Re(x y^H) (nT^2), and with a reference noise to correct for its expected
+/// periodogram N = sum w g E|X_noise|^2 (nT^2, diagonal; zero without one).
 struct NormalEquations {
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
@@ -85,19 +78,21 @@ struct JackknifeResult {
   bool usable() const { return sections >= kMinJackknifeSections && covariance.allFinite(); }
 };
 
-// weighted_eiv_solve.cpp
-Eigen::Vector3d ratio_noise_power(const Eigen::Vector3d& e2, const Eigen::Vector3d& scale2, double share);
+// weighted_eiv_solve.cpp. `noise`: the reference noise n is corrected for (errors in
+// variables), null for none.
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                                          const RobustSettings& rs, double sample_period_s, int exclude);
+                                          const NoiseSpectrum* noise, double sample_period_s, int exclude);
 WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise);
+/// n for frozen cell weights: the last step of the IRLS, and each refit of the jackknife
+/// (exclude = a section; -1 for none).
 WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                              const std::vector<Eigen::Vector3d>& scale2, const RobustSettings& rs,
-                              double sample_period_s, int exclude, const Eigen::Matrix3d& n_start);
-/// Step 6d: the covariance of row-major vec(n) that the uncertainty of a given noise's levels
-/// (rs.reference_noise_level_covariance) carries through the correction; zero unless the given
+                              const NoiseSpectrum* noise, double sample_period_s, int exclude);
+/// Step 6d: the covariance of row-major vec(n) that the uncertainty of the noise model's levels
+/// (ReferenceNoiseModel::level_covariance) carries through the correction; zero unless the
 /// correction was applied.
 Matrix9d noise_level_covariance_term(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                                     const WeightedSolution& fit, const RobustSettings& rs, double sample_period_s);
+                                     const WeightedSolution& fit, const ReferenceNoiseModel& noise,
+                                     double sample_period_s);
 
 /// True when the cells' Huber weights apply: more than one scale bin, so that the scale can
 /// follow the residual's colour across the band (section_irls.cpp).
@@ -110,16 +105,33 @@ inline const char* robust_weights_text(std::size_t scale_bins) {
 
 // section_irls.cpp: steps 3 and 5, IRLS over the cells.
 IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,
-                double sample_period_s);
+                const NoiseSpectrum* noise, double sample_period_s);
 
 // section_jackknife.cpp: step 6b and 6c.
 JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
-                                  const RobustSettings& rs, double sample_period_s);
+                                  const NoiseSpectrum* noise, double sample_period_s);
 /// Delete-one-group jackknife over `groups` interleaved frequency groups (the cells in frequency
 /// order, every groups-th in one group), n refitted without each group with the same weights
 /// (step 6b for windows of fewer than kMinJackknifeSections weighted sections).
 JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t groups,
-                                          const RobustSettings& rs, double sample_period_s);
+                                          const NoiseSpectrum* noise, double sample_period_s);
 Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& jack);
+
+/// Step 6 over the final weighted cells: the reported covariance of row-major vec(n) and its
+/// parts, and the window's quality figures.
+struct CellCovariance {
+  Matrix9d covariance = Matrix9d::Zero();  ///< reported: 6c, plus 6d
+  Matrix9d sandwich = Matrix9d::Zero();    ///< 6a
+  JackknifeResult jackknife;               ///< 6b
+  Matrix9d level_term = Matrix9d::Zero();  ///< 6d
+  double cells = 0.0;                      ///< the cells the sandwich rests on (WindowEstimate::covariance_dof)
+  std::string intervals;                   ///< WindowEstimate::intervals
+  Eigen::Vector3d coherence = Eigen::Vector3d::Zero();        ///< 1 - weighted residual power / test power
+  Eigen::Vector3d residual_rms_nT = Eigen::Vector3d::Zero();  ///< in-band rms of the residual, nT
+  double downweighted_fraction = 0.0;      ///< share of cell weight removed by the M-step
+};
+/// robust_covariance.cpp. `noise`: the model n was corrected with (null: none).
+CellCovariance cell_covariance(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
+                               std::size_t bins, const ReferenceNoiseModel* noise, double sample_period_s);
 
 }  // namespace magnetometer_insitu_calibration::detail::robust

@@ -3,7 +3,6 @@
 // weights from each section's residual level.
 #include "robust_sections.hpp"
 
-#include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
 #include "spectral_tools.hpp"
 
 #include <algorithm>
@@ -15,36 +14,25 @@ namespace magnetometer_insitu_calibration::detail::robust {
 
 /// Steps 3 and 5: IRLS over the cells.
 IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,
-                double sample_period_s) {
+                const NoiseSpectrum* noise, double sample_period_s) {
   IrlsResult out;
   const std::size_t m = cells.size();
   out.weight.assign(m, 1.0);
   out.section_weight.assign(sections, 1.0);
   out.scale2.assign(bins, Eigen::Vector3d::Ones());
   std::vector<double> cell_weight(m, 1.0);
-  const double share = reference_share_of_residual(rs.eiv_noise_ratio);
   // Huber weights need a scale that is one level across its bin. When the band's cells make a
   // single bin (a window under about 2 h), that one scale spans the residual's colour (the
   // instruments' 1/f noise, a pier's tilt) and the strong low cells would be down-weighted as
   // outliers: there the cells keep weight 1 (docs/estimator_validation.md, B24). The
   // rejection of wild cells (kCellRejection) and the section weights stay.
   const bool huber = huber_cell_weights(bins);
-  bool have_scale = false;
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);
   std::vector<double> r2(m, 0.0);
-  std::vector<Eigen::Vector3d> noise_power(m, Eigen::Vector3d::Zero());  // ratio mode, per cell
   for (int it = 0; it < rs.iterations; ++it) {
-    const NormalEquations sums = weighted_normal_equations(cells, out.weight, rs, sample_period_s, -1);
-    Eigen::Matrix3d noise = sums.given_noise;  // given mode; zero otherwise
-    if (rs.eiv == EivCorrection::kNoiseRatio && have_scale) {
-      for (std::size_t i = 0; i < m; ++i) {
-        const double wg = out.weight[i] * cells[i].g;
-        if (wg == 0.0) continue;
-        noise.diagonal() += wg * noise_power[i];
-      }
-    }
-    // N is zero in none mode (and in ratio mode before the first scale): Eq. 2 with the weights.
-    const WeightedSolution solved = solve_weighted(sums, noise);
+    const NormalEquations sums = weighted_normal_equations(cells, out.weight, noise, sample_period_s, -1);
+    // N is zero without a noise to correct for: Eq. 2 with the weights.
+    const WeightedSolution solved = solve_weighted(sums, sums.given_noise);
     if (!solved.ok) return out;
     static_cast<WeightedSolution&>(out) = solved;  // n, A and the correction; the weights stay
     out.iterations = it + 1;
@@ -61,10 +49,6 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
         const double med = detail::median(per_bin[b * 3 + static_cast<std::size_t>(l)]);
         out.scale2[b](l) = std::max(med / kLn2, std::numeric_limits<double>::min());
       }
-    }
-    have_scale = true;
-    for (std::size_t i = 0; i < m; ++i) {
-      noise_power[i] = ratio_noise_power(e2[i], out.scale2[static_cast<std::size_t>(cells[i].bin)], share);
     }
     std::vector<std::vector<double>> section_r2(sections);
     for (std::size_t i = 0; i < m; ++i) {
@@ -97,7 +81,7 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
     }
     const bool converged = n_previous.allFinite() && (out.n - n_previous).cwiseAbs().maxCoeff() < 1e-11;
     n_previous = out.n;
-    if (converged && (rs.eiv != EivCorrection::kNoiseRatio || it > 0)) break;
+    if (converged) break;
   }
   return out;
 }

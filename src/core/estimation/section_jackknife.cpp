@@ -34,13 +34,13 @@ Eigen::Matrix<double, 9, 1> row_major(const Eigen::Matrix3d& n) {
 }  // namespace
 
 JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
-                                  const RobustSettings& rs, double sample_period_s) {
+                                  const NoiseSpectrum* noise, double sample_period_s) {
   std::vector<double> section_weight(k_sections, 0.0);
   for (std::size_t i = 0; i < cells.size(); ++i) section_weight[static_cast<std::size_t>(cells[i].section)] += fit.weight[i];
   std::vector<Eigen::Matrix<double, 9, 1>> leave_out;
   for (std::size_t s = 0; s < k_sections; ++s) {
     if (!(section_weight[s] > 0.0)) continue;  // a rejected section: deleting it changes nothing
-    const WeightedSolution f = solve_frozen(cells, fit.weight, fit.scale2, rs, sample_period_s, static_cast<int>(s), fit.n);
+    const WeightedSolution f = solve_frozen(cells, fit.weight, noise, sample_period_s, static_cast<int>(s));
     if (!f.ok) return JackknifeResult{};  // one section held the whole signal of a direction: no jackknife
     leave_out.push_back(row_major(f.n));
   }
@@ -71,7 +71,7 @@ JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResu
 ///  11000: 88.7 -> 91.8 %, 84.0 -> 86.8 %; seeds 12000 (held out): 89.3 -> 92.7 %, 80.0 -> 85.2 %;
 ///  12 h, seeds 12000: 88.3 -> 91.3 %, 82.7 -> 87.8 %.
 JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t groups,
-                                          const RobustSettings& rs, double sample_period_s) {
+                                          const NoiseSpectrum* noise, double sample_period_s) {
   std::vector<std::size_t> order(cells.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
@@ -86,7 +86,7 @@ JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const 
       weight[order[r]] = 0.0;
     }
     if (!(removed > 0.0)) continue;  // a group of rejected cells: deleting it changes nothing
-    const WeightedSolution f = solve_frozen(cells, weight, fit.scale2, rs, sample_period_s, -1, fit.n);
+    const WeightedSolution f = solve_frozen(cells, weight, noise, sample_period_s, -1);
     if (!f.ok) return JackknifeResult{};  // one group held the whole signal of a direction
     leave_out.push_back(row_major(f.n));
   }

@@ -18,8 +18,9 @@ const RobustDiagnostics* WindowEstimator::robust_diagnostics() const {
 }
 
 WindowEstimate WindowEstimator::estimate(const Eigen::Ref<const Readings>& reference_nT,
-                                         const Eigen::Ref<const Readings>& test_nT, double sample_period_s) {
-  if (robust_) return robust_->estimate(reference_nT, test_nT, sample_period_s);
+                                         const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
+                                         const WindowInputs& inputs) {
+  if (robust_) return robust_->estimate(reference_nT, test_nT, sample_period_s, inputs);
   EstimatorSettings s = settings_;
   const double duration_s = static_cast<double>(reference_nT.rows()) * sample_period_s;
   if (s.robust.auto_band && reference_nT.allFinite() && test_nT.allFinite() && reference_nT.rows() >= 64) {

@@ -1,15 +1,14 @@
-// Offline calibration of a record pair: pre-processing, windows, estimates.
+// Offline calibration of a record pair: pre-processing, windows, the per-window stage.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
-#include "magnetometer_insitu_calibration/estimation/temperature_terms.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
+#include <memory>
 
 namespace magnetometer_insitu_calibration {
 
@@ -18,9 +17,6 @@ void PreprocessSettings::validate() const {
     throw InputError("pairing_tolerance_s", "must be a finite time >= 0 s");
   if (!(output_period_s > 0.0) || !std::isfinite(output_period_s))
     throw InputError("output_period_s", "must be a positive time in s");
-  if (!(max_filled_fraction >= 0.0 && max_filled_fraction <= 1.0))
-    throw InputError("max_filled_fraction", "must be in [0, 1]");
-  if (!(gaps.max_fill_s >= 0.0)) throw InputError("max_fill_s", "must be >= 0 s");
   if (despike) despike_settings.validate();
   if (temperature_channel.empty()) throw InputError("temperature_channel", "must be auto, none or a channel name");
 }
@@ -40,12 +36,8 @@ void WindowLayout::validate() const {
 
 void CalibrationSettings::validate() const {
   preprocess.validate();
-  estimator.validate();
   windows.validate();
-  if (relative_response || response_model) response.validate();
-  if (response_model) model.validate();
-  if (!(temperature.min_range_C >= 0.0) || !std::isfinite(temperature.min_range_C))
-    throw InputError("temperature_min_range", "must be a finite temperature range >= 0 degC");
+  window.validate();
 }
 
 double median_sample_period(const VectorRecord& record) {
@@ -68,10 +60,30 @@ VectorRecord as_record(const std::vector<double>& time_s, const Readings& values
   return r;
 }
 
+/// Epochs of the grid without a complete pair, and their runs longer than max_fill_s.
+void count_missing(const PreparedPair& prepared, double max_fill_s, PreprocessReport& report) {
+  const PairedRecord& p = prepared.paired;
+  std::size_t run = 0;
+  const auto end_run = [&] {
+    if (static_cast<double>(run) * prepared.sample_period_s > max_fill_s) ++report.long_gaps;
+    run = 0;
+  };
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    if (p.reference_nT.row(r).allFinite() && p.test_nT.row(r).allFinite()) {
+      end_run();
+      continue;
+    }
+    ++report.missing_samples;
+    ++run;
+  }
+  end_run();
+}
+
 }  // namespace
 
 PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& test,
-                          const PreprocessSettings& settings, PreprocessReport* report) {
+                          const PreprocessSettings& settings, PreprocessReport* report, double max_fill_s) {
   settings.validate();
   PreprocessReport local;
   PreprocessReport& rep = report != nullptr ? *report : local;
@@ -112,16 +124,16 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     out.paired.test_nT = t.values_nT;
     rep.decimated = true;
   }
-  // 4. Regular grid, common mask, gaps filled in both.
+  // 4. Regular grid, common mask; the windows fill the gaps.
   out.sample_period_s = rep.decimated ? settings.output_period_s : native_period;
-  out.gaps = regularize_and_fill(out.paired, out.sample_period_s, settings.gaps);
+  regularize(out.paired, out.sample_period_s);
   rep.grid_samples = out.paired.size();
-  rep.filled_samples = out.gaps.filled_samples;
-  rep.long_gaps = out.gaps.long_gaps.size();
-  // 5. The test's temperature on the grid (slow: linear interpolation of the raw channel).
+  count_missing(out, max_fill_s, rep);
+  // The test's sensor temperature as recorded; each window puts it on its grid.
   if (const AuxiliaryChannel* channel = find_temperature_channel(test, settings.temperature_channel)) {
-    out.test_temperature_C = interpolate_channel(test.time_s, channel->values, out.paired.time_s,
-                                                 std::max(settings.gaps.max_fill_s, 2.0 * rep.test_period_s));
+    out.test_temperature.recorded = true;
+    out.test_temperature.time_s = test.time_s;
+    out.test_temperature.value_C = channel->values;
     rep.temperature_channel = channel->name;
   }
   return out;
@@ -153,82 +165,50 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
   return spans;
 }
 
-namespace {
-
-/// One window's estimate, response model, temperature terms and relative response with
-/// `estimator` (of settings.estimator, or of it with an identified reference noise).
-void estimate_span(CalibrationWindow& w, const PreparedPair& prepared, const WindowSpan& span,
-                   const CalibrationSettings& settings, WindowEstimator& estimator) {
-  const auto& p = prepared.paired;
-  const EstimatorSettings& estimator_settings = estimator.settings();
-  const auto reference = p.reference_nT.middleRows(span.first, span.count);
-  const Readings recorded = p.test_nT.middleRows(span.first, span.count);
-  Readings test = recorded;  // loses a modelled filter, then the temperature terms
-  const WindowEstimateFunction estimate_again = [&](const Eigen::Ref<const Readings>& r,
-                                                    const Eigen::Ref<const Readings>& t, double period) {
-    return estimator.estimate(r, t, period);
-  };
-  w.estimate = estimator.estimate(reference, test, prepared.sample_period_s);
-  const RelativeResponseSettings response = with_identified_reference_noise(settings.response, estimator_settings);
-  w.response_model = ResponseModel{};
-  if (settings.response_model) {
-    w.response_model = with_response_model(estimate_again, reference, test, prepared.sample_period_s, response,
-                                           settings.model, w.estimate);
+WindowRecords window_records(const PreparedPair& prepared, std::size_t first, std::size_t count,
+                             double temperature_margin_s, const PreparedPair* third, const std::string& third_name) {
+  const PairedRecord& p = prepared.paired;
+  const double period = prepared.sample_period_s;
+  WindowRecords w;
+  w.start_s = p.time_s[first];
+  w.period_s = period;
+  w.expected_samples = count;
+  w.paired.time_s.assign(p.time_s.begin() + static_cast<std::ptrdiff_t>(first),
+                         p.time_s.begin() + static_cast<std::ptrdiff_t>(first + count));
+  w.paired.reference_nT = p.reference_nT.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(count));
+  w.paired.test_nT = p.test_nT.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(count));
+  const double low = w.start_s - period - temperature_margin_s, high = w.end_s() + period + temperature_margin_s;
+  const TemperatureSamples& t = prepared.test_temperature;
+  w.temperature.recorded = t.recorded;
+  const auto from = std::lower_bound(t.time_s.begin(), t.time_s.end(), low);
+  const auto to = std::upper_bound(from, t.time_s.end(), high);
+  w.temperature.time_s.assign(from, to);
+  w.temperature.value_C.assign(t.value_C.begin() + (from - t.time_s.begin()), t.value_C.begin() + (to - t.time_s.begin()));
+  if (third != nullptr) {
+    const PairedRecord& q = third->paired;
+    const auto lo = std::lower_bound(q.time_s.begin(), q.time_s.end(), w.start_s - 0.5 * period);
+    const auto hi = std::lower_bound(lo, q.time_s.end(), w.end_s() + 0.5 * period);
+    const auto a = static_cast<Eigen::Index>(lo - q.time_s.begin()), rows = static_cast<Eigen::Index>(hi - lo);
+    auto record = std::make_shared<PairedRecord>();
+    record->time_s.assign(lo, hi);
+    record->reference_nT = q.reference_nT.middleRows(a, rows);
+    record->test_nT = q.test_nT.middleRows(a, rows);
+    w.third = std::move(record);
+    w.third_name = third_name;
   }
-  const Readings before_temperature = w.response_model.applied ? test : Readings();
-  w.temperature = TemperatureFit{};
-  if (prepared.test_temperature_C.size() > 0) {
-    w.temperature = with_temperature_terms(estimate_again, estimator_settings, settings.temperature, reference, test,
-                                           prepared.test_temperature_C.segment(span.first, span.count),
-                                           prepared.sample_period_s, w.estimate);
-  }
-  w.relative_response.clear();
-  if (settings.relative_response) {
-    // Of the test as recorded (a modelled filter shows), without the temperature terms.
-    const Readings shown = w.response_model.applied ? Readings(recorded - (before_temperature - test)) : test;
-    w.relative_response = relative_response(reference, shown, w.estimate.n, prepared.sample_period_s, response);
-  }
+  return w;
 }
 
-}  // namespace
-
-std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings) {
+std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings,
+                                                  const PreparedPair* third) {
   settings.validate();
-  const auto& p = prepared.paired;
-  WindowEstimator estimator(settings.estimator);  // plain Eq. 2 or robust, from settings.estimator.method
+  WindowCalibrator calibrator(settings.window);
   std::vector<CalibrationWindow> out;
-  for (const WindowSpan& span : plan_windows(p.size(), prepared.sample_period_s, settings.windows)) {
-    CalibrationWindow w;
+  for (const WindowSpan& span : plan_windows(prepared.paired.size(), prepared.sample_period_s, settings.windows)) {
+    CalibrationWindow w = calibrator.calibrate(window_records(prepared, span.first, span.count,
+                                                              settings.window.temperature_max_gap_s, third));
     w.label = span.label;
     w.first_index = span.first;
-    w.start_s = p.time_s[span.first];
-    w.end_s = p.time_s[span.first + span.count - 1];
-    for (std::size_t i = span.first; i < span.first + span.count; ++i) w.filled_samples += prepared.gaps.filled[i];
-    for (const auto& gap : prepared.gaps.long_gaps) {
-      w.overlaps_long_gap |= gap.first < span.first + span.count && gap.second >= span.first;
-    }
-    estimate_span(w, prepared, span, settings, estimator);
-    if (settings.pair_noise && settings.estimator.awaits_identified_noise()) {
-      // No figure and no third instrument: the reference's noise from the pair above the band,
-      // then the window again with it (reference_noise.hpp).
-      const IdentifiedNoise noise = identify_reference_noise_from_pair(
-          p.reference_nT.middleRows(span.first, span.count), p.test_nT.middleRows(span.first, span.count),
-          prepared.sample_period_s, w.estimate, w.response_model, settings.estimator.band_high_hz);
-      w.reference_noise = noise.text;
-      if (noise.identified) {
-        WindowEstimator identified(with_identified_noise(settings.estimator, noise, "from the pair above the band"));
-        estimate_span(w, prepared, span, settings, identified);
-      }
-    }
-    const double filled_fraction = static_cast<double>(w.filled_samples) / static_cast<double>(span.count);
-    if (w.estimate.quality == Quality::kOk &&
-        (w.overlaps_long_gap || filled_fraction > settings.preprocess.max_filled_fraction)) {
-      std::ostringstream text;
-      text << w.filled_samples << " of " << span.count << " samples interpolated";
-      if (w.overlaps_long_gap) text << ", overlaps a gap longer than " << settings.preprocess.gaps.max_fill_s << " s";
-      w.estimate.quality = Quality::kGaps;
-      w.estimate.quality_text = text.str();
-    }
     out.push_back(std::move(w));
   }
   return out;
@@ -245,18 +225,30 @@ std::vector<WindowEstimate> disjoint_window_estimates(const std::vector<Calibrat
   std::vector<WindowEstimate> out;
   if (parts.size() < 2) return out;
   for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
-    if (parts[i]->first_index + parts[i]->estimate.samples > parts[i + 1]->first_index) return out;
+    if (parts[i]->first_index + parts[i]->expected_samples > parts[i + 1]->first_index) return out;
   }
   for (const CalibrationWindow* w : parts) out.push_back(w->estimate);
   return out;
 }
 
 PairCalibration calibrate_records(const VectorRecord& reference, const VectorRecord& test,
-                                  const CalibrationSettings& settings) {
+                                  const CalibrationSettings& settings, const VectorRecord* third) {
   settings.validate();
   PairCalibration result;
-  const PreparedPair prepared = prepare_pair(reference, test, settings.preprocess, &result.report);
-  result.windows = calibrate_prepared(prepared, settings);
+  const double max_fill = settings.window.gaps.max_fill_s;
+  const PreparedPair prepared = prepare_pair(reference, test, settings.preprocess, &result.report, max_fill);
+  std::unique_ptr<PreparedPair> with_third;
+  if (third != nullptr) {
+    try {
+      with_third = std::make_unique<PreparedPair>(prepare_pair(reference, *third, settings.preprocess, nullptr, max_fill));
+    } catch (const InputError& e) {  // name the third record, not the pair's own options
+      throw InputError("--third", "paired with the reference: " + e.problem());
+    }
+    if (std::abs(with_third->sample_period_s - prepared.sample_period_s) > 1e-9 * prepared.sample_period_s) {
+      throw InputError("--third", "its pair with the reference has another estimation period than the test's");
+    }
+  }
+  result.windows = calibrate_prepared(prepared, settings, with_third.get());
   return result;
 }
 

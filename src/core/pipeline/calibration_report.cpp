@@ -75,7 +75,7 @@ json window_to_json(const CalibrationWindow& w) {
       {"end", format_iso8601(w.end_s, 3)},
       {"samples", e.samples},
       {"sample_period_s", e.sample_period_s},
-      {"filled_samples", w.filled_samples},
+      {"filled_samples", w.missing()},
       {"harmonics", json::array({e.harmonic_first, e.harmonic_last})},
       {"matrix", rows(e.n)},
       {"matrix_stderr", rows(e.n_stderr())},
@@ -101,14 +101,19 @@ json window_to_json(const CalibrationWindow& w) {
       {"delay_ci95_s", number(e.delay_ci95_s)},
       {"screened_fraction", e.screened_fraction},
       {"downweighted_fraction", e.downweighted_fraction},
-      {"eiv", e.eiv},
+      {"eiv", e.eiv_text()},
+      {"eiv_applied", errors_in_variables_name(e.eiv)},
+      {"reference_noise_source", noise_source_name(e.eiv_noise.source)},
       {"weights", e.weights},
       {"covariance_cells", number(e.covariance_dof)},
       {"interval_quantile", number(p.interval_quantile)},
       {"intervals", e.intervals},
       {"relative_response", response_to_json(w.relative_response)},
       {"response_model", model_to_json(w.response_model)},
-      {"reference_noise_from_pair", w.reference_noise.empty() ? nlohmann::json() : nlohmann::json(w.reference_noise)},
+      {"reference_noise", w.reference_noise.text.empty() ? nlohmann::json() : nlohmann::json(w.reference_noise.text)},
+      {"offset_nT", vec3(w.offset_end_nT)},
+      {"offset_ci95_nT", vec3(w.offset_end_ci95_nT)},
+      {"reference_mean_nT", vec3(w.reference_mean_nT)},
       // Temperature terms (temperature_regression.hpp): null when not fitted, text says why.
       {"temperature_text", w.temperature.text},
       {"temperature_reference_C", fitted_or_null(w.temperature, w.temperature.reference_C)},
@@ -149,8 +154,9 @@ json window_agreement_to_json(const std::vector<CalibrationWindow>& windows) {
               {"text", a.text}};
 }
 
-json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s, const ReportInputs& inputs) {
+json calibration_to_json(const PairCalibration& c, const CalibrationSettings& settings, const ReportInputs& inputs) {
   const PreprocessReport& r = c.report;
+  const WindowCalibrationSettings& s = settings.window;
   json windows = json::array();
   for (const auto& w : c.windows) windows.push_back(window_to_json(w));
   return json{
@@ -162,19 +168,22 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s,
         {"gamma", s.estimator.gamma},
         {"method", estimator_method_name(s.estimator.method)},
         {"auto_band", s.estimator.robust.auto_band},
-        {"eiv", eiv_correction_name(s.estimator.robust.eiv)},
-        {"eiv_noise_ratio", s.estimator.robust.eiv_noise_ratio},
-        {"reference_noise_pT_per_sqrt_hz", 1000.0 * s.estimator.robust.reference_pink_nT_per_sqrt_hz.maxCoeff()},
+        {"eiv", s.estimator.robust.errors_in_variables ? "given" : "none"},
+        {"reference_noise_pT_per_sqrt_hz", 1e3 * s.reference_noise_figure.pink_nT_per_sqrt_hz.maxCoeff()},
+        {"reference_noise_white_pT", 1e3 * s.reference_noise_figure.white_nT.maxCoeff()},
+        {"pair_noise", s.pair_noise},
+        {"three_cornered_hat", s.three_cornered_hat},
+        {"response_model", s.response_model},
         {"trend", s.estimator.trend},
-        {"intervals", s.windows.intervals},
-        {"window_s", s.windows.window_s},
-        {"step_s", s.windows.step_s},
-        {"pairing_tolerance_s", s.preprocess.pairing_tolerance_s},
-        {"output_period_s", s.preprocess.output_period_s},
-        {"despike", s.preprocess.despike},
-        {"max_fill_s", s.preprocess.gaps.max_fill_s},
-        {"temperature_channel", s.preprocess.temperature_channel},
-        {"max_filled_fraction", s.preprocess.max_filled_fraction},
+        {"intervals", settings.windows.intervals},
+        {"window_s", settings.windows.window_s},
+        {"step_s", settings.windows.step_s},
+        {"pairing_tolerance_s", settings.preprocess.pairing_tolerance_s},
+        {"output_period_s", settings.preprocess.output_period_s},
+        {"despike", settings.preprocess.despike},
+        {"max_fill_s", s.gaps.max_fill_s},
+        {"temperature_channel", settings.preprocess.temperature_channel},
+        {"max_filled_fraction", s.max_filled_fraction},
         {"min_harmonics", s.estimator.min_harmonics},
         {"max_condition_number", s.estimator.max_condition_number},
         {"min_coherence", s.estimator.min_coherence}}},
@@ -191,7 +200,7 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& s,
         {"duplicates", r.duplicates},
         {"decimated", r.decimated},
         {"grid_samples", r.grid_samples},
-        {"filled_samples", r.filled_samples},
+        {"missing_samples", r.missing_samples},
         {"long_gaps", r.long_gaps},
         {"temperature_channel", r.temperature_channel.empty() ? json(nullptr) : json(r.temperature_channel)}}},
       {"windows", windows},
@@ -219,11 +228,14 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
       << "pre-processing: " << r.paired << " pairs (" << r.unpaired_reference << " reference and "
       << r.unpaired_test << " test samples unpaired), spikes removed " << r.spikes_reference << " / "
       << r.spikes_test << (r.decimated ? ", Gaussian FIR decimated" : "") << ", " << r.grid_samples
-      << " samples on the grid, " << r.filled_samples << " interpolated, " << r.long_gaps << " long gaps\n";
+      << " samples on the grid, " << r.missing_samples << " missing (filled in the windows), " << r.long_gaps
+      << " long gaps\n";
   // The errors-in-variables noise model of each window (usually one for all).
   std::vector<std::string> models;
-  for (const auto& w : c.windows)
-    if (std::find(models.begin(), models.end(), w.estimate.eiv) == models.end()) models.push_back(w.estimate.eiv);
+  for (const auto& w : c.windows) {
+    const std::string model = w.estimate.eiv_text();
+    if (std::find(models.begin(), models.end(), model) == models.end()) models.push_back(model);
+  }
   out << "EIV:";
   for (std::size_t k = 0; k < models.size(); ++k) out << (k ? "; " : " ") << models[k];
   // Weights and intervals of each window (usually one or two kinds).
@@ -296,7 +308,7 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     }
     for (int l = 0; l < 3; ++l) {
       row(std::string("trend ") + axes[l] + " nT/day", [l](const CalibrationWindow& w) {
-        return with_ci(w.estimate.trend_nT_per_day(l), 1.959964 * w.estimate.trend_stderr_nT_per_day(l), 2);
+        return with_ci(w.estimate.trend_nT_per_day(l), kNormalQuantile95 * w.estimate.trend_stderr_nT_per_day(l), 2);
       });
     }
     row("coherence x/y/z", [](const CalibrationWindow& w) {
@@ -349,10 +361,10 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     row("quality", [](const CalibrationWindow& w) { return std::string(quality_name(w.estimate.quality)); });
     for (const auto& w : c.windows) {
       if (w.response_model.fitted || !w.response_model.text.empty()) out << w.label << ": " << w.response_model.text << "\n";
-      if (!w.reference_noise.empty()) out << w.label << ": " << w.reference_noise << "\n";
+      if (!w.reference_noise.text.empty()) out << w.label << ": " << w.reference_noise.text << "\n";
     }
     for (const auto& w : c.windows) {
-      if (!w.temperature.text.empty()) out << w.label << ": " << w.temperature.text << "\n";
+      if (!r.temperature_channel.empty()) out << w.label << ": " << w.temperature.text << "\n";
     }
     for (const auto& w : c.windows) {
       if (w.estimate.quality != Quality::kOk) out << w.label << ": " << w.estimate.quality_text << "\n";

@@ -214,22 +214,6 @@ std::vector<double> hat_bin_edges(double duration_s, double sample_period_s, dou
 
 }  // namespace
 
-IdentifiedNoise identify_reference_noise(const PreparedPair& with_test, const VectorRecord& reference,
-                                         const VectorRecord& third, const PreprocessSettings& preprocess,
-                                         double band_low_hz, double band_high_hz, int bins) {
-  PreparedPair with_third;
-  try {
-    with_third = prepare_pair(reference, third, preprocess);
-  } catch (const InputError& e) {  // name the third record, not the pair's own options
-    throw InputError("--third", "paired with the reference: " + e.problem());
-  }
-  if (std::abs(with_test.sample_period_s - with_third.sample_period_s) > 1e-9 * with_test.sample_period_s) {
-    throw InputError("--third", "its pair with the reference has another estimation period than the test's");
-  }
-  return identify_reference_noise(with_test.paired, with_third.paired, with_test.sample_period_s, band_low_hz,
-                                  band_high_hz, bins, "--third");
-}
-
 IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
                                          double sample_period_s, double band_low_hz, double band_high_hz, int bins,
                                          const std::string& third_name) {
@@ -297,13 +281,15 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
   return out;
 }
 
-EstimatorSettings with_identified_noise(EstimatorSettings settings, const IdentifiedNoise& noise,
-                                        const std::string& source) {
-  settings.robust.reference_white_nT = noise.white_nT;
-  settings.robust.reference_pink_nT_per_sqrt_hz = noise.pink_nT_per_sqrt_hz;
-  settings.robust.reference_noise_source = source;
-  settings.robust.reference_noise_level_covariance = noise.level_covariance;
-  return settings;
+ReferenceNoiseModel IdentifiedNoise::model(NoiseSource source, const std::string& provider) const {
+  ReferenceNoiseModel out;
+  if (!identified) return out;
+  out.source = source;
+  out.spectrum.white_nT = white_nT;
+  out.spectrum.pink_nT_per_sqrt_hz = pink_nT_per_sqrt_hz;
+  out.level_covariance = level_covariance;
+  out.provider = provider;
+  return out;
 }
 
 IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readings>& reference_nT,

@@ -34,11 +34,9 @@ double median_phase_offset(const std::vector<double>& time_s, double dt) {
 
 }  // namespace
 
-GapReport regularize_and_fill(PairedRecord& paired, double sample_period_s,
-                              const GapSettings& settings) {
+GapReport regularize(PairedRecord& paired, double sample_period_s) {
   const double dt = sample_period_s;
   if (!(dt > 0.0) || !std::isfinite(dt)) throw InputError("sample_period_s", "must be positive and finite");
-  if (!(settings.max_fill_s >= 0.0)) throw InputError("max_fill_s", "must be >= 0");
   const std::size_t n = paired.time_s.size();
   if (static_cast<std::size_t>(paired.reference_nT.rows()) != n ||
       static_cast<std::size_t>(paired.test_nT.rows()) != n) {
@@ -109,17 +107,35 @@ GapReport regularize_and_fill(PairedRecord& paired, double sample_period_s,
   for (std::size_t k = 0; k < m; ++k) paired.time_s[k] = grid_t0 + static_cast<double>(first + k) * dt;
   paired.reference_nT = reference.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(m));
   paired.test_nT = test.middleRows(static_cast<Eigen::Index>(first), static_cast<Eigen::Index>(m));
+  for (std::size_t k = 0; k < m; ++k) {
+    if (complete[first + k]) continue;
+    paired.reference_nT.row(static_cast<Eigen::Index>(k)).setConstant(nan);
+    paired.test_nT.row(static_cast<Eigen::Index>(k)).setConstant(nan);
+  }
+  return report;
+}
 
-  // 4. Fill runs of incomplete epochs between complete ones (ends are complete after trimming).
+GapReport fill_gaps(PairedRecord& paired, double sample_period_s, const GapSettings& settings) {
+  const double dt = sample_period_s;
+  if (!(settings.max_fill_s >= 0.0)) throw InputError("max_fill_s", "must be >= 0");
+  const std::size_t m = paired.time_s.size();
+  std::vector<std::uint8_t> complete(m, 0);
+  for (std::size_t k = 0; k < m; ++k) {
+    const auto r = static_cast<Eigen::Index>(k);
+    complete[k] = paired.reference_nT.row(r).allFinite() && paired.test_nT.row(r).allFinite();
+  }
+  GapReport report;
   report.filled.assign(m, 0);
   std::size_t k = 0;
   while (k < m) {
-    if (complete[first + k]) {
+    if (complete[k]) {
       ++k;
       continue;
     }
+    if (k == 0) throw InputError(kWhere, "fill_gaps: the record starts with an incomplete epoch (regularize first)");
     const std::size_t run_first = k;
-    while (!complete[first + k]) ++k;
+    while (k < m && !complete[k]) ++k;
+    if (k == m) throw InputError(kWhere, "fill_gaps: the record ends with an incomplete epoch (regularize first)");
     const std::size_t run_last = k - 1;
     const auto a = static_cast<Eigen::Index>(run_first - 1);  // complete epoch before the run
     const auto b = static_cast<Eigen::Index>(k);              // complete epoch after the run
@@ -137,6 +153,16 @@ GapReport regularize_and_fill(PairedRecord& paired, double sample_period_s,
       report.long_gaps.emplace_back(run_first, run_last);
     }
   }
+  return report;
+}
+
+GapReport regularize_and_fill(PairedRecord& paired, double sample_period_s, const GapSettings& settings) {
+  if (!(settings.max_fill_s >= 0.0)) throw InputError("max_fill_s", "must be >= 0");
+  GapReport report = regularize(paired, sample_period_s);
+  const GapReport filled = fill_gaps(paired, sample_period_s, settings);
+  report.filled = filled.filled;
+  report.filled_samples = filled.filled_samples;
+  report.long_gaps = filled.long_gaps;
   return report;
 }
 

@@ -122,17 +122,21 @@ TEST(RobustEstimator, SettingsValidationNamesTheField) {
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("huber_k"), std::string::npos) << e.what();
   }
-  // An identified noise's level covariance must be a covariance.
-  mic::EstimatorSettings bad_levels;
-  bad_levels.robust.reference_noise_level_covariance[1](1, 1) = -1e-6;
+  // An identified noise's level covariance must be a covariance: the window's input is refused.
+  const Eigen::MatrixXd r = Eigen::MatrixXd::Random(4096, 3) * 10.0;
+  const mic::Readings reference = r, test = r;
+  mic::WindowInputs bad_levels;
+  bad_levels.reference_noise = mic::ReferenceNoiseModel::maker_figure(mic::NoiseSpectrum::fluxgate_figure(10.0));
+  bad_levels.reference_noise.level_covariance[1](1, 1) = -1e-6;
+  mic::RobustFdEstimator estimator{mic::EstimatorSettings{}};
   try {
-    mic::RobustFdEstimator e(bad_levels);
+    estimator.estimate(reference, test, 1.0, bad_levels);
     FAIL() << "negative level variance accepted";
   } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("reference_noise_level_covariance"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("level covariance"), std::string::npos) << e.what();
   }
-  bad_levels.robust.reference_noise_level_covariance[1] << 1.0, 2.0, 2.0, 1.0;  // correlation 2
-  EXPECT_THROW(mic::RobustFdEstimator{bad_levels}, std::exception);
+  bad_levels.reference_noise.level_covariance[1] << 1.0, 2.0, 2.0, 1.0;  // correlation 2
+  EXPECT_THROW(estimator.estimate(reference, test, 1.0, bad_levels), std::exception);
   EXPECT_EQ(mic::parse_estimator_method("plain"), mic::EstimatorMethod::kPlain);
   EXPECT_THROW(mic::parse_estimator_method("fancy"), std::exception);
 }
@@ -307,39 +311,44 @@ TEST(RobustEstimator, OneScaleBinWindowKeepsItsCellsUnweighted) {
   EXPECT_GT(six.downweighted_fraction, 0.0);  // the 1/f residual's low cells, against their bin's scale
 }
 
-// Issue 13: without an identified reference noise the default applies no errors-in-variables
-// correction (the same n as --eiv none, bit for bit) and says so; with the simulated reference
-// noise given (the simulation's truth, as a maker's figure would be) it corrects the
+// Without a reference noise model the default applies no errors-in-variables correction (the
+// same n as --eiv none, bit for bit) and says so; with the simulated reference noise as the
+// window's noise model (the simulation's truth, as a maker's figure would be) it corrects the
 // attenuation that reference noise x10 causes, towards the truth.
-TEST(RobustEstimator, DefaultCorrectsOnlyIdentifiedReferenceNoise) {
+TEST(RobustEstimator, DefaultCorrectsOnlyForAReferenceNoiseModel) {
   mic::SimulationSettings s = station(31);
   s.variation_rms_nT = 5.0;
   s.reference_white_nT *= 10.0;
   s.reference_pink_nT_per_sqrt_hz *= 10.0;
   const mic::SimulatedPair pair = mic::simulate_pair(s);
-  auto estimate = [&](const mic::EstimatorSettings& es, bool* applied) {
+  auto estimate = [&](const mic::EstimatorSettings& es, const mic::WindowInputs& inputs, bool* applied) {
     mic::WindowEstimator estimator(es);
-    const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT, pair.test.values_nT, 1.0);
+    const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT, pair.test.values_nT, 1.0, inputs);
     *applied = estimator.robust_diagnostics()->eiv_applied;
     return e;
   };
   bool applied = true;
-  const mic::WindowEstimate by_default = estimate(mic::EstimatorSettings{}, &applied);
+  const mic::WindowEstimate by_default = estimate(mic::EstimatorSettings{}, mic::WindowInputs{}, &applied);
   EXPECT_FALSE(applied);
-  EXPECT_EQ(by_default.eiv, "none (noise not identified)");
+  EXPECT_EQ(by_default.eiv, mic::ErrorsInVariables::kNoNoiseModel);
+  EXPECT_EQ(by_default.eiv_text(), "none (no reference noise model)");
+  mic::WindowInputs given;
+  given.reference_noise.source = mic::NoiseSource::kMakerFigure;
+  given.reference_noise.spectrum.white_nT.setConstant(s.reference_white_nT);
+  given.reference_noise.spectrum.pink_nT_per_sqrt_hz.setConstant(s.reference_pink_nT_per_sqrt_hz);
   mic::EstimatorSettings none;
-  none.robust.eiv = mic::EivCorrection::kNone;
-  const mic::WindowEstimate uncorrected = estimate(none, &applied);
+  none.robust.errors_in_variables = false;
+  const mic::WindowEstimate uncorrected = estimate(none, given, &applied);
+  EXPECT_FALSE(applied);
+  EXPECT_EQ(uncorrected.eiv, mic::ErrorsInVariables::kOff);
   EXPECT_TRUE(by_default.n == uncorrected.n);
-  mic::EstimatorSettings given;
-  given.robust.reference_white_nT.setConstant(s.reference_white_nT);
-  given.robust.reference_pink_nT_per_sqrt_hz.setConstant(s.reference_pink_nT_per_sqrt_hz);
-  const mic::WindowEstimate corrected = estimate(given, &applied);
+  const mic::WindowEstimate corrected = estimate(mic::EstimatorSettings{}, given, &applied);
   EXPECT_TRUE(applied);
-  EXPECT_EQ(corrected.eiv.rfind("given reference noise", 0), 0u) << corrected.eiv;
+  EXPECT_EQ(corrected.eiv, mic::ErrorsInVariables::kApplied);
+  EXPECT_EQ(corrected.eiv_text().rfind("reference noise from the maker's figure", 0), 0u) << corrected.eiv_text();
   // Reference noise attenuates every scale ratio (E[n_Eq2] = n - (A_B + N)^-1 N n): the
   // uncorrected z scale is below the truth by many of its standard errors (measured -1.6 se in
-  // the mean over 600 seeds, docs/robust_estimation.md), the corrected one much closer.
+  // the mean over 600 seeds, docs/validation.md), the corrected one much closer.
   const Eigen::Vector3d truth = mic::decompose(pair.n_true).scale_ratio;
   const double before = (uncorrected.parameters.scale_ratio - truth).cwiseAbs().sum();
   const double after = (corrected.parameters.scale_ratio - truth).cwiseAbs().sum();

@@ -1,6 +1,7 @@
 // The reference's noise identified from a third instrument (pipeline/reference_noise.hpp): the
 // white + 1/f fit against PSDs computed by hand, and the whole path on three simulated
 // instruments of known, different noise.
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
@@ -226,9 +227,9 @@ TEST(IdentifyReferenceNoise, RecoversTheReferenceNoiseOfThreeInstruments) {
   // MIC_HAT_SEED: another seed (seeds 91-110 checked when written).
   const char* seed = std::getenv("MIC_HAT_SEED");
   const ThreeInstruments t = three_instruments(seed != nullptr ? std::strtoull(seed, nullptr, 10) : 91);
-  const mic::PreparedPair pair = mic::prepare_pair(t.pair.reference, t.pair.test, mic::PreprocessSettings{});
-  const mic::IdentifiedNoise noise =
-      mic::identify_reference_noise(pair, t.pair.reference, t.third, mic::PreprocessSettings{}, 0.0002, 0.01);
+  const mic::IdentifiedNoise noise = mic::identify_reference_noise(
+      mic::prepare_pair(t.pair.reference, t.pair.test, mic::PreprocessSettings{}).paired,
+      mic::prepare_pair(t.pair.reference, t.third, mic::PreprocessSettings{}).paired, 1.0, 0.0002, 0.01, 4, "--third");
   ASSERT_TRUE(noise.identified) << noise.text;
   EXPECT_EQ(noise.samples, t.third.time_s.size());  // the epochs all three share
   EXPECT_NE(noise.text.find("three-cornered hat"), std::string::npos) << noise.text;
@@ -270,9 +271,9 @@ TEST(IdentifyReferenceNoise, RecoversTheQuietTestsLevelFromTheBinsAboveTheBand) 
     mic::VectorRecord third;
     third.time_s = pair.reference.time_s;
     third.values_nT = mic::co_located_instrument(pair.field_nT, mic::co_located_instrument_matrix(), 0.05, seed * 31 + 7);
-    const mic::IdentifiedNoise noise =
-        mic::identify_reference_noise(mic::prepare_pair(pair.reference, pair.test, mic::PreprocessSettings{}),
-                                      pair.reference, third, mic::PreprocessSettings{}, 0.0002, 0.01);
+    const mic::IdentifiedNoise noise = mic::identify_reference_noise(
+        mic::prepare_pair(pair.reference, pair.test, mic::PreprocessSettings{}).paired,
+        mic::prepare_pair(pair.reference, third, mic::PreprocessSettings{}).paired, 1.0, 0.0002, 0.01, 4, "--third");
     ASSERT_TRUE(noise.identified) << noise.text;
     ASSERT_FALSE(noise.hat.bin_high_hz.empty());
     const double top = noise.hat.bin_high_hz.back(), below = noise.hat.bin_low_hz.back();
@@ -296,8 +297,7 @@ TEST(IdentifyReferenceNoise, AThirdRecordOutsideThePairIsNamed) {
   ThreeInstruments t = three_instruments(92);
   for (double& time : t.third.time_s) time += 2.0 * 86400.0;  // two days later: no shared epoch
   try {
-    mic::identify_reference_noise(mic::prepare_pair(t.pair.reference, t.pair.test, mic::PreprocessSettings{}),
-                                  t.pair.reference, t.third, mic::PreprocessSettings{}, 0.0002, 0.01);
+    mic::calibrate_records(t.pair.reference, t.pair.test, mic::CalibrationSettings{}, &t.third);
     FAIL() << "no error";
   } catch (const mic::InputError& e) {
     EXPECT_EQ(e.where(), "--third") << e.what();
@@ -395,13 +395,15 @@ TEST(IdentifyReferenceNoiseFromPair, TheDefaultCorrectsTheAttenuationWithoutAFig
   const mic::SimulatedPair pair = noisy_reference_pair(seed != nullptr ? std::strtoull(seed, nullptr, 10) : 51);
   const Eigen::Vector3d truth = mic::decompose(pair.n_true).scale_ratio;
   mic::CalibrationSettings off;
-  off.pair_noise = false;
+  off.window.pair_noise = false;
   const mic::CalibrationWindow before = mic::calibrate_records(pair.reference, pair.test, off).windows.back();
   const mic::CalibrationWindow after = mic::calibrate_records(pair.reference, pair.test, {}).windows.back();
-  EXPECT_TRUE(before.reference_noise.empty());
-  EXPECT_NE(before.estimate.eiv.find("none"), std::string::npos) << before.estimate.eiv;
-  EXPECT_NE(after.reference_noise.find("from the pair above the band"), std::string::npos) << after.reference_noise;
-  EXPECT_NE(after.estimate.eiv.find("from the pair above the band"), std::string::npos) << after.estimate.eiv;
+  EXPECT_TRUE(before.reference_noise.text.empty());
+  EXPECT_EQ(before.estimate.eiv, mic::ErrorsInVariables::kNoNoiseModel) << before.estimate.eiv_text();
+  EXPECT_NE(after.reference_noise.text.find("from the pair above the band"), std::string::npos) << after.reference_noise.text;
+  EXPECT_EQ(after.estimate.eiv, mic::ErrorsInVariables::kApplied);
+  EXPECT_EQ(after.estimate.eiv_noise.source, mic::NoiseSource::kPairAboveBand);
+  EXPECT_NE(after.estimate.eiv_text().find("from the pair above the band"), std::string::npos) << after.estimate.eiv_text();
   double before_z2 = 0.0, after_z2 = 0.0;
   for (int c = 0; c < 3; ++c) {
     const mic::CalibrationParameters& pb = before.estimate.parameters;
@@ -429,12 +431,12 @@ TEST(IdentifyReferenceNoiseFromPair, NotFromATestBehindAModelledFilter) {
   mic::apply_test_response(pair.test.values_nT, 1.0, 0.03, 0.0);
   const mic::CalibrationWindow w = mic::calibrate_records(pair.reference, pair.test, {}).windows.back();
   mic::CalibrationSettings off;
-  off.pair_noise = false;
+  off.window.pair_noise = false;
   const mic::CalibrationWindow without = mic::calibrate_records(pair.reference, pair.test, off).windows.back();
   ASSERT_TRUE(w.response_model.applied) << w.response_model.text;
   // Refused means untouched: n is the one estimated without the step, to the bit.
   EXPECT_EQ(w.estimate.n, without.estimate.n);
-  EXPECT_NE(w.reference_noise.find("not identified from the pair: the test's filter is modelled"), std::string::npos)
-      << w.reference_noise;
-  EXPECT_NE(w.estimate.eiv.find("none"), std::string::npos) << w.estimate.eiv;
+  EXPECT_NE(w.reference_noise.text.find("not identified from the pair: the test's filter is modelled"), std::string::npos)
+      << w.reference_noise.text;
+  EXPECT_EQ(w.estimate.eiv, mic::ErrorsInVariables::kNoNoiseModel) << w.estimate.eiv_text();
 }

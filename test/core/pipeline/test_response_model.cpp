@@ -127,7 +127,7 @@ TEST(ResponseModel, FitsTheCornerAndDelayOfAFilteredPairAndNotOfAFlatOrLaggedOne
   mic::CalibrationSettings settings;
   settings.windows.intervals = 0;
   const Pair filtered = simulate(11, 2.0, 0.03, 2);
-  settings.response_model = true;
+  settings.window.response_model = true;
   const auto with_filter = mic::calibrate_records(filtered.reference, filtered.test, settings);
   const mic::ResponseModel& m = with_filter.windows.back().response_model;
   ASSERT_TRUE(m.fitted) << m.text;
@@ -161,9 +161,9 @@ TEST(ResponseModel, FilterMismatchDoesNotBiasNThroughTheModel) {
   for (unsigned seed = first; seed < first + seeds; ++seed) {
     const Pair p = simulate(seed, 2.0, 0.03, 2.0);
     const Pair flat = simulate(seed, 2.0, 0.0, 0.0);  // the same field and noise, no filter: the floor
-    settings.response_model = false;
+    settings.window.response_model = false;
     const auto without = mic::calibrate_records(p.reference, p.test, settings).windows.back();
-    settings.response_model = true;
+    settings.window.response_model = true;
     const auto with = mic::calibrate_records(p.reference, p.test, settings).windows.back();
     const auto floor = mic::calibrate_records(flat.reference, flat.test, settings).windows.back();
     const Eigen::Vector3d truth = mic::decompose(p.n).scale_ratio;

@@ -44,7 +44,7 @@ TEST(WicRecords, PairsEverySecondOfTheDay) {
   const auto prepared = mic::prepare_pair(wic().reference, wic().test, mic::PreprocessSettings{}, &report);
   EXPECT_EQ(report.paired, 86400u);
   EXPECT_EQ(report.unpaired_reference + report.unpaired_test, 0u);
-  EXPECT_EQ(report.filled_samples, 0u);
+  EXPECT_EQ(report.missing_samples, 0u);
   EXPECT_FALSE(report.decimated);
   EXPECT_DOUBLE_EQ(prepared.sample_period_s, 1.0);
 }
@@ -128,8 +128,8 @@ TEST(WicRecords, TheQuartersAgreeWithinTheDefaultsIntervalsAndNotWithinPlainEq2s
   EXPECT_EQ(robust.windows, 4);
   EXPECT_TRUE(robust.agree) << robust.text;
   EXPECT_GT(robust.joint_p_value, 0.01) << robust.text;
-  settings.estimator.method = mic::EstimatorMethod::kPlain;
-  settings.response_model = false;  // as calibrate_records --method plain
+  settings.window.estimator.method = mic::EstimatorMethod::kPlain;
+  settings.window.response_model = false;  // as calibrate_records --method plain
   const mic::WindowAgreement plain = agreement();
   std::printf("plain Eq. 2: %s\n", plain.text.c_str());
   ASSERT_TRUE(plain.assessed) << plain.text;

@@ -111,20 +111,21 @@ TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
   EXPECT_NE(r.output.find("step"), std::string::npos) << r.output;
 }
 
-// Issue 13: the default errors-in-variables correction uses identified noise only. Without a
-// noise figure or a third instrument the reference's noise is identified from the pair above the
-// band (session 9); with --no-pair-noise none is applied and every report says so;
-// --reference-noise-pT gives the reference's figure; --eiv-ratio alone keeps asking for the ratio mode.
+// The errors-in-variables correction uses a reference noise model only: without a noise figure
+// or a third instrument the reference's noise is identified from the pair above the band; with
+// --no-pair-noise none is applied and every report says so; --reference-noise-pT gives the
+// reference's figure. A share of the residual is never taken for reference noise: the old
+// --eiv-ratio is refused.
 TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
   const std::string io = "--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --json " + dir_;
   struct Case {
     std::string options, json, expected;
   };
   const std::vector<Case> cases = {
-      {"--no-pair-noise", "/eiv_default.json", "none (noise not identified)"},
+      {"--no-pair-noise", "/eiv_default.json", "none (no reference noise model)"},
       {"--eiv none", "/eiv_none.json", "none (off)"},
-      {"--reference-noise-pT 5", "/eiv_given.json", "given reference noise: white 0 pT rms, 1/f 5 pT/sqrt(Hz) at 1 Hz"},
-      {"--eiv-ratio 0.03", "/eiv_ratio.json", "ratio 0.03 (share of the residual, as asked)"},
+      {"--reference-noise-pT 5", "/eiv_given.json",
+       "reference noise from the maker's figure: white 0/0/0 pT rms, 1/f 5/5/5 pT/sqrt(Hz) at 1 Hz (x/y/z)"},
       {"--method plain", "/eiv_plain.json", "none (plain Eq. 2)"},
   };
   for (const Case& c : cases) {
@@ -139,14 +140,16 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
   // (its n against the simulated truth: WritesTheJsonDocumentWithTheTruthInside runs the default).
   const ProgramRun pair = run(io + "/eiv_pair.json");
   ASSERT_EQ(pair.status, 0) << pair.output;
-  EXPECT_NE(pair.output.find("(from the pair above the band)\n"), std::string::npos) << pair.output;
+  EXPECT_NE(pair.output.find("EIV: reference noise from the pair above the band: white "), std::string::npos) << pair.output;
   EXPECT_NE(pair.output.find("whole record: reference noise from the pair above the band (0.03-0.25 Hz"), std::string::npos)
       << pair.output;
   {
     std::ifstream in(dir_ + "/eiv_pair.json");
     const nlohmann::json j = nlohmann::json::parse(in);
     EXPECT_NE(j["windows"][0]["eiv"].get<std::string>().find("from the pair above the band"), std::string::npos);
-    EXPECT_NE(j["windows"][0]["reference_noise_from_pair"].get<std::string>().find("1/f"), std::string::npos);
+    EXPECT_EQ(j["windows"][0]["eiv_applied"], "applied");
+    EXPECT_EQ(j["windows"][0]["reference_noise_source"], "pair above the band");
+    EXPECT_NE(j["windows"][0]["reference_noise"].get<std::string>().find("1/f"), std::string::npos);
   }
   const ProgramRun bad = run(io + "/x.json --eiv none --reference-noise-pT 5");
   EXPECT_NE(bad.status, 0);
@@ -154,10 +157,15 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
   const ProgramRun negative = run(io + "/x.json --reference-noise-pT -1");
   EXPECT_NE(negative.status, 0);
   EXPECT_NE(negative.output.find("--reference-noise-pT"), std::string::npos) << negative.output;
+  for (const std::string ratio : {"--eiv-ratio 0.03", "--eiv ratio"}) {
+    const ProgramRun refused = run(io + "/x.json " + ratio);
+    EXPECT_NE(refused.status, 0) << ratio;
+    EXPECT_NE(refused.output.find("--eiv"), std::string::npos) << ratio << ": " << refused.output;
+  }
 }
 
-// Issue 13: --third identifies the reference's noise by the three-cornered hat and gives it to
-// the errors-in-variables correction; every report says where the figure came from.
+// --third identifies the reference's noise by the three-cornered hat in each window and gives it
+// to the errors-in-variables correction; every report says where the noise model came from.
 TEST_F(CalibrateRecordsCli, ThirdInstrumentIdentifiesTheReferenceNoise) {
   mic::SimulationSettings s;
   s.duration_s = 6 * 3600.0;
@@ -182,10 +190,10 @@ TEST_F(CalibrateRecordsCli, ThirdInstrumentIdentifiesTheReferenceNoise) {
   std::ifstream in(dir_ + "/hat.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   const std::string eiv = j["windows"][0]["eiv"];
-  EXPECT_EQ(eiv.rfind("given reference noise: white ", 0), 0u) << eiv;
-  EXPECT_NE(eiv.find("(three-cornered hat with --third)"), std::string::npos) << eiv;
-  // Against the simulated truth: the white level the correction used (the largest axis's, as
-  // the report prints it) within 20 % of the reference's simulated 300 pT rms.
+  EXPECT_EQ(eiv.rfind("reference noise from the three-cornered hat with --third: white ", 0), 0u) << eiv;
+  EXPECT_EQ(j["windows"][0]["reference_noise_source"], "three-cornered hat");
+  // Against the simulated truth: the white level the correction used (the x axis's, as the
+  // report prints it first) within 20 % of the reference's simulated 300 pT rms.
   const std::size_t at = eiv.find("white ");
   ASSERT_NE(at, std::string::npos) << eiv;
   EXPECT_NEAR(std::stod(eiv.substr(at + 6)), 300.0, 60.0) << eiv;

@@ -1,0 +1,112 @@
+// The live streams of one reference and one or more test instruments, from arriving samples to
+// the windows the per-window stage calibrates: what calibration_node does between a message and
+// its worker, without ROS.
+//
+// Per stream, in the order the offline pipeline applies the same steps to a whole record
+// (calibration_pipeline.hpp), so that a live window equals the offline window of the same
+// samples:
+//   sample -> StreamingDespiker (each instrument at its own rate; optional)
+//          -> StreamPairer (reference and test paired by stamp)
+//          -> StreamingDecimator, both on the same epochs (when the inputs are faster than the
+//             estimation period)
+//          -> SlidingWindowBuffer (windows [k step, k step + window) in UNIX time), with the
+//             test's thermometer samples around each window (TemperatureBuffer)
+//          -> CoincidentWindows (with two or more tests and the three-cornered hat: each window
+//             released with another test's window of the same epochs as its third instrument).
+// Units: nT and UNIX seconds; each instrument in its own frame.
+#pragma once
+
+#include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/streaming_despike.hpp"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+struct LiveStreamSettings {
+  double input_period_s = 1.0;         ///< nominal sample period of every input stream, s
+  DecimationSettings decimation;       ///< output_period_s: the estimation period when decimating, s
+  double pairing_tolerance_s = 0.010;  ///< largest |t_test - t_reference| of a pair, s
+  double pairing_max_wait_s = 600.0;   ///< longest wait (stamp time) for a partner, s
+  double window_s = 86400.0;           ///< window length, s
+  double step_s = 3600.0;              ///< between window starts, s
+  bool despike = true;                 ///< StreamingDespiker on every input stream
+  DespikeSettings despike_settings;
+  /// A step of the paired stamps longer than this restarts the decimators, s.
+  double time_jump_threshold_s = 60.0;
+  /// Thermometer samples kept beyond each window's ends (the stage's temperature_max_gap_s), s.
+  double temperature_margin_s = 60.0;
+
+  /// True when the inputs are low-passed and decimated to decimation.output_period_s.
+  bool decimating() const { return input_period_s < 0.99 * decimation.output_period_s; }
+  /// Sample period of the windows, s.
+  double estimation_period_s() const { return decimating() ? decimation.output_period_s : input_period_s; }
+};
+
+/// One test instrument's part of the streams (its pairing with the reference onwards).
+struct LiveTestStream {
+  LiveTestStream(const std::string& name, bool temperature, const LiveStreamSettings& settings);
+
+  std::string name;              ///< names the instrument as a third ("test '<name>'")
+  bool temperature = false;      ///< it has a thermometer
+  StreamingDespiker despiker;
+  StreamPairer pairer;
+  std::unique_ptr<StreamingDecimator> reference_decimator, test_decimator;  ///< when decimating
+  SlidingWindowBuffer windows;
+  TemperatureBuffer thermometer;
+  PairingCounters counters_before_reset;
+  bool any_pair = false;
+  double last_pair_s = 0.0;
+  std::size_t pipeline_resets = 0, decimator_restarts = 0;
+
+  /// Pairing counters since start, across restarts.
+  PairingCounters counters() const;
+};
+
+class LiveCalibrationStreams {
+ public:
+  /// `tests`: names and whether each has a thermometer; `coincident`: release each window with
+  /// another test's window of the same epochs (the three-cornered hat; two or more tests).
+  LiveCalibrationStreams(const LiveStreamSettings& settings, const std::vector<std::pair<std::string, bool>>& tests,
+                         bool coincident);
+
+  /// A window completed by a sample, for the per-window stage.
+  struct Completed {
+    std::size_t test = 0;
+    WindowRecords window;
+    std::size_t third_test = 0;  ///< the test whose window is window.third, when it is set
+  };
+
+  std::vector<Completed> push_reference(double time_s, const Eigen::Vector3d& value_nT);
+  std::vector<Completed> push_test(std::size_t test, double time_s, const Eigen::Vector3d& value_nT);
+  /// The test's thermometer, deg C (NaN: none in that message).
+  void push_temperature(std::size_t test, double time_s, double value_C);
+  /// Restarts a test's pairing, decimation and windows (its stamps went back).
+  void restart(std::size_t test);
+  /// Restarts everything (the reference's stamps went back).
+  void restart_all();
+
+  const LiveStreamSettings& settings() const { return settings_; }
+  const LiveTestStream& test(std::size_t i) const { return *tests_.at(i); }
+  std::size_t tests() const { return tests_.size(); }
+  std::size_t reference_spikes() const { return reference_despiker_.spikes(); }
+  std::size_t coincident_pending() const { return coincident_ ? coincident_->pending() : 0; }
+
+ private:
+  void drain(std::size_t test, std::vector<Completed>& out);
+  void window_done(std::size_t test, WindowRecords&& window, std::vector<Completed>& out);
+
+  LiveStreamSettings settings_;
+  StreamingDespiker reference_despiker_;
+  std::vector<std::unique_ptr<LiveTestStream>> tests_;
+  std::unique_ptr<CoincidentWindows> coincident_;
+};
+
+}  // namespace magnetometer_insitu_calibration
