@@ -1,7 +1,7 @@
-// Sampling distributions of the package's tests of estimates against each other (the change
-// check, calibration_change.hpp; the windows' agreement, window_agreement.hpp): chi2 and F tails,
-// and Hotelling's T^2, the law of a quadratic form in a covariance that is itself estimated from
-// a finite number of spectral cells (WindowEstimate::covariance_dof).
+// Sampling distributions of the package's comparison of estimates (estimate_comparison.hpp) and
+// of its intervals (decomposition.hpp): chi2 and F tails, Student's t quantile, and the moments of
+// Hotelling's T^2, the law of a quadratic form in a covariance that is itself estimated from a
+// finite number of spectral cells (WindowEstimate::covariance_dof).
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"  // Matrix9d
@@ -12,11 +12,6 @@ namespace magnetometer_insitu_calibration {
 /// (regularised incomplete beta function I_{d2 / (d2 + d1 f)}(d2 / 2, d1 / 2)).
 double f_tail_probability(double f, double d1, double d2);
 
-/// Upper tail probability of q = d^T S^-1 d over p entries, S estimated with nu degrees of
-/// freedom (Hotelling's T^2: (nu - p + 1) q / (p nu) ~ F(p, nu - p + 1)); chi^2 with p degrees
-/// of freedom when nu is infinite; NaN when nu <= p (no such test).
-double quadratic_form_tail_probability(double q, int p, double nu);
-
 /// Mean and variance of q = d^T S^-1 d over p entries, S estimated with nu degrees of freedom and
 /// d of covariance E[S]: Hotelling's T^2 = a F(p, d2), a = p nu / d2, d2 = nu - p + 1, so the mean
 /// is p nu / (nu - p - 1); chi2's p and 2p when nu is infinite; NaN when the variance does not
@@ -26,20 +21,11 @@ struct QuadraticFormMoments {
 };
 QuadraticFormMoments quadratic_form_moments(double nu, int p);
 
-/// Degrees of freedom of the sum of two estimated variances (Welch-Satterthwaite):
-/// (a + b)^2 / (a^2 / nu_a + b^2 / nu_b); an infinite nu adds nothing to the denominator;
-/// infinite when both are.
-double combined_variance_dof(double a, double a_dof, double b, double b_dof);
-
-/// The same for two estimated covariances, on their traces.
-double combined_covariance_dof(const Matrix9d& a, double a_dof, const Matrix9d& b, double b_dof);
-
-/// The joint tests over the nine entries of n (the change check, the windows' agreement) decide
-/// only when every window's covariance rests on at least this many cells (covariance_dof, four
-/// per entry of n): on simulated records of one n the joint test's false alarms were twice its
-/// level from one-hour windows' 18-27 cells and at or under it from 36 (two- and three-hour
-/// windows; docs/estimator_validation.md B25). Below, the nine parameters decide one by one
-/// (Bonferroni), whose tests hold from fewer cells.
+/// The joint test over the nine entries of n (estimate_comparison.hpp) decides only when every
+/// window's covariance rests on at least this many cells (covariance_dof, four per entry of n):
+/// on simulated records of one n its false alarms were twice its level from one-hour windows'
+/// 18-27 cells and at or under it from 36 (two- and three-hour windows; docs/validation.md).
+/// Below, the nine parameters decide one by one (Bonferroni), whose tests hold from fewer cells.
 constexpr double kJointTestMinCells = 36.0;
 
 /// Two-sided quantile of Student's t with nu (> 0, not necessarily whole) degrees of freedom: the

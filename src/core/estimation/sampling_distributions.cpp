@@ -106,22 +106,4 @@ QuadraticFormMoments quadratic_form_moments(double nu, int p) {
   return {a * d2 / (d2 - 2.0), a * a * 2.0 * d2 * d2 * (p + d2 - 2.0) / (p * (d2 - 2.0) * (d2 - 2.0) * (d2 - 4.0))};
 }
 
-double quadratic_form_tail_probability(double q, int p, double nu) {
-  if (!std::isfinite(nu)) return chi2_tail_probability(q, p);
-  if (!(nu > p)) return std::numeric_limits<double>::quiet_NaN();
-  const double d2 = nu - p + 1.0;
-  return f_tail_probability(q * d2 / (p * nu), p, d2);
-}
-
-double combined_variance_dof(double t1, double first_dof, double t2, double second_dof) {
-  const double spread = (std::isfinite(first_dof) ? t1 * t1 / first_dof : 0.0) +
-                        (std::isfinite(second_dof) ? t2 * t2 / second_dof : 0.0);
-  if (!(spread > 0.0)) return std::numeric_limits<double>::infinity();
-  return (t1 + t2) * (t1 + t2) / spread;
-}
-
-double combined_covariance_dof(const Matrix9d& first, double first_dof, const Matrix9d& second, double second_dof) {
-  return combined_variance_dof(first.trace(), first_dof, second.trace(), second_dof);
-}
-
 }  // namespace magnetometer_insitu_calibration

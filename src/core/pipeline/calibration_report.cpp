@@ -134,7 +134,7 @@ json window_agreement_to_json(const std::vector<CalibrationWindow>& windows) {
   json parameters = json::object();
   for (int k = 0; k < 9; ++k) {
     const ParameterAgreement& p = a.parameters[k];
-    parameters[WindowAgreement::kParameterNames[k]] =
+    parameters[kParameters[static_cast<std::size_t>(k)].name] =
         a.assessed ? json{{"weighted_mean", number(p.weighted_mean)},
                           {"chi2", number(p.chi2)},
                           {"expected_chi2", number(p.expected_chi2)},

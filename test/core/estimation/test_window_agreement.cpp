@@ -52,7 +52,7 @@ TEST(WindowAgreement, ChiSquareWorkedByHand) {
   EXPECT_NEAR(z.birge_ratio, std::sqrt(13.0 / 9.0), 1e-9);
   EXPECT_NEAR(z.p_value, std::exp(-13.0 / 9.0), 1e-9);
   for (int k : {0, 1, 3, 4, 5, 6, 7, 8})
-    EXPECT_EQ(a.parameters[k].chi2, 0.0) << mic::WindowAgreement::kParameterNames[k];
+    EXPECT_EQ(a.parameters[k].chi2, 0.0) << mic::kParameters[static_cast<std::size_t>(k)].name;
   // Jointly: diagonal covariances, so the other eight entries add nothing; 9 x 2 dof.
   EXPECT_NEAR(a.joint_chi2, 26.0 / 9.0, 1e-9);
   EXPECT_EQ(a.joint_dof, 18);
@@ -72,28 +72,23 @@ TEST(WindowAgreement, ChiSquareWorkedByHand) {
 
 TEST(WindowAgreement, CovariancesFromFewCellsRaiseTheExpectedChiSquare) {
   // The same three windows, each covariance estimated from nu = 36 spectral cells (a one-hour
-  // window). A quadratic form over p entries then has mean p nu / (nu - p - 1) (Hotelling's T^2),
-  // each window contributing (K - 1) / K = 2/3 of it: per parameter 3 x 2/3 x 36/34 = 72/34, jointly
-  // 3 x 2/3 x 9 x 36/26 = 648/26. Their variances, with F(p, d2 = nu - p + 1): a^2 2 d2^2 (p + d2 -
-  // 2) / (p (d2 - 2)^2 (d2 - 4)), a = p nu / d2; the tail is a chi2 scaled to both moments.
+  // window). Per parameter, Welch's test: weights 1e4, 1e4, 2500 (W 22500), so
+  // h = ((5/9)^2 + (5/9)^2 + (8/9)^2) / 36 = 114 / 2916, c = 1 + 2 (K - 2) h / (K^2 - 1) = 1 + h / 4,
+  // F = chi2 / (2 c) on (2, d2 = 8 / (3 h)) dof, whose tail is (1 + 2 F / d2)^(-d2 / 2), and the
+  // expected chi2 2 c d2 / (d2 - 2). Jointly each window contributes (K - 1) / K = 2/3 of its
+  // Hotelling T^2's mean 9 nu / (nu - 10): 3 x 2/3 x 9 x 36/26 = 648/26.
   std::vector<mic::WindowEstimate> windows = {window(1.00, 0.01), window(1.02, 0.01), window(0.99, 0.02)};
   for (mic::WindowEstimate& w : windows) w.covariance_dof = 36.0;
   const mic::WindowAgreement a = mic::check_window_agreement(windows);
   ASSERT_TRUE(a.assessed) << a.text;
   const mic::ParameterAgreement& z = a.parameters[2];
   EXPECT_NEAR(z.chi2, 26.0 / 9.0, 1e-9);  // the statistic itself is unchanged
-  EXPECT_NEAR(z.expected_chi2, 72.0 / 34.0, 1e-12);
-  EXPECT_NEAR(z.birge_ratio, std::sqrt((26.0 / 9.0) / (72.0 / 34.0)), 1e-9);
-  EXPECT_NEAR(a.joint_expected_chi2, 648.0 / 26.0, 1e-9);
-  auto moments = [](double p, double nu) {
-    const double d2 = nu - p + 1.0, scale = p * nu / d2;
-    return std::make_pair(scale * d2 / (d2 - 2.0),
-                          scale * scale * 2.0 * d2 * d2 * (p + d2 - 2.0) / (p * (d2 - 2.0) * (d2 - 2.0) * (d2 - 4.0)));
-  };
-  const auto one = moments(1.0, 36.0);
-  const double mean = 2.0 * one.first, variance = 2.0 * one.second;  // 3 windows x 2/3
-  EXPECT_NEAR(z.p_value, mic::chi2_tail_probability(z.chi2 * 2.0 * mean / variance, 2.0 * mean * mean / variance), 1e-12);
+  const double h = 114.0 / 2916.0, c = 1.0 + h / 4.0, d2 = 8.0 / (3.0 * h);
+  EXPECT_NEAR(z.expected_chi2, 2.0 * c * d2 / (d2 - 2.0), 1e-12);
+  EXPECT_NEAR(z.birge_ratio, std::sqrt((26.0 / 9.0) / (2.0 * c * d2 / (d2 - 2.0))), 1e-9);
+  EXPECT_NEAR(z.p_value, std::pow(1.0 + 2.0 * (26.0 / 9.0) / (2.0 * c) / d2, -0.5 * d2), 1e-12);
   EXPECT_GT(z.p_value, std::exp(-13.0 / 9.0));  // a heavier tail than chi2's: less significant
+  EXPECT_NEAR(a.joint_expected_chi2, 648.0 / 26.0, 1e-9);
   EXPECT_NE(a.text.find("expected"), std::string::npos) << a.text;
   // Known covariances (the default): the chi2 of the test above.
   for (mic::WindowEstimate& w : windows) w.covariance_dof = std::numeric_limits<double>::infinity();
@@ -115,7 +110,7 @@ TEST(WindowAgreement, JointTestDecidesOnlyOnCovariancesOfEnoughCells) {
   EXPECT_TRUE(known.joint_tested);
   EXPECT_LT(known.joint_p_value, 0.01);
   EXPECT_FALSE(known.agree) << known.text;
-  for (mic::WindowEstimate& w : windows) w.covariance_dof = mic::WindowAgreement::kJointTestMinCells;
+  for (mic::WindowEstimate& w : windows) w.covariance_dof = mic::kJointTestMinCells;
   const mic::WindowAgreement enough = mic::check_window_agreement(windows);
   EXPECT_TRUE(enough.joint_tested);
   EXPECT_FALSE(enough.agree) << enough.text;

@@ -89,7 +89,7 @@ TEST(CalibrationPipeline, IntervalsThenWholeRecordAreConsistent) {
   // Scale z's chi2 worked here from the quarters' values and half-widths: about their
   // inverse-variance weighted mean, se = half-width / the quarter's Student quantile (t with the
   // cells its covariance rests on).
-  double sw = 0.0, swx = 0.0, chi2 = 0.0;
+  double sw = 0.0, swx = 0.0, chi2 = 0.0, h = 0.0;
   for (int i = 0; i < 4; ++i) {
     const auto& p = result.windows[i].estimate.parameters;
     EXPECT_DOUBLE_EQ(p.interval_dof, result.windows[i].estimate.covariance_dof);
@@ -103,13 +103,17 @@ TEST(CalibrationPipeline, IntervalsThenWholeRecordAreConsistent) {
     chi2 += std::pow((p.scale_ratio(2) - swx / sw) / (p.scale_ratio_ci95(2) / p.interval_quantile), 2);
   }
   EXPECT_NEAR(j["window_agreement"]["parameters"]["scale z"]["chi2"].get<double>(), chi2, 1e-9 * (1.0 + chi2));
-  // Its expected value, from each quarter's cells nu: 3/4 of the mean of t^2, nu / (nu - 2), per
-  // quarter (B23); the Birge ratio is sqrt(chi2 / expected).
-  double expected = 0.0;
+  // Its expected value by Welch's test (estimate_comparison.hpp), from each quarter's weight w and
+  // cells nu: h = sum (1 - w / W)^2 / nu, c = 1 + 2 (K - 2) h / (K^2 - 1), d2 = (K^2 - 1) / (3 h),
+  // expected = (K - 1) c d2 / (d2 - 2); the Birge ratio is sqrt(chi2 / expected).
   for (int i = 0; i < 4; ++i) {
-    const double nu = result.windows[i].estimate.covariance_dof;
-    expected += 0.75 * nu / (nu - 2.0);
+    const auto& p = result.windows[i].estimate.parameters;
+    const double se = p.scale_ratio_ci95(2) / p.interval_quantile;
+    const double share = 1.0 / (se * se) / sw;
+    h += (1.0 - share) * (1.0 - share) / result.windows[i].estimate.covariance_dof;
   }
+  const double c = 1.0 + 2.0 * 2.0 * h / 15.0, d2 = 15.0 / (3.0 * h);
+  const double expected = 3.0 * c * d2 / (d2 - 2.0);
   EXPECT_GT(expected, 3.0);
   EXPECT_NEAR(j["window_agreement"]["parameters"]["scale z"]["expected_chi2"].get<double>(), expected, 1e-9);
   EXPECT_NEAR(j["window_agreement"]["parameters"]["scale z"]["sqrt_chi2_per_dof"].get<double>(),
