@@ -1,6 +1,8 @@
 // correction_node: the raw test stream corrected into the reference frame (see correction_node.hpp).
 #include "magnetometer_insitu_calibration/ros/correction_node.hpp"
 
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"  // kNormalQuantile95
+
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
@@ -148,9 +150,8 @@ std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::s
         }
         // Standard errors (ci95 / 1.96) in T/degC and 1/degC; F = n^T m + d, the window's mean
         // test field (0 without the offset: the scale term's lever is then the whole field).
-        constexpr double kZ95 = 1.959963984540054;
-        model->set_temperature_uncertainty(vector(c.temperature_apparent_ci95_nT_per_C, 1e-9 / kZ95),
-                                           full ? vector(c.temperature_scale_ci95_ppm_per_C, 1e-6 / kZ95)
+        model->set_temperature_uncertainty(vector(c.temperature_apparent_ci95_nT_per_C, 1e-9 / kNormalQuantile95),
+                                           full ? vector(c.temperature_scale_ci95_ppm_per_C, 1e-6 / kNormalQuantile95)
                                                 : Eigen::Vector3d::Zero(),
                                            n.transpose() * anchor + offset);
       }

@@ -36,7 +36,8 @@ struct RelativeResponseSettings {
 /// One band. Gain and phase of the test component k against (R n)_k, estimated over the band's
 /// harmonics j as H_k = sum_j conj(P_kj) T_kj / sum_j |P_kj|^2 (P = DFT of R n). Phase in degrees,
 /// negative when the test record lags (a delay tau gives -360 f tau). Intervals: 95 % half-widths
-/// from the band's own residual T - H P (Student t with 2 (M - 1) degrees of freedom, M harmonics),
+/// from the band's own residual T - H P (Student t with 2 (M - 2) degrees of freedom, M harmonics:
+/// student_t_two_sided_quantile; a standard error is the half-width over it),
 /// linearised; n's own uncertainty is not included (it is fitted over the calibration band, where
 /// H is 1 by construction). With settings.reference_noise, H is corrected for the reference's
 /// noise (errors in variables); a band where that noise would be as large as |P|^2 keeps the
@@ -60,11 +61,6 @@ struct ResponseBand {
 std::vector<ResponseBand> relative_response(const Readings& reference, const Readings& test,
                                             const Eigen::Matrix3d& n, double period_s,
                                             const RelativeResponseSettings& settings = {});
-
-/// Two-sided 95 % quantile of Student's t with dof degrees of freedom (Cornish-Fisher expansion;
-/// within 0.2 % of the exact value for dof >= 6). A band's standard error in gain or phase
-/// direction is its ci95 / student_t95(2 (harmonics - 2)).
-double student_t95(double dof);
 
 /// Summary for diagnostics: the largest |gain - 1| over the bands whose frequency lies in
 /// [low_hz, high_hz] (NaN when none) with that band's 95 % half-width (a departure inside it is

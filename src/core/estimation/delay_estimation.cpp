@@ -1,6 +1,8 @@
 // Delay between the instruments from the cross-spectral phase: see delay_estimation.hpp.
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
 
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"  // kNormalQuantile95
+
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "delay_spectra.hpp"
 #include "spectral_tools.hpp"
@@ -137,7 +139,7 @@ DelayEstimate detail::estimate_delay_from_spectra(const WholeWindowSpectra& whol
   out.chi2_per_dof = chi2 / static_cast<double>(bins.size() - 1);
   out.delay_s = tau;
   out.stderr_s = std::sqrt(1.0 / swff) * std::sqrt(std::max(1.0, out.chi2_per_dof));
-  out.ci95_s = 1.959964 * out.stderr_s;
+  out.ci95_s = kNormalQuantile95 * out.stderr_s;
   out.ok = std::isfinite(tau);
   std::ostringstream text;
   text << "delay " << tau * 1e3 << " +- " << out.ci95_s * 1e3 << " ms (95 %) from " << bins.size()

@@ -1,5 +1,7 @@
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
+
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "spectral_tools.hpp"
 
@@ -17,13 +19,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 }  // namespace
-
-double student_t95(double dof) {
-  const double z = 1.959963984540054;
-  const double z3 = z * z * z, z5 = z3 * z * z, z7 = z5 * z * z;
-  return z + (z3 + z) / (4.0 * dof) + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * dof * dof) +
-         (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * dof * dof * dof);
-}
 
 namespace {
 
@@ -144,7 +139,7 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
       // Var(H0) = sigma^2 [(X^H X)^-1]_00 with sigma^2 = residual / (M - 2); half of it in the
       // real (gain) and half in the imaginary (phase) direction of H0.
       const double var_h = residual / (m - 2.0) * std::abs(inverse(0, 0));
-      const double half = student_t95(2.0 * (m - 2.0)) * std::sqrt(0.5 * var_h);
+      const double half = student_t_two_sided_quantile(0.05, 2.0 * (m - 2.0)) * std::sqrt(0.5 * var_h);
       const double gain = std::abs(h(0));
       band.gain(k) = gain;
       band.gain_ci95(k) = half;
@@ -169,7 +164,9 @@ ResponseSummary summarise_response(const std::vector<ResponseBand>& bands, doubl
       }
       // phase = -omega tau: weighted least squares through the origin, weights 1 / var(phase).
       const double omega = 2.0 * kPi * b.frequency_hz;
-      const double sd = std::max(1e-9, b.phase_ci95_deg(k) / 1.96 * kPi / 180.0);
+      // The band's standard error: its half-width over the quantile that made it.
+      const double t = student_t_two_sided_quantile(0.05, 2.0 * (static_cast<double>(b.harmonics) - 2.0));
+      const double sd = std::max(1e-9, b.phase_ci95_deg(k) / t * kPi / 180.0);
       const double w = 1.0 / (sd * sd);
       num += w * omega * (-b.phase_deg(k) * kPi / 180.0);
       den += w * omega * omega;

@@ -1,5 +1,7 @@
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
+
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "column_response.hpp"
 #include "spectral_tools.hpp"
@@ -28,7 +30,7 @@ Eigen::VectorXd residuals(const Params& p, const std::vector<ResponseBand>& band
   Eigen::VectorXd r(static_cast<Eigen::Index>(bands.size() * 6));
   Eigen::Index i = 0;
   for (const auto& b : bands) {
-    const double t = student_t95(2.0 * (static_cast<double>(b.harmonics) - 2.0));
+    const double t = student_t_two_sided_quantile(0.05, 2.0 * (static_cast<double>(b.harmonics) - 2.0));
     for (int k = 0; k < 3; ++k) {
       const std::complex<double> measured = std::polar(b.gain(k), b.phase_deg(k) * kPi / 180.0);
       const std::complex<double> d = measured - model(p, k, b.frequency_hz);
@@ -129,7 +131,7 @@ double gain_rolloff_chi2(const std::vector<ResponseBand>& bands, int k, double q
   // the sum w x^2 term is common to both models.
   double swx = 0.0, sw = 0.0, swxs = 0.0, swss = 0.0;
   for (const auto& b : bands) {
-    const double sd = std::max(1e-12, b.gain_ci95(k) / student_t95(2.0 * (static_cast<double>(b.harmonics) - 2.0)));
+    const double sd = std::max(1e-12, b.gain_ci95(k) / student_t_two_sided_quantile(0.05, 2.0 * (static_cast<double>(b.harmonics) - 2.0)));
     const double w = 1.0 / (sd * sd), x = b.gain(k), shape = 1.0 / std::hypot(1.0, b.frequency_hz * q);
     swx += w * x;
     sw += w;
@@ -204,10 +206,10 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
       const Fit final_fit = significant.all() ? f : fit(used, start(0), significant, &start);
       m.chi2_per_dof = final_fit.chi2_per_dof;
       m.delay_s = final_fit.p(0);
-      m.delay_ci95_s = 1.959964 * std::sqrt(final_fit.covariance(0, 0));
+      m.delay_ci95_s = kNormalQuantile95 * std::sqrt(final_fit.covariance(0, 0));
       for (int k = 0; k < 3; ++k) {
         const double q = final_fit.p(4 + k), se = std::sqrt(f.covariance(4 + k, 4 + k));
-        m.inverse_corner_ci95_s(k) = 1.959964 * se;
+        m.inverse_corner_ci95_s(k) = kNormalQuantile95 * se;
         // A corner counts when it is significant AND near the fitted range (at most
         // max_corner_above_fit above it), where its roll-off was seen: far above it, a small fitted
         // 1/fc is what reference noise does to the measured gain at high frequency (errors in

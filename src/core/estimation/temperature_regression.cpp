@@ -1,7 +1,7 @@
 // Temperature terms of the test record: see temperature_regression.hpp.
 #include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
 
-#include "magnetometer_insitu_calibration/estimation/relative_response.hpp"  // student_t95
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"  // the t quantile
 #include "spectral_tools.hpp"
 
 #include <Eigen/Cholesky>
@@ -147,7 +147,7 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
   const Eigen::MatrixXd cov = dof_correction * bread * omega * bread.transpose();
 
   fit.dof = 2.0 * static_cast<double>(harmonics) - p;
-  const double t95 = student_t95(fit.dof);
+  const double t95 = student_t_two_sided_quantile(0.05, fit.dof);
   for (int l = 0; l < 3; ++l) {
     for (int q = 0; q < 3; ++q) {
       for (int i = 0; i < 2; ++i)
@@ -171,7 +171,7 @@ TemperatureFit fit_temperature(const Eigen::Ref<const Readings>& reference_nT, c
 
 void refer_offset_to_mean_field(TemperatureFit& fit, const Eigen::Vector3d& mean_field_nT) {
   fit.mean_field_nT = mean_field_nT;
-  const double t95 = student_t95(fit.dof);
+  const double t95 = student_t_two_sided_quantile(0.05, fit.dof);
   for (int l = 0; l < 3; ++l) {
     const double f = mean_field_nT(l), s_l = 1e-6 * fit.scale_ppm_per_C(l);
     const double var_a = fit.covariance(2 * l, 2 * l), var_s = fit.covariance(2 * l + 1, 2 * l + 1);
