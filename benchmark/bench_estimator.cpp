@@ -3,9 +3,11 @@
 //    the floor the other figures are divided by;
 //  - full_estimate: the plain FD-WLSE estimate (Eq. 2, covariance, decomposition);
 //  - robust_estimate: the default window estimate (WindowEstimator(EstimatorSettings{}): screen,
-//    sections, IRLS, delay, EIV, sandwich and jackknife intervals, trend);
-//  - window_outputs: the default estimate plus the relative response, what calibrate_prepared
-//    computes for each window with the default CalibrationSettings;
+//    sections, IRLS, delay, sandwich and jackknife intervals, trend; no reference noise model
+//    among its inputs, so no EIV correction);
+//  - window_outputs: the default estimate plus the relative response, the per-window stage's
+//    (WindowCalibrator) outputs with the default settings less the response model and the
+//    reference's noise from the pair (and the second estimate those may ask for);
 //  - robust_disturbed: the default estimate on the same records with traffic, spikes and a step
 //    added (the disturbances of monte_carlo_disturbed): the screen masks about 11 % of the
 //    samples, so its second pass and the Eq. 2 estimates on the screened records are paid.

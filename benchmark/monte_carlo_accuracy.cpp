@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
     const mic::SimulatedPair pair = mic::simulate_pair(s);
     const mic::CalibrationParameters truth = mic::decompose(pair.n_true);
     mic::CalibrationSettings settings;
-    settings.estimator.method = mic::parse_estimator_method(method);
+    settings.window.estimator.method = mic::parse_estimator_method(method);
     const auto w = mic::calibrate_records(pair.reference, pair.test, settings).windows.at(0);
     const auto& e = w.estimate;
     ok += e.quality == mic::Quality::kOk;

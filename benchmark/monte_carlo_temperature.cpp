@@ -1,4 +1,4 @@
-// Monte Carlo of the temperature terms (issue 14): a field hut with known coefficients
+// Monte Carlo of the temperature terms: a field hut with known coefficients
 // (simulation/hut_temperature.hpp: daily cycle 3 degC, heater triangle 0.3 degC every ~30 min,
 // offset 0.2/-0.15/0.3 nT/degC, scale 15/-10/25 ppm/degC), estimated by the package's default
 // pipeline with the thermometer channel and without it (--temperature-channel none), on the
@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
     const mic::CalibrationParameters truth = mic::decompose(pair.n_true);
 
     mic::CalibrationSettings settings;  // the package's defaults: robust, whole record
-    if (const char* method = std::getenv("MC_METHOD")) settings.estimator.method = mic::parse_estimator_method(method);
+    if (const char* method = std::getenv("MC_METHOD")) settings.window.estimator.method = mic::parse_estimator_method(method);
     const mic::PairCalibration with = mic::calibrate_records(pair.reference, pair.test, settings);
     settings.preprocess.temperature_channel = "none";
     const mic::PairCalibration without = mic::calibrate_records(pair.reference, pair.test, settings);

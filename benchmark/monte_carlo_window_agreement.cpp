@@ -3,7 +3,7 @@
 // (at most 2 x 0.01 if the windows' intervals are honest); with the test's z scale stepped by
 // STEP % halfway through the record, the rate of detection. The default pipeline and plain Eq. 2
 // on the same records (`calibrate_records --intervals K`). A program, not a test; figures in
-// docs/estimator_validation.md B22.
+// docs/validation.md ("Window agreement and change check").
 //
 //   monte_carlo_window_agreement [seeds=200] [days=1] [intervals=4] [step_pct=0] [first_seed=14000]
 //
@@ -15,9 +15,11 @@
 //
 // Also printed: the calibration node's change check (estimation/calibration_change.hpp) between
 // each pair of consecutive windows, at the node's default false-alarm probability 1e-3: the share
-// of pairs it calls significant (B25), and in brackets the share whose joint test alone is (B23),
-// and that test against chi2's tail (before B23). And as the node checks, the first window against
-// each window of the second half: with a step, the share of those detected.
+// of pairs it calls significant (the joint test deciding only from 36 cells, the parameters
+// below), and in brackets the share whose joint test alone is (Hotelling's T^2 with the windows'
+// cells, whatever their number), and that chi2 against chi2's own tail (the covariances taken as
+// known). And as the node checks, the first window against each window of the second half: with
+// a step, the share of those detected.
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
@@ -46,8 +48,8 @@ struct Rates {
   static constexpr double kBucketTop[kBuckets] = {18.0, 27.0, 36.0, 54.0, 90.0, 1e300};
   int bucket_records[kBuckets] = {}, bucket_below_5pct[kBuckets] = {}, bucket_below_1pct[kBuckets] = {};
   int change_pairs = 0, change_significant = 0;  // consecutive windows, the node's change check
-  int change_significant_chi2 = 0;                // the same chi2 against chi2's tail (before B23)
-  int change_significant_joint = 0;               // the joint test alone, whatever the cells (before B25)
+  int change_significant_chi2 = 0;                // the same chi2 against chi2's tail (covariances known)
+  int change_significant_joint = 0;               // the joint test alone, whatever the cells
   int late_pairs = 0, late_significant = 0, late_significant_joint = 0;  // first window against the second half's
 };
 
@@ -126,8 +128,8 @@ int main(int argc, char** argv) {
       mic::CalibrationSettings settings;
       settings.windows.intervals = intervals;
       if (m == 1) {  // as calibrate_records --method plain
-        settings.estimator.method = mic::EstimatorMethod::kPlain;
-        settings.response_model = false;
+        settings.window.estimator.method = mic::EstimatorMethod::kPlain;
+        settings.window.response_model = false;
       }
       const mic::PairCalibration result = mic::calibrate_records(pair.reference, pair.test, settings);
       const std::vector<mic::WindowEstimate> disjoint = mic::disjoint_window_estimates(result.windows);

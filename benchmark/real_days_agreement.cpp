@@ -3,10 +3,10 @@
 // several estimators on the same records. Nothing about the instruments changes between the
 // days, so where the intervals are honest:
 //  - the quarters of each day scatter around their weighted mean as their intervals say
-//    (sqrt(chi2 / 3) per parameter; issue 13 asks <= 1.3 on WIC 2025-05-14);
+//    (sqrt(chi2 / 3) per parameter; the aim is <= 1.3 on WIC 2025-05-14);
 //  - the whole-day estimates of two days differ by about their combined standard error:
 //    z = (day_b - day_a) / sqrt(se_a^2 + se_b^2) per parameter, about N(0, 1).
-// A program, not a test: the second WIC day is not shipped (docs/estimator_validation.md B19
+// A program, not a test: the second WIC day is not shipped (docs/validation.md, "Real WIC days",
 // says where it comes from); nothing in the estimator was chosen on it.
 //
 //   real_days_agreement REF_DAY1 TEST_DAY1 REF_DAY2 TEST_DAY2 [REF_DAY3 TEST_DAY3 ...]
@@ -44,18 +44,19 @@ std::vector<Estimator> estimators() {
   s.windows.intervals = 4;
   list.push_back({"default (the reference's noise from the pair)", s});
   mic::CalibrationSettings plain = s;
-  plain.estimator.method = mic::EstimatorMethod::kPlain;
+  plain.window.estimator.method = mic::EstimatorMethod::kPlain;
   list.push_back({"plain Eq. 2", plain});
   mic::CalibrationSettings none = s;
-  none.pair_noise = false;
+  none.window.pair_noise = false;
   list.push_back({"default, --no-pair-noise (no EIV correction)", none});
-  // The LEMI-036's data-sheet figure, 10 pT/sqrt(Hz), read two ways (B15): as a flat ASD (rms per
-  // 1 s sample = ASD / sqrt(2 dt)) and as 1/f at 1 Hz (`--reference-noise-pT 10`).
+  // The LEMI-036's data-sheet figure, 10 pT/sqrt(Hz), read two ways (docs/validation.md, "How to
+  // read a maker's noise figure"): as a flat ASD (rms per 1 s sample = ASD / sqrt(2 dt)) and as
+  // 1/f at 1 Hz (`--reference-noise-pT 10`); given as the reference's noise figure.
   mic::CalibrationSettings flat = s;
-  flat.estimator.robust.reference_white_nT.setConstant(0.010 / std::sqrt(2.0));
+  flat.window.reference_noise_figure.white_nT.setConstant(0.010 / std::sqrt(2.0));
   list.push_back({"default, maker's 10 pT/sqrt(Hz) read flat", flat});
   mic::CalibrationSettings pink = s;
-  pink.estimator.robust.reference_pink_nT_per_sqrt_hz.setConstant(0.010);
+  pink.window.reference_noise_figure = mic::NoiseSpectrum::fluxgate_figure(10.0);
   list.push_back({"default, maker's 10 pT/sqrt(Hz) read as 1/f (--reference-noise-pT 10)", pink});
   return list;
 }
@@ -93,7 +94,7 @@ int main(int argc, char** argv) {
           return c;
         }(), " %10.5f");
         print_row("  quarters' sqrt(chi2/3)", quarters_scatter(result.windows), " %10.2f");
-        std::printf("  EIV: %s\n", result.windows.back().estimate.eiv.c_str());
+        std::printf("  EIV: %s\n", result.windows.back().estimate.eiv_text().c_str());
       }
       for (std::size_t a = 0; a < whole.size(); ++a)
         for (std::size_t b = a + 1; b < whole.size(); ++b) {

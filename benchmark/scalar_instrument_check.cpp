@@ -1,5 +1,6 @@
-// Held-out real check of the reference noise that the default identifies from the pair (B14), by
-// an absolute scalar magnetometer recording beside the pair (docs/estimator_validation.md B21).
+// Held-out real check of the reference noise that the default identifies from the pair above the
+// band, by an absolute scalar magnetometer recording beside the pair (docs/validation.md, "The
+// reference's noise against an absolute scalar magnetometer").
 //
 // The pair identifies the reference's noise above the band, 0.03-0.25 Hz at 1 s, where the test's
 // response is not known, and extrapolates it into the band by a white + 1/f fit. A scalar
@@ -19,7 +20,8 @@
 // REF and TEST in any format `calibrate_records` reads; SCALAR a MagPy CDF file holding `f` (nT)
 // on its DEPEND_0 time variable (else Epoch), interpolated linearly onto the pair's epochs (a
 // scalar magnetometer's stamps are often not on whole seconds). A program, not a test: the
-// scalar record of the second day is not shipped (B19, B21 say where the records come from).
+// scalar record of the second day is not shipped (docs/validation.md, "Real WIC days", says where
+// the records come from).
 #include <fftw3.h>
 
 #include <Eigen/Dense>
@@ -40,6 +42,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "window_agreement.hpp"
 
 namespace mic = magnetometer_insitu_calibration;
@@ -157,7 +160,8 @@ double asd_pT(double psd) { return (psd < 0 ? -1.0 : 1.0) * 1000.0 * std::sqrt(s
 /// + 1/f over all its bins (in and above the band), the part the pair's model
 /// does not give along p put on z (81 % of p at WIC; the vertical is the weak
 /// axis), and the day and its quarters estimated again by the default with
-/// those levels given (their own uncertainty not propagated).
+/// those levels given as the reference's noise figure (their own uncertainty
+/// not propagated).
 void what_if(const mic::PreparedPair& prepared, const std::vector<mic::CalibrationWindow>& default_windows,
              mic::CalibrationSettings settings, const mic::IdentifiedNoise& pair, const Eigen::Vector3d& p,
              const std::vector<Eigen::Vector3d>& along_p, const std::vector<Eigen::Vector3d>& along_p_sd,
@@ -168,20 +172,20 @@ void what_if(const mic::PreparedPair& prepared, const std::vector<mic::Calibrati
     std::printf("  no positive level along p\n");
     return;
   }
-  mic::IdentifiedNoise scalar = pair;
+  Eigen::Vector3d z_white = pair.white_nT, z_pink = pair.pink_nT_per_sqrt_hz;
   auto z_level = [&](double along, const Eigen::Vector3d& levels) {
     const double rest = p(0) * p(0) * levels(0) * levels(0) + p(1) * p(1) * levels(1) * levels(1);
     return std::sqrt(std::max(0.0, along * along - rest) / (p(2) * p(2)));
   };
-  scalar.white_nT(2) = z_level(white(0), pair.white_nT);
-  scalar.pink_nT_per_sqrt_hz(2) = z_level(pink(0), pair.pink_nT_per_sqrt_hz);
-  scalar.level_covariance = {Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
+  z_white(2) = z_level(white(0), pair.white_nT);
+  z_pink(2) = z_level(pink(0), pair.pink_nT_per_sqrt_hz);
   std::printf(
       "  along p, fitted: white %.1f pT rms, 1/f %.2f pT/sqrt(Hz) at 1 Hz; given on z: %.1f pT rms, %.2f pT/sqrt(Hz)\n",
-      1000 * white(0), 1000 * pink(0), 1000 * scalar.white_nT(2), 1000 * scalar.pink_nT_per_sqrt_hz(2));
+      1000 * white(0), 1000 * pink(0), 1000 * z_white(2), 1000 * z_pink(2));
   mic::CalibrationSettings given = settings;
-  given.estimator = mic::with_identified_noise(settings.estimator, scalar, "scalar what-if");
-  given.pair_noise = false;
+  given.window.reference_noise_figure.white_nT = z_white;
+  given.window.reference_noise_figure.pink_nT_per_sqrt_hz = z_pink;
+  given.window.pair_noise = false;
   const std::vector<mic::CalibrationWindow> given_windows = mic::calibrate_prepared(prepared, given);
   for (const auto& run :
        {std::make_pair("default", &default_windows), std::make_pair("scalar's z level", &given_windows)}) {
@@ -202,16 +206,20 @@ void check_day(const std::string& ref_path, const std::string& test_path, const 
   mic::CalibrationSettings settings;  // the package's default, four quarters and the day
   settings.windows.intervals = 4;
   const mic::PreparedPair prepared = mic::prepare_pair(ref_record, test_record, settings.preprocess);
-  const auto& paired = prepared.paired;
   const double dt = prepared.sample_period_s;
   const std::vector<mic::CalibrationWindow> windows = mic::calibrate_prepared(prepared, settings);
   const mic::CalibrationWindow& day = windows.back();
+  // The whole record with its gaps filled, as the per-window stage fills the day's window.
+  mic::PreparedPair filled = prepared;
+  mic::fill_gaps(filled.paired, dt, settings.window.gaps);
+  const auto& paired = filled.paired;
   mic::CalibrationSettings first_settings = settings;  // the pair's first estimate, as the pipeline makes it
-  first_settings.pair_noise = false;
+  first_settings.window.pair_noise = false;
   first_settings.windows.intervals = 0;
   const mic::CalibrationWindow first = mic::calibrate_prepared(prepared, first_settings).back();
-  const mic::IdentifiedNoise pair = mic::identify_reference_noise_from_pair(
-      paired.reference_nT, paired.test_nT, dt, first.estimate, first.response_model, settings.estimator.band_high_hz);
+  const mic::IdentifiedNoise pair =
+      mic::identify_reference_noise_from_pair(paired.reference_nT, paired.test_nT, dt, first.estimate,
+                                              first.response_model, settings.window.estimator.band_high_hz);
 
   // The pair's epochs that the scalar record covers (its first stamp may fall after the pair's).
   const Eigen::VectorXd f_all = scalar_on_epochs(scalar_path, paired.time_s);
@@ -245,7 +253,7 @@ void check_day(const std::string& ref_path, const std::string& test_path, const 
 
   std::printf("\n## %s, %ld epochs\n", mic::format_iso8601(paired.time_s[first_i]).substr(0, 10).c_str(), count);
   std::printf("  F on the reference over %.4f-%.3f Hz: c = %.5f %.5f %.5f (se %.5f %.5f %.5f), |c| = %.5f\n",
-              settings.estimator.band_low_hz, settings.estimator.band_high_hz, c(0), c(1), c(2), c_se(0), c_se(1),
+              settings.window.estimator.band_low_hz, settings.window.estimator.band_high_hz, c(0), c(1), c(2), c_se(0), c_se(1),
               c_se(2), c.norm());
   std::printf("  pair's reference noise (%s)\n", pair.text.c_str());
   std::printf("  %-15s %6s | %-21s %9s %9s | %-17s %-17s\n", "bin, Hz", "harm.", "reference along p", "pair", "maker",

@@ -2,7 +2,7 @@
 // what they do not model (monte_carlo_unmodelled, monte_carlo_window_agreement): the quiet
 // station (simulator defaults), the disturbed one (weak vertical, traffic seen with different
 // gains and directions, spikes, gaps, a tilt walk of the test pier, heater cycling, a response
-// mismatch) and the quiet one behind a filter (issue 14). Environment knobs (MC_*) change one
+// mismatch) and the quiet one behind a filter and a delay. Environment knobs (MC_*) change one
 // disturbance at a time.
 #pragma once
 
@@ -46,7 +46,7 @@ inline void scenario(const std::string& kind, std::uint64_t seed, double days, m
   s.reference_pink_nT_per_sqrt_hz = knob("MC_REF_PINK", s.reference_pink_nT_per_sqrt_hz);
   s.test_pink_nT_per_sqrt_hz = knob("MC_TEST_PINK", s.test_pink_nT_per_sqrt_hz);
   if (kind == "quiet") return;
-  if (kind == "filter") {  // a quiet station whose test sits behind a filter and a delay (issue 14)
+  if (kind == "filter") {  // a quiet station whose test sits behind a filter and a delay
     s.variation_rms_nT = knob("MC_RMS", s.variation_rms_nT);
     u.test_corner_hz = knob("MC_CORNER", 0.03);
     u.test_delay_s = knob("MC_DELAY", 2.0);
@@ -82,7 +82,8 @@ inline void scenario(const std::string& kind, std::uint64_t seed, double days, m
 /// before any one-sensor disturbance or filter): MC_PULSATION_NT nT amplitude (0, the default:
 /// none), a steady sinusoid through the record at a frequency drawn uniformly in 2-7 mHz (Pc5,
 /// inside the default band), random phase and direction. A few harmonics then carry most of a
-/// short window's signal, as in the real WIC hours whose covariances rest on 9-12 cells (B25, B26).
+/// short window's signal, as in the real WIC hours whose covariances rest on 9-12 cells
+/// (docs/validation.md, "Coverage of the intervals").
 inline void add_pulsation(mic::SimulatedPair& pair, std::uint64_t seed) {
   const double amplitude = knob("MC_PULSATION_NT", 0.0);
   if (amplitude == 0.0) return;

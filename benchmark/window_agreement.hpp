@@ -34,8 +34,8 @@ inline SixParameters six_parameters(const magnetometer_insitu_calibration::Calib
 
 /// Per parameter (scale x, y, z; non-orthogonality xy, xz, yz), sqrt(chi2 / (Q - 1)) of the Q
 /// disjoint windows of a calibration (the quarters, not the day) around their inverse-variance
-/// weighted mean, as calibrate_records reports it (estimation/window_agreement.hpp). Issue 13 asks
-/// <= 1.3 for the four 6-hour quarters of the WIC day; at or below it with probability 0.83 each
+/// weighted mean, as calibrate_records reports it (estimation/window_agreement.hpp). The aim for
+/// the four 6-hour quarters of the WIC day is <= 1.3; at or below it with probability 0.83 each
 /// when the intervals are right (chi^2_3 <= 5.07). NaN when not assessed.
 inline std::array<double, 6> quarters_scatter(
     const std::vector<magnetometer_insitu_calibration::CalibrationWindow>& windows) {
