@@ -24,7 +24,7 @@ struct SixParameters {
 inline SixParameters six_parameters(const magnetometer_insitu_calibration::CalibrationWindow& w) {
   SixParameters s;
   for (int k = 0; k < 6; ++k) {  // the first six of the report's agreement parameters
-    const auto p = magnetometer_insitu_calibration::agreement_parameter(w.estimate.parameters, k);
+    const auto p = magnetometer_insitu_calibration::parameter_value(w.estimate.parameters, k);
     s.value[k] = p.value;
     s.se[k] = p.se;
   }
