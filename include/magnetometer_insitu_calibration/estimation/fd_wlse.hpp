@@ -173,14 +173,10 @@ class FdWlseEstimator {
   WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT,
                           const Eigen::Ref<const Readings>& test_nT, double sample_period_s);
 
-  /// Only the FFTs of the same data, for the benchmark's ratio (returns a checksum).
-  double transform_only(const Eigen::Ref<const Readings>& reference_nT,
-                        const Eigen::Ref<const Readings>& test_nT);
-
   /// Bins j = 0 .. N/2 (FFTW's convention, unnormalised) of column `column` of the last
-  /// estimate()'s whole-window transform: 0-2 the reference minus its mean, 3 the trend column
-  /// when settings().trend, then the test minus its mean (nT). nullptr when the last estimate()
-  /// transformed nothing (bad input). Valid until the next call.
+  /// estimate()'s whole-window transform: 0-2 the reference minus its mean, 3-5 the test minus
+  /// its mean (nT). nullptr when the last estimate() transformed nothing (bad input). Valid
+  /// until the next call.
   const std::complex<double>* last_spectrum(int column) const;
 
   const EstimatorSettings& settings() const { return settings_; }

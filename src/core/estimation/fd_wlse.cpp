@@ -86,12 +86,13 @@ Eigen::Matrix3d WindowEstimate::n_stderr() const {
   return se;
 }
 
-/// FFTW buffers and a batched real-to-complex plan for `columns` series of length `length`,
-/// stored column after column (Eigen's column-major layout).
+/// FFTW buffers and a batched real-to-complex plan for the six data columns of length `length`
+/// (R's three, then T's), stored column after column. The trend column's DFT is known in closed
+/// form (trend_dft) and not transformed.
 struct FdWlseEstimator::Workspace {
+  static constexpr int kColumns = 6;
   std::size_t length = 0;
   bool transformed = false;  ///< the last estimate() executed the plan
-  int columns = 0;
   double* input = nullptr;
   fftw_complex* output = nullptr;
   fftw_plan plan = nullptr;
@@ -100,18 +101,17 @@ struct FdWlseEstimator::Workspace {
 
   std::size_t bins() const { return length / 2 + 1; }
 
-  void prepare(std::size_t new_length, int new_columns) {
-    if (plan != nullptr && new_length == length && new_columns == columns) return;
+  void prepare(std::size_t new_length) {
+    if (plan != nullptr && new_length == length) return;
     release();
     length = new_length;
-    columns = new_columns;
-    input = fftw_alloc_real(length * static_cast<std::size_t>(columns));
-    output = fftw_alloc_complex(bins() * static_cast<std::size_t>(columns));
+    input = fftw_alloc_real(length * kColumns);
+    output = fftw_alloc_complex(bins() * kColumns);
     if (input == nullptr || output == nullptr) throw std::bad_alloc();
     const int n = static_cast<int>(length);
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
     // FFTW_ESTIMATE: planning costs microseconds and does not touch the arrays.
-    plan = fftw_plan_many_dft_r2c(1, &n, columns, input, nullptr, 1, n, output, nullptr, 1,
+    plan = fftw_plan_many_dft_r2c(1, &n, kColumns, input, nullptr, 1, n, output, nullptr, 1,
                                   static_cast<int>(bins()), FFTW_ESTIMATE);
     if (plan == nullptr) throw std::runtime_error("FFTW could not plan a transform of length " +
                                                   std::to_string(length));
@@ -126,7 +126,6 @@ struct FdWlseEstimator::Workspace {
     input = nullptr;
     output = nullptr;
     length = 0;
-    columns = 0;
     transformed = false;
   }
 
@@ -136,28 +135,34 @@ struct FdWlseEstimator::Workspace {
     return {z[0], z[1]};
   }
 
-  /// Loads [R - mean(R), tau (if trend), T - mean(T)] into the input buffer. Removing the means
-  /// changes only harmonic 0, which is never used, and keeps rounding small.
-  void load(const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test,
-            bool trend, double sample_period_s) {
-    const std::size_t n = static_cast<std::size_t>(reference.rows());
-    auto load_centred = [&](int c, const auto& series) {
+  /// Loads [R - mean(R), T - mean(T)] into the input buffer (removing the means changes only
+  /// harmonic 0, which is never used, and keeps rounding small). Returns false when a column's
+  /// sum is not finite: a NaN or an infinite reading (the sum of finite readings in nT cannot
+  /// overflow).
+  bool load(const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test) {
+    const Eigen::Index n = reference.rows();
+    for (int c = 0; c < kColumns; ++c) {
+      const auto series = (c < 3 ? reference : test).col(c % 3);
       const double mean = series.mean();
-      double* out = column(c);
-      for (std::size_t i = 0; i < n; ++i) out[i] = series(static_cast<Eigen::Index>(i)) - mean;
-    };
-    for (int k = 0; k < 3; ++k) load_centred(k, reference.col(k));
-    int c = 3;
-    if (trend) {
-      double* tau = column(c++);
-      const double centre = 0.5 * static_cast<double>(n - 1);
-      for (std::size_t i = 0; i < n; ++i) {
-        tau[i] = (static_cast<double>(i) - centre) * sample_period_s / kSecondsPerDay;
-      }
+      if (!std::isfinite(mean)) return false;
+      Eigen::Map<Eigen::VectorXd>(column(c), n) = series.array() - mean;
     }
-    for (int k = 0; k < 3; ++k) load_centred(c + k, test.col(k));
+    return true;
   }
 };
+
+namespace {
+
+/// The DFT at harmonic j (FFTW's sign and origin) of the trend column tau_i = (i - (N - 1) / 2)
+/// dt / day: the centring changes only harmonic 0, so it is dt / day times the ramp's
+/// sum_i i e^{-2 pi i j i / N} = -N / (1 - e^{-2 pi i j / N}).
+std::complex<double> trend_dft(long j, std::size_t length, double sample_period_s) {
+  const double n = static_cast<double>(length);
+  const double w = 2.0 * M_PI * static_cast<double>(j) / n;
+  return (sample_period_s / kSecondsPerDay) * (-n / (std::complex<double>(1.0, 0.0) - std::polar(1.0, -w)));
+}
+
+}  // namespace
 
 FdWlseEstimator::FdWlseEstimator(EstimatorSettings settings)
     : settings_(settings), workspace_(std::make_unique<Workspace>()) {
@@ -165,16 +170,6 @@ FdWlseEstimator::FdWlseEstimator(EstimatorSettings settings)
 }
 
 FdWlseEstimator::~FdWlseEstimator() = default;
-
-double FdWlseEstimator::transform_only(const Eigen::Ref<const Readings>& reference_nT,
-                                       const Eigen::Ref<const Readings>& test_nT) {
-  const int p = settings_.trend ? 4 : 3;
-  workspace_->prepare(static_cast<std::size_t>(reference_nT.rows()), p + 3);
-  workspace_->load(reference_nT, test_nT, settings_.trend, 1.0);
-  fftw_execute(workspace_->plan);
-  workspace_->transformed = false;  // the sample period was not known: not an estimate's spectra
-  return workspace_->output[1][0];
-}
 
 WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& reference_nT,
                                          const Eigen::Ref<const Readings>& test_nT,
@@ -192,9 +187,6 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   result.sample_period_s = sample_period_s;
   auto fail = [&](Quality q, const std::string& text) { return detail::failed_window_estimate(result, q, text); };
 
-  if (!reference_nT.allFinite() || !test_nT.allFinite()) {
-    return fail(Quality::kNotFinite, "window contains NaN or infinite readings");
-  }
   // Harmonic j has frequency j / (N dt). Sum over m0..m, never the mean (0) nor Nyquist.
   const double duration_s = static_cast<double>(length) * sample_period_s;
   const long m0 = std::max(1L, static_cast<long>(std::ceil(settings_.band_low_hz * duration_s - 1e-9)));
@@ -213,8 +205,8 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   }
 
   Workspace& ws = *workspace_;
-  ws.prepare(length, p + 3);
-  ws.load(reference_nT, test_nT, settings_.trend, sample_period_s);
+  ws.prepare(length);
+  if (!ws.load(reference_nT, test_nT)) return fail(Quality::kNotFinite, "window contains NaN or infinite readings");
   fftw_execute(ws.plan);
   ws.transformed = true;
 
@@ -222,8 +214,9 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
   VectorP wx(p);
   Eigen::Vector3cd wt;
   auto load_bin = [&](std::size_t j) {
-    for (int c = 0; c < p; ++c) wx(c) = ws.bin(c, j);
-    for (int k = 0; k < 3; ++k) wt(k) = ws.bin(p + k, j);
+    for (int c = 0; c < 3; ++c) wx(c) = ws.bin(c, j);
+    if (settings_.trend) wx(3) = trend_dft(static_cast<long>(j), length, sample_period_s);
+    for (int k = 0; k < 3; ++k) wt(k) = ws.bin(3 + k, j);
   };
   auto weight = [&](long j) {
     return std::pow(2.0 * M_PI * static_cast<double>(j) / static_cast<double>(length), settings_.gamma);
@@ -312,7 +305,7 @@ WindowEstimate FdWlseEstimator::estimate(const Eigen::Ref<const Readings>& refer
 
 const std::complex<double>* FdWlseEstimator::last_spectrum(int column) const {
   const Workspace& ws = *workspace_;
-  if (!ws.transformed || column < 0 || column >= ws.columns) return nullptr;
+  if (!ws.transformed || column < 0 || column >= Workspace::kColumns) return nullptr;
   // fftw_complex is double[2], laid out as std::complex<double> (FFTW manual, "Complex numbers").
   return reinterpret_cast<const std::complex<double>*>(ws.output + static_cast<std::size_t>(column) * ws.bins());
 }

@@ -87,15 +87,25 @@ void subtract_running_median(const Eigen::VectorXd& x, std::size_t window, std::
     const std::size_t first = k * decimation, last = std::min(n, first + decimation);
     c = 0.5 * static_cast<double>(first + last - 1);
   }
-  std::size_t i = 0;
-  for (; i < n && static_cast<double>(i) <= centres.front(); ++i) hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - values.front();
+  // Each segment's samples found first, so that the loops over them have no exit test (they
+  // vectorise); int indices convert to double two at a time. The arithmetic is as before.
+  const auto upto = [&](double centre) {  // first sample after `centre` (samples are integers)
+    return static_cast<int>(std::min<double>(static_cast<double>(n), std::floor(centre) + 1.0));
+  };
+  const double* in = x.data();
+  double* out = hp.data();
+  int i = 0;
+  const int head = upto(centres.front());
+  const double first_value = values.front();
+  for (; i < head; ++i) out[i] = in[i] - first_value;
   for (std::size_t k = 0; k + 1 < centres.size(); ++k) {  // samples in (centres[k], centres[k + 1]]
     const double slope = (values[k + 1] - values[k]) / (centres[k + 1] - centres[k]);
-    for (; i < n && static_cast<double>(i) <= centres[k + 1]; ++i) {
-      hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - (values[k] + (static_cast<double>(i) - centres[k]) * slope);
-    }
+    const double value = values[k], centre = centres[k];
+    const int end = upto(centres[k + 1]);
+    for (; i < end; ++i) out[i] = in[i] - (value + (static_cast<double>(i) - centre) * slope);
   }
-  for (; i < n; ++i) hp(static_cast<Eigen::Index>(i)) = x(static_cast<Eigen::Index>(i)) - values.back();
+  const double last_value = values.back();
+  for (; i < static_cast<int>(n); ++i) out[i] = in[i] - last_value;
 }
 
 /// Work arrays of one screen (N values each), kept per thread so that a run of windows of
@@ -118,6 +128,7 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   const std::size_t decimation = std::max<std::size_t>(1, step / 36);  // 10 at 1 Hz (360 blocks a window)
   const std::size_t margin = static_cast<std::size_t>(std::llround(settings.screen_margin_s / sample_period_s));
   std::vector<char> flag(length, 0);
+  bool any = false;
   detail::BracketedMedian selector;
   for (int c = 0; c < 3; ++c) {
     Eigen::VectorXd& e = scratch.e;
@@ -127,11 +138,16 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
     std::vector<double>& abs_dev = scratch.abs_dev;
     abs_dev.resize(length);
     const double centre = detail::subsampled_median(hp.data(), length, selector);
-    for (std::size_t i = 0; i < length; ++i) abs_dev[i] = std::abs(hp(static_cast<Eigen::Index>(i)) - centre);
+    Eigen::Map<Eigen::VectorXd> deviation(abs_dev.data(), static_cast<Eigen::Index>(length));
+    deviation = (hp.array() - centre).abs();
     const double sigma = 1.4826 * detail::subsampled_median(abs_dev.data(), length, selector);
     if (!(sigma > 0.0)) continue;
-    for (std::size_t i = 0; i < length; ++i) flag[i] |= abs_dev[i] > settings.screen_threshold * sigma;
+    const double limit = settings.screen_threshold * sigma;
+    if ((deviation.array() > limit).count() == 0) continue;  // the usual case: nothing to flag
+    for (std::size_t i = 0; i < length; ++i) flag[i] |= abs_dev[i] > limit;
+    any = true;
   }
+  if (!any) return mask;
   // Widen each flagged sample by the margin (a transient's tails are below the threshold).
   long last_flag = -1;
   for (std::size_t i = 0; i < length; ++i) {

@@ -30,7 +30,6 @@ struct RobustFdEstimator::Impl {
   detail::RealDft dft;
   FdWlseEstimator plain;
   Readings screened_reference, screened_test;  ///< nT, the records with the masked runs filled
-  std::vector<double> section_columns[6];       ///< nT, one section's six columns, detrended
 };
 
 namespace {
@@ -271,21 +270,20 @@ std::vector<Cell> RobustFdEstimator::Window::section_cells(const Eigen::Ref<cons
     const long j0 = std::max(1L, static_cast<long>(std::ceil(sections_.band_low_hz * section_duration - 1e-9)));
     const long j1 = std::min(static_cast<long>(std::floor(sections_.band_high_hz * section_duration + 1e-9)),
                              static_cast<long>((count - 1) / 2));
-    double* columns[6] = {};
-    for (int c = first_column; c < 6; ++c) {
-      std::vector<double>& column = impl_.section_columns[static_cast<std::size_t>(c)];
-      column.resize(count);
-      const double* from = (c < 3 ? reference : test).col(c % 3).data() + first;
-      std::copy(from, from + count, column.begin());
-      columns[c] = column.data();
-    }
-    if (with_reference) {
-      detail::detrend_columns<6>(columns, count);
+    // Each column's least-squares line (as detrend() fits it), subtracted on the way into the
+    // transform's input; only the bins up to j1 are copied out.
+    const double* columns[6] = {};
+    for (int c = 0; c < 6; ++c) columns[c] = (c < 3 ? reference : test).col(c % 3).data() + first;
+    double mean[6] = {}, slope[6] = {};
+    if (count < 2) {  // as detrend(): a lone sample becomes 0
+      for (int c = 0; c < 6; ++c) mean[c] = count == 1 ? columns[c][0] : 0.0;
+    } else if (with_reference) {
+      detail::fit_lines<6>(columns, count, mean, slope);
     } else {
-      detail::detrend_columns<3>(columns + 3, count);  // column by column: the same as in the 6
+      detail::fit_lines<3>(columns + 3, count, mean + 3, slope + 3);  // column by column: as in the 6
     }
-    for (int c = first_column; c < 6; ++c) {  // only the bins up to j1 are copied out
-      std::copy(columns[c], columns[c] + count, impl_.dft.input(count));
+    for (int c = first_column; c < 6; ++c) {
+      detail::subtract_line(columns[c], count, mean[c], slope[c], impl_.dft.input(count));
       impl_.dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
     }
     const std::size_t section_begin = cells.size();
@@ -333,11 +331,10 @@ void RobustFdEstimator::Window::remove_delay(std::vector<Cell>& cells, IrlsResul
   ds.high_hz = std::max(rs_.delay_max_hz, 2.0 * ds.low_hz);
   const Eigen::Ref<const Readings> r = reference(), t = test();
   try {
-    const int test_first = impl_.plain.settings().trend ? 4 : 3;
     detail::WholeWindowSpectra whole;
     whole.length = length_;
     for (int c = 0; c < 6; ++c) {
-      whole.bins[static_cast<std::size_t>(c)] = impl_.plain.last_spectrum(c < 3 ? c : test_first + c - 3);
+      whole.bins[static_cast<std::size_t>(c)] = impl_.plain.last_spectrum(c);
       whole.ends[static_cast<std::size_t>(c)] = detail::column_ends(c < 3 ? r.col(c) : t.col(c - 3));
     }
     const bool have_spectra = screened_.plain_spectra_current &&

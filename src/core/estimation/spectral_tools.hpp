@@ -117,17 +117,13 @@ inline void detrend(double* x, std::size_t length) {
   for (std::size_t i = 0; i < length; ++i) x[i] -= mean + slope * (static_cast<double>(i) - centre);
 }
 
-/// detrend() of K columns of one length at once, each with exactly detrend()'s arithmetic (the
-/// same sums in the same order, so the same doubles): the K running sums are independent, so
-/// their additions overlap instead of waiting for each other.
+/// The least-squares lines a + b (i - centre) of K columns of one length at once, with exactly
+/// detrend()'s arithmetic (the same sums in the same order, so the same doubles): the K running
+/// sums are independent, so their additions overlap instead of waiting for each other.
 template <int K>
-void detrend_columns(double* const* x, std::size_t length) {
-  if (length < 2) {
-    for (int c = 0; c < K; ++c) detrend(x[c], length);
-    return;
-  }
+void fit_lines(const double* const* x, std::size_t length, double* mean, double* slope) {
   const double centre = 0.5 * static_cast<double>(length - 1);
-  double mean[K], slope_num[K], slope[K];
+  double slope_num[K];
   for (int c = 0; c < K; ++c) mean[c] = slope_num[c] = 0.0;
   double slope_den = 0.0;
   for (std::size_t i = 0; i < length; ++i)
@@ -139,8 +135,24 @@ void detrend_columns(double* const* x, std::size_t length) {
     slope_den += t * t;
   }
   for (int c = 0; c < K; ++c) slope[c] = slope_num[c] / slope_den;
-  for (int c = 0; c < K; ++c)
-    for (std::size_t i = 0; i < length; ++i) x[c][i] -= mean[c] + slope[c] * (static_cast<double>(i) - centre);
+}
+
+/// out[i] = x[i] minus the line of fit_lines (out may be x), as detrend() subtracts it.
+inline void subtract_line(const double* x, std::size_t length, double mean, double slope, double* out) {
+  const double centre = 0.5 * static_cast<double>(length - 1);
+  for (std::size_t i = 0; i < length; ++i) out[i] = x[i] - (mean + slope * (static_cast<double>(i) - centre));
+}
+
+/// detrend() of K columns of one length at once (fit_lines, then subtract_line in place).
+template <int K>
+void detrend_columns(double* const* x, std::size_t length) {
+  if (length < 2) {
+    for (int c = 0; c < K; ++c) detrend(x[c], length);
+    return;
+  }
+  double mean[K], slope[K];
+  fit_lines<K>(x, length, mean, slope);
+  for (int c = 0; c < K; ++c) subtract_line(x[c], length, mean[c], slope[c], x[c]);
 }
 
 /// Median of a copy (empty: NaN).
