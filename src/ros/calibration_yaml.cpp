@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_record.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -20,10 +21,6 @@
 namespace magnetometer_insitu_calibration {
 
 namespace {
-
-// 5: the covariance's cells and the intervals' quantile; 4: temperature terms; 3: reference mean;
-// 2: method, band used, delay, offset (1-4 still load)
-constexpr int kFormatVersion = 5;
 
 std::string number(double value) {
   if (std::isnan(value)) return ".nan";
@@ -123,7 +120,83 @@ bool arrays_equal(const Array& a, const Array& b) {
   return true;
 }
 
-bool reals_equal(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
+// --- one writer, reader and comparison per kind of field (pipeline/calibration_record.hpp),
+// on the message's types -------------------------------------------------------------------------
+
+using u8 = std::uint8_t;
+using u32 = std::uint32_t;
+template <std::size_t N>
+using Reals = boost::array<double, N>;
+
+std::string yaml_Text(const std::string& v) { return quoted(v); }
+std::string yaml_Time(const ros::Time& t) { return time_text(t); }
+std::string yaml_Real(double v) { return number(v); }
+std::string yaml_Count(u32 v) { return std::to_string(v); }
+std::string yaml_Flag(u8 v) { return v ? "true" : "false"; }
+std::string yaml_Quality(u8 v) { return std::to_string(static_cast<int>(v)); }
+std::string yaml_Vector3(const Reals<3>& v) { return list(v); }
+std::string yaml_Pairs3(const Reals<3>& v) { return list(v); }
+std::string yaml_Matrix9(const Reals<9>& v) { return list(v); }
+std::string yaml_Matrix81(const Reals<81>& v) { return list(v); }
+
+void read_Text(const Reader& r, const char* key, std::string& out) { out = r.text(key); }
+void read_Time(const Reader& r, const char* key, ros::Time& out) { out = r.time(key); }
+void read_Real(const Reader& r, const char* key, double& out) { out = r.real(key); }
+void read_Count(const Reader& r, const char* key, u32& out) {
+  out = static_cast<u32>(r.integer(key, 0, std::numeric_limits<u32>::max()));
+}
+void read_Flag(const Reader& r, const char* key, u8& out) { out = r.boolean(key); }
+void read_Quality(const Reader& r, const char* key, u8& out) { out = static_cast<u8>(r.integer(key, 0, 255)); }
+template <std::size_t N>
+void read_reals(const Reader& r, const char* key, Reals<N>& out) {
+  r.array(key, out);
+}
+void read_Vector3(const Reader& r, const char* key, Reals<3>& out) { read_reals(r, key, out); }
+void read_Pairs3(const Reader& r, const char* key, Reals<3>& out) { read_reals(r, key, out); }
+void read_Matrix9(const Reader& r, const char* key, Reals<9>& out) { read_reals(r, key, out); }
+void read_Matrix81(const Reader& r, const char* key, Reals<81>& out) { read_reals(r, key, out); }
+
+bool same_Text(const std::string& a, const std::string& b) { return a == b; }
+bool same_Time(const ros::Time& a, const ros::Time& b) { return a == b; }
+bool same_Real(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
+bool same_Count(u32 a, u32 b) { return a == b; }
+bool same_Flag(u8 a, u8 b) { return (a != 0) == (b != 0); }
+bool same_Quality(u8 a, u8 b) { return a == b; }
+bool same_Vector3(const Reals<3>& a, const Reals<3>& b) { return arrays_equal(a, b); }
+bool same_Pairs3(const Reals<3>& a, const Reals<3>& b) { return arrays_equal(a, b); }
+bool same_Matrix9(const Reals<9>& a, const Reals<9>& b) { return arrays_equal(a, b); }
+bool same_Matrix81(const Reals<81>& a, const Reals<81>& b) { return arrays_equal(a, b); }
+
+/// The fields a file of an older format lacks (their `since` is above its version), as they
+/// were meant before they were written.
+void fill_older_format(MagnetometerCalibration& c, long long version) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (version < 2) {  // plain estimator, requested band, no delay, no offset (0: none applied)
+    c.method = "plain";
+    c.band_used_low_hz = c.band_low_hz;
+    c.band_used_high_hz = c.band_high_hz;
+    c.delay_s = c.delay_ci95_s = nan;
+    c.offset_nT = {0.0, 0.0, 0.0};
+    c.offset_ci95_nT = {nan, nan, nan};
+  }
+  // No reference mean: 0 makes correction_node propagate n's uncertainty with the whole field
+  // (the conservative form used before it was written).
+  if (version < 3) c.reference_mean_nT = {0.0, 0.0, 0.0};
+  if (version < 4) {  // no temperature terms: correction_node corrects without temperature
+    c.temperature_fitted = false;
+    c.temperature_text = "calibration file format " + std::to_string(version) + " has no temperature terms";
+    c.temperature_reference_C = c.temperature_range_C = nan;
+    for (auto* a : {&c.temperature_apparent_nT_per_C, &c.temperature_apparent_ci95_nT_per_C,
+                    &c.temperature_offset_nT_per_C, &c.temperature_offset_ci95_nT_per_C,
+                    &c.temperature_scale_ppm_per_C, &c.temperature_scale_ci95_ppm_per_C}) {
+      a->fill(nan);
+    }
+  }
+  if (version < 5) {  // the covariance taken as known, intervals of 1.96 standard errors
+    c.covariance_cells = std::numeric_limits<double>::infinity();
+    c.interval_quantile = kNormalQuantile95;
+  }
+}
 
 }  // namespace
 
@@ -134,62 +207,18 @@ std::string calibration_to_yaml(const MagnetometerCalibration& c, const std::str
        "# reference coordinates. correction_node applies r = n^-T (t - offset_nT) (column vectors;\n"
        "# r = n^-T t with ~apply_offset false). Do not edit by hand:\n"
        "# a malformed or incomplete file is refused as a whole.\n";
-  y << "format_version: " << kFormatVersion << "\n";
+  y << "format_version: " << kCalibrationFileFormat << "\n";
   y << "written_by: " << quoted(written_by) << "\n";
-  y << "test_name: " << quoted(c.test_name) << "\n";
   y << "stamp: " << time_text(c.header.stamp) << "\n";
   y << "frame_id: " << quoted(c.header.frame_id) << "\n";
-  y << "reference_frame_id: " << quoted(c.reference_frame_id) << "\n";
-  y << "test_frame_id: " << quoted(c.test_frame_id) << "\n";
-  y << "window_start: " << time_text(c.window_start) << "\n";
-  y << "window_end: " << time_text(c.window_end) << "\n";
-  y << "sample_period: " << number(c.sample_period) << "  # s\n";
-  y << "samples: " << c.samples << "\n";
-  y << "filled_samples: " << c.filled_samples << "\n";
-  y << "band_low_hz: " << number(c.band_low_hz) << "\n";
-  y << "band_high_hz: " << number(c.band_high_hz) << "\n";
-  y << "harmonic_first: " << c.harmonic_first << "\n";
-  y << "harmonic_last: " << c.harmonic_last << "\n";
-  y << "gamma: " << number(c.gamma) << "\n";
-  y << "trend_column: " << (c.trend_column ? "true" : "false") << "\n";
-  y << "method: " << quoted(c.method) << "\n";
-  y << "band_used_low_hz: " << number(c.band_used_low_hz) << "\n";
-  y << "band_used_high_hz: " << number(c.band_used_high_hz) << "\n";
-  y << "delay_s: " << number(c.delay_s) << "  # test minus reference, s\n";
-  y << "delay_ci95_s: " << number(c.delay_ci95_s) << "\n";
-  y << "matrix: " << list(c.matrix) << "  # n, row-major, T = R n\n";
-  y << "matrix_covariance: " << list(c.matrix_covariance) << "  # 9x9, row-major vec(n)\n";
-  y << "covariance_cells: " << number(c.covariance_cells) << "  # its degrees of freedom\n";
-  y << "interval_quantile: " << number(c.interval_quantile) << "  # *_ci95 / standard error\n";
-  y << "trend_nT_per_day: " << list(c.trend_nT_per_day) << "\n";
-  y << "trend_ci95_nT_per_day: " << list(c.trend_ci95_nT_per_day) << "\n";
-  y << "offset_nT: " << list(c.offset_nT) << "  # test relative to reference at window_end, test frame\n";
-  y << "offset_ci95_nT: " << list(c.offset_ci95_nT) << "\n";
-  y << "reference_mean_nT: " << list(c.reference_mean_nT) << "  # mean(R) over the window, reference frame\n";
-  y << "scale_ratio: " << list(c.scale_ratio) << "\n";
-  y << "scale_ratio_ci95: " << list(c.scale_ratio_ci95) << "\n";
-  y << "nonorthogonality_deg: " << list(c.nonorthogonality_deg) << "  # xy, xz, yz\n";
-  y << "nonorthogonality_ci95_deg: " << list(c.nonorthogonality_ci95_deg) << "\n";
-  y << "misalignment_deg: " << list(c.misalignment_deg) << "\n";
-  y << "misalignment_ci95_deg: " << list(c.misalignment_ci95_deg) << "\n";
-  y << "axis_deviation_deg: " << list(c.axis_deviation_deg) << "\n";
-  y << "axis_deviation_ci95_deg: " << list(c.axis_deviation_ci95_deg) << "\n";
-  y << "condition_number: " << number(c.condition_number) << "\n";
-  y << "coherence: " << list(c.coherence) << "\n";
-  y << "residual_rms_nT: " << list(c.residual_rms_nT) << "\n";
-  y << "quality: " << static_cast<int>(c.quality) << "\n";
-  y << "quality_text: " << quoted(c.quality_text) << "\n";
-  y << "temperature_fitted: " << (c.temperature_fitted ? "true" : "false") << "\n";
-  y << "temperature_text: " << quoted(c.temperature_text) << "\n";
-  y << "temperature_reference_C: " << number(c.temperature_reference_C) << "  # deg C, n and offset_nT at it\n";
-  y << "temperature_range_C: " << number(c.temperature_range_C) << "  # deg C\n";
-  y << "temperature_apparent_nT_per_C: " << list(c.temperature_apparent_nT_per_C) << "  # c + s F, test frame\n";
-  y << "temperature_apparent_ci95_nT_per_C: " << list(c.temperature_apparent_ci95_nT_per_C) << "\n";
-  y << "temperature_offset_nT_per_C: " << list(c.temperature_offset_nT_per_C) << "  # c\n";
-  y << "temperature_offset_ci95_nT_per_C: " << list(c.temperature_offset_ci95_nT_per_C) << "\n";
-  y << "temperature_scale_ppm_per_C: " << list(c.temperature_scale_ppm_per_C) << "  # s\n";
-  y << "temperature_scale_ci95_ppm_per_C: " << list(c.temperature_scale_ci95_ppm_per_C) << "\n";
-  y << "accepted: " << (c.accepted ? "true" : "false") << "  # last line\n";
+  auto line = [&y](const char* name, const std::string& value, const char* comment) {
+    y << name << ": " << value;
+    if (*comment != '\0') y << (value.find('#') == std::string::npos ? "  # " : "; ") << comment;
+    y << "\n";
+  };
+#define MIC_WRITE_FIELD(kind, name, since, comment) line(#name, yaml_##kind(c.name), comment);
+  MIC_CALIBRATION_FIELDS(MIC_WRITE_FIELD)
+#undef MIC_WRITE_FIELD
   return y.str();
 }
 
@@ -203,102 +232,23 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
   if (!root.IsMap()) throw CalibrationFileError(source + ": not a calibration file (expected a YAML map)");
   const Reader r{root, source};
   const long long version = r.integer("format_version", 0, 1000);
-  if (version < 1 || version > kFormatVersion) {
+  if (version < 1 || version > kCalibrationFileFormat) {
     throw CalibrationFileError(source + ": format_version " + std::to_string(version) + " is not supported (expected " +
-                               std::to_string(kFormatVersion) + ")");
+                               std::to_string(kCalibrationFileFormat) + ")");
   }
-  const long long u32 = std::numeric_limits<std::uint32_t>::max();
   MagnetometerCalibration c;
-  c.test_name = r.text("test_name");
   c.header.stamp = r.time("stamp");
   c.header.frame_id = r.text("frame_id");
-  c.reference_frame_id = r.text("reference_frame_id");
-  c.test_frame_id = r.text("test_frame_id");
-  c.window_start = r.time("window_start");
-  c.window_end = r.time("window_end");
-  c.sample_period = r.real("sample_period");
-  c.samples = static_cast<std::uint32_t>(r.integer("samples", 0, u32));
-  c.filled_samples = static_cast<std::uint32_t>(r.integer("filled_samples", 0, u32));
-  c.band_low_hz = r.real("band_low_hz");
-  c.band_high_hz = r.real("band_high_hz");
-  c.harmonic_first = static_cast<std::uint32_t>(r.integer("harmonic_first", 0, u32));
-  c.harmonic_last = static_cast<std::uint32_t>(r.integer("harmonic_last", 0, u32));
-  c.gamma = r.real("gamma");
-  c.trend_column = r.boolean("trend_column");
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  if (version >= 2) {
-    c.method = r.text("method");
-    c.band_used_low_hz = r.real("band_used_low_hz");
-    c.band_used_high_hz = r.real("band_used_high_hz");
-    c.delay_s = r.real("delay_s");
-    c.delay_ci95_s = r.real("delay_ci95_s");
-  } else {  // format 1: plain estimator, requested band, no delay, no offset (0: none applied)
-    c.method = "plain";
-    c.band_used_low_hz = c.band_low_hz;
-    c.band_used_high_hz = c.band_high_hz;
-    c.delay_s = nan;
-    c.delay_ci95_s = nan;
-    c.offset_nT = {0.0, 0.0, 0.0};
-    c.offset_ci95_nT = {nan, nan, nan};
+#define MIC_READ_FIELD(kind, name, since, comment) \
+  if (version >= (since)) read_##kind(r, #name, c.name);
+  MIC_CALIBRATION_FIELDS(MIC_READ_FIELD)
+#undef MIC_READ_FIELD
+  fill_older_format(c, version);
+  if (!(c.covariance_cells > 0.0)) r.fail("covariance_cells", "must be positive (.inf: taken as known)");
+  // Student's two-sided 5 % quantile lies between the normal's 1.96 and 12.71 (one dof).
+  if (!(c.interval_quantile >= 1.95 && c.interval_quantile <= 12.8)) {
+    r.fail("interval_quantile", "must be in [1.95, 12.8]");
   }
-  r.array("matrix", c.matrix);
-  r.array("matrix_covariance", c.matrix_covariance);
-  if (version >= 5) {
-    c.covariance_cells = r.real("covariance_cells");
-    if (!(c.covariance_cells > 0.0)) r.fail("covariance_cells", "must be positive (.inf: taken as known)");
-    c.interval_quantile = r.real("interval_quantile");
-    // Student's two-sided 5 % quantile lies between the normal's 1.96 and 12.71 (one dof).
-    if (!(c.interval_quantile >= 1.95 && c.interval_quantile <= 12.8))
-      r.fail("interval_quantile", "must be in [1.95, 12.8]");
-  } else {  // formats 1-4: the covariance taken as known, intervals of 1.96 standard errors
-    c.covariance_cells = std::numeric_limits<double>::infinity();
-    c.interval_quantile = kNormalQuantile95;
-  }
-  r.array("trend_nT_per_day", c.trend_nT_per_day);
-  r.array("trend_ci95_nT_per_day", c.trend_ci95_nT_per_day);
-  if (version >= 2) {
-    r.array("offset_nT", c.offset_nT);
-    r.array("offset_ci95_nT", c.offset_ci95_nT);
-  }
-  // Formats 1 and 2 have no reference mean: 0 makes correction_node propagate n's uncertainty
-  // with the whole field (the conservative form used before format 3).
-  c.reference_mean_nT = {0.0, 0.0, 0.0};
-  if (version >= 3) r.array("reference_mean_nT", c.reference_mean_nT);
-  r.array("scale_ratio", c.scale_ratio);
-  r.array("scale_ratio_ci95", c.scale_ratio_ci95);
-  r.array("nonorthogonality_deg", c.nonorthogonality_deg);
-  r.array("nonorthogonality_ci95_deg", c.nonorthogonality_ci95_deg);
-  r.array("misalignment_deg", c.misalignment_deg);
-  r.array("misalignment_ci95_deg", c.misalignment_ci95_deg);
-  r.array("axis_deviation_deg", c.axis_deviation_deg);
-  r.array("axis_deviation_ci95_deg", c.axis_deviation_ci95_deg);
-  c.condition_number = r.real("condition_number");
-  r.array("coherence", c.coherence);
-  r.array("residual_rms_nT", c.residual_rms_nT);
-  c.quality = static_cast<std::uint8_t>(r.integer("quality", 0, 255));
-  c.quality_text = r.text("quality_text");
-  if (version >= 4) {
-    c.temperature_fitted = r.boolean("temperature_fitted");
-    c.temperature_text = r.text("temperature_text");
-    c.temperature_reference_C = r.real("temperature_reference_C");
-    c.temperature_range_C = r.real("temperature_range_C");
-    r.array("temperature_apparent_nT_per_C", c.temperature_apparent_nT_per_C);
-    r.array("temperature_apparent_ci95_nT_per_C", c.temperature_apparent_ci95_nT_per_C);
-    r.array("temperature_offset_nT_per_C", c.temperature_offset_nT_per_C);
-    r.array("temperature_offset_ci95_nT_per_C", c.temperature_offset_ci95_nT_per_C);
-    r.array("temperature_scale_ppm_per_C", c.temperature_scale_ppm_per_C);
-    r.array("temperature_scale_ci95_ppm_per_C", c.temperature_scale_ci95_ppm_per_C);
-  } else {  // formats 1-3: no temperature terms (correction_node corrects without temperature)
-    c.temperature_fitted = false;
-    c.temperature_text = "calibration file format " + std::to_string(version) + " has no temperature terms";
-    c.temperature_reference_C = c.temperature_range_C = nan;
-    for (auto* a : {&c.temperature_apparent_nT_per_C, &c.temperature_apparent_ci95_nT_per_C,
-                    &c.temperature_offset_nT_per_C, &c.temperature_offset_ci95_nT_per_C,
-                    &c.temperature_scale_ppm_per_C, &c.temperature_scale_ci95_ppm_per_C}) {
-      a->fill(nan);
-    }
-  }
-  c.accepted = r.boolean("accepted");
   return c;
 }
 
@@ -356,66 +306,12 @@ bool calibrations_equal(const MagnetometerCalibration& a, const MagnetometerCali
     if (difference != nullptr) *difference = field;
     return false;
   };
-#define MIC_SAME(field, same) \
-  if (!(same)) return differ(#field);
-  MIC_SAME(test_name, a.test_name == b.test_name)
-  MIC_SAME(header.stamp, a.header.stamp == b.header.stamp)
-  MIC_SAME(header.frame_id, a.header.frame_id == b.header.frame_id)
-  MIC_SAME(reference_frame_id, a.reference_frame_id == b.reference_frame_id)
-  MIC_SAME(test_frame_id, a.test_frame_id == b.test_frame_id)
-  MIC_SAME(window_start, a.window_start == b.window_start)
-  MIC_SAME(window_end, a.window_end == b.window_end)
-  MIC_SAME(sample_period, reals_equal(a.sample_period, b.sample_period))
-  MIC_SAME(samples, a.samples == b.samples)
-  MIC_SAME(filled_samples, a.filled_samples == b.filled_samples)
-  MIC_SAME(band_low_hz, reals_equal(a.band_low_hz, b.band_low_hz))
-  MIC_SAME(band_high_hz, reals_equal(a.band_high_hz, b.band_high_hz))
-  MIC_SAME(harmonic_first, a.harmonic_first == b.harmonic_first)
-  MIC_SAME(harmonic_last, a.harmonic_last == b.harmonic_last)
-  MIC_SAME(gamma, reals_equal(a.gamma, b.gamma))
-  MIC_SAME(trend_column, a.trend_column == b.trend_column)
-  MIC_SAME(method, a.method == b.method)
-  MIC_SAME(band_used_low_hz, reals_equal(a.band_used_low_hz, b.band_used_low_hz))
-  MIC_SAME(band_used_high_hz, reals_equal(a.band_used_high_hz, b.band_used_high_hz))
-  MIC_SAME(delay_s, reals_equal(a.delay_s, b.delay_s))
-  MIC_SAME(delay_ci95_s, reals_equal(a.delay_ci95_s, b.delay_ci95_s))
-  MIC_SAME(matrix, arrays_equal(a.matrix, b.matrix))
-  MIC_SAME(matrix_covariance, arrays_equal(a.matrix_covariance, b.matrix_covariance))
-  MIC_SAME(trend_nT_per_day, arrays_equal(a.trend_nT_per_day, b.trend_nT_per_day))
-  MIC_SAME(covariance_cells, reals_equal(a.covariance_cells, b.covariance_cells))
-  MIC_SAME(interval_quantile, reals_equal(a.interval_quantile, b.interval_quantile))
-  MIC_SAME(trend_ci95_nT_per_day, arrays_equal(a.trend_ci95_nT_per_day, b.trend_ci95_nT_per_day))
-  MIC_SAME(offset_nT, arrays_equal(a.offset_nT, b.offset_nT))
-  MIC_SAME(offset_ci95_nT, arrays_equal(a.offset_ci95_nT, b.offset_ci95_nT))
-  MIC_SAME(reference_mean_nT, arrays_equal(a.reference_mean_nT, b.reference_mean_nT))
-  MIC_SAME(scale_ratio, arrays_equal(a.scale_ratio, b.scale_ratio))
-  MIC_SAME(scale_ratio_ci95, arrays_equal(a.scale_ratio_ci95, b.scale_ratio_ci95))
-  MIC_SAME(nonorthogonality_deg, arrays_equal(a.nonorthogonality_deg, b.nonorthogonality_deg))
-  MIC_SAME(nonorthogonality_ci95_deg, arrays_equal(a.nonorthogonality_ci95_deg, b.nonorthogonality_ci95_deg))
-  MIC_SAME(misalignment_deg, arrays_equal(a.misalignment_deg, b.misalignment_deg))
-  MIC_SAME(misalignment_ci95_deg, arrays_equal(a.misalignment_ci95_deg, b.misalignment_ci95_deg))
-  MIC_SAME(axis_deviation_deg, arrays_equal(a.axis_deviation_deg, b.axis_deviation_deg))
-  MIC_SAME(axis_deviation_ci95_deg, arrays_equal(a.axis_deviation_ci95_deg, b.axis_deviation_ci95_deg))
-  MIC_SAME(condition_number, reals_equal(a.condition_number, b.condition_number))
-  MIC_SAME(coherence, arrays_equal(a.coherence, b.coherence))
-  MIC_SAME(residual_rms_nT, arrays_equal(a.residual_rms_nT, b.residual_rms_nT))
-  MIC_SAME(quality, a.quality == b.quality)
-  MIC_SAME(quality_text, a.quality_text == b.quality_text)
-  MIC_SAME(temperature_fitted, a.temperature_fitted == b.temperature_fitted)
-  MIC_SAME(temperature_text, a.temperature_text == b.temperature_text)
-  MIC_SAME(temperature_reference_C, reals_equal(a.temperature_reference_C, b.temperature_reference_C))
-  MIC_SAME(temperature_range_C, reals_equal(a.temperature_range_C, b.temperature_range_C))
-  MIC_SAME(temperature_apparent_nT_per_C, arrays_equal(a.temperature_apparent_nT_per_C, b.temperature_apparent_nT_per_C))
-  MIC_SAME(temperature_apparent_ci95_nT_per_C,
-           arrays_equal(a.temperature_apparent_ci95_nT_per_C, b.temperature_apparent_ci95_nT_per_C))
-  MIC_SAME(temperature_offset_nT_per_C, arrays_equal(a.temperature_offset_nT_per_C, b.temperature_offset_nT_per_C))
-  MIC_SAME(temperature_offset_ci95_nT_per_C,
-           arrays_equal(a.temperature_offset_ci95_nT_per_C, b.temperature_offset_ci95_nT_per_C))
-  MIC_SAME(temperature_scale_ppm_per_C, arrays_equal(a.temperature_scale_ppm_per_C, b.temperature_scale_ppm_per_C))
-  MIC_SAME(temperature_scale_ci95_ppm_per_C,
-           arrays_equal(a.temperature_scale_ci95_ppm_per_C, b.temperature_scale_ci95_ppm_per_C))
-  MIC_SAME(accepted, a.accepted == b.accepted)
-#undef MIC_SAME
+  if (a.header.stamp != b.header.stamp) return differ("header.stamp");
+  if (a.header.frame_id != b.header.frame_id) return differ("header.frame_id");
+#define MIC_SAME_FIELD(kind, name, since, comment) \
+  if (!same_##kind(a.name, b.name)) return differ(#name);
+  MIC_CALIBRATION_FIELDS(MIC_SAME_FIELD)
+#undef MIC_SAME_FIELD
   return true;
 }
 

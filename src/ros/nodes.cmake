@@ -10,8 +10,10 @@
 #catkin_lint: ignore external_directory
 #catkin_lint: ignore external_interface_path
 
-# Shared ROS-layer code: parameter reading, the calibration YAML file, the correction model.
+# Shared ROS-layer code: parameter reading, the calibration message and YAML file, the correction
+# model.
 add_library(${PROJECT_NAME}_ros
+  src/ros/calibration_message.cpp
   src/ros/calibration_yaml.cpp
   src/ros/correction_model.cpp
   src/ros/parameters.cpp)

@@ -458,8 +458,8 @@ ReportWindow select_report_window(const nlohmann::json& report, const std::strin
   w.index = *index;
   w.json = windows[*index];
   w.label = w.json.value("label", "window " + std::to_string(*index + 1));
-  w.start = w.json.value("start", "");
-  w.end = w.json.value("end", "");
+  w.start = w.json.value("window_start", "");
+  w.end = w.json.value("window_end", "");
   w.quality = w.json.value("quality", "");
   const std::string where = "window '" + w.label + "'";
   w.n = json_matrix(w.json, "matrix", path, where);

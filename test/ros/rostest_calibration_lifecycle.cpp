@@ -166,9 +166,11 @@ TEST(Calibration, ResumeAfterRestart) {
   ASSERT_GT(first.pid, 0);
   ASSERT_TRUE(h.wait_for_connections(1, 1)) << "first calibration_node did not connect";
   h.publish(0, h.pair().reference.size(), true, true);
+  // Every window of the hour (30 min every 15 min: ending at 30, 45 and 60 min), so that none is
+  // still being written when the first instance is stopped.
   const bool accepted = h.wait_ticking([&] {
     const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
-    return h.calibrations().size() >= 2 && d != nullptr && value_of(d, "windows estimated") == h.calibrations().size();
+    return h.calibrations().size() >= 3 && d != nullptr && value_of(d, "windows estimated") == h.calibrations().size();
   }, 60.0);
   mic::MagnetometerCalibration last_published;
   {

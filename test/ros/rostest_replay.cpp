@@ -76,11 +76,11 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
   // Offline windows by start (ms); the live node completes every window but the one that ends
   // with the record (no sample after its end).
   double last_end = 0.0;
-  for (const auto& w : windows) last_end = std::max(last_end, mic::parse_iso8601(w["end"].get<std::string>()));
+  for (const auto& w : windows) last_end = std::max(last_end, mic::parse_iso8601(w["window_end"].get<std::string>()));
   std::map<long long, const nlohmann::json*> expected;
   for (const auto& w : windows) {
-    if (mic::parse_iso8601(w["end"].get<std::string>()) < last_end) {
-      expected[std::llround(1000.0 * mic::parse_iso8601(w["start"].get<std::string>()))] = &w;
+    if (mic::parse_iso8601(w["window_end"].get<std::string>()) < last_end) {
+      expected[std::llround(1000.0 * mic::parse_iso8601(w["window_start"].get<std::string>()))] = &w;
     }
   }
   ASSERT_GE(expected.size(), 2u);
@@ -127,18 +127,18 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
 
   std::lock_guard<std::mutex> lock(mutex);
   for (const auto& [start_ms, w] : expected) {
-    const std::string label = (*w)["label"].get<std::string>() + " (" + (*w)["start"].get<std::string>() + ")";
+    const std::string label = (*w)["label"].get<std::string>() + " (" + (*w)["window_start"].get<std::string>() + ")";
     const auto it = live.find(start_ms);
     ASSERT_NE(it, live.end()) << "no live calibration for offline " << label << " within " << timeout_s
                               << " s; live windows received: " << live.size();
     const mic::MagnetometerCalibration& m = it->second;
     const nlohmann::json& o = *w;
     SCOPED_TRACE(label);
-    EXPECT_NEAR(m.window_end.toSec(), mic::parse_iso8601(o["end"].get<std::string>()), 1e-3);
+    EXPECT_NEAR(m.window_end.toSec(), mic::parse_iso8601(o["window_end"].get<std::string>()), 1e-3);
     EXPECT_EQ(m.samples, o["samples"].get<std::uint32_t>());
     EXPECT_EQ(m.filled_samples, o["filled_samples"].get<std::uint32_t>());
-    EXPECT_EQ(static_cast<int>(m.harmonic_first), o["harmonics"][0].get<int>());
-    EXPECT_EQ(static_cast<int>(m.harmonic_last), o["harmonics"][1].get<int>());
+    EXPECT_EQ(static_cast<int>(m.harmonic_first), o["harmonic_first"].get<int>());
+    EXPECT_EQ(static_cast<int>(m.harmonic_last), o["harmonic_last"].get<int>());
     EXPECT_EQ(mic::quality_name(static_cast<mic::Quality>(m.quality)), o["quality"].get<std::string>());
     EXPECT_TRUE(m.accepted);
     for (int k = 0; k < 9; ++k) {

@@ -145,7 +145,7 @@ class PlotCalibration(unittest.TestCase):
         self.assertEqual(freq, sorted(freq))
         self.assertLess(freq[0], 0.0005)
         self.assertGreater(freq[-1], 0.05)
-        low, high = window["band_used_hz"]
+        low, high = window["band_used_low_hz"], window["band_used_high_hz"]
         for k, comp in enumerate(summary["components"]):
             # Inside the estimator's band the response is flat: gain within 3 half-widths of 1.
             inside = [(g, c) for f, g, c in zip(freq, comp["gain"], comp["gain_ci95"]) if low <= f <= high]

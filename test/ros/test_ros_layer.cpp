@@ -1,4 +1,5 @@
-// ROS layer without a master: the calibration YAML file and the correction model.
+// ROS layer without a master: the calibration message and YAML file, and the correction model.
+#include "magnetometer_insitu_calibration/ros/calibration_message.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/correction_model.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
@@ -14,6 +15,9 @@
 #include <limits>
 #include <random>
 #include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -74,6 +78,124 @@ std::string temp_dir() {
 }
 
 }  // namespace
+
+/// The table's field names, in its order (pipeline/calibration_record.hpp).
+std::vector<std::string> table_names() {
+  std::vector<std::string> names;
+#define MIC_NAME(kind, name, since, comment) names.push_back(#name);
+  MIC_CALIBRATION_FIELDS(MIC_NAME)
+#undef MIC_NAME
+  return names;
+}
+
+TEST(CalibrationMessage, HasTheTableFieldsInItsOrder) {
+  // The message definition as compiled (msg/MagnetometerCalibration.msg): its own fields, not the
+  // Header's (after the first "===" line), without constants (NAME = value) or comments.
+  std::istringstream definition(ros::message_traits::Definition<mic::MagnetometerCalibration>::value());
+  std::vector<std::string> fields;
+  for (std::string line; std::getline(definition, line) && line.rfind("===", 0) != 0;) {
+    line = line.substr(0, line.find('#'));
+    std::istringstream words(line);
+    std::string type, name;
+    if (!(words >> type >> name) || line.find('=') != std::string::npos) continue;
+    fields.push_back(name);
+  }
+  std::vector<std::string> expected = {"header"};
+  for (const std::string& name : table_names()) expected.push_back(name);
+  EXPECT_EQ(fields, expected);
+}
+
+TEST(CalibrationMessage, CarriesTheRecordFieldByField) {
+  mic::CalibrationRecord r;
+  r.stamp = {1747191600, 123456789};
+  r.frame_id = "lemi036";
+  r.test_name = "fge";
+  r.window_start = {1747180800, 500000000};
+  r.samples = 10800;
+  r.trend_column = true;
+  r.matrix[7] = 1.25;
+  r.matrix_covariance[80] = 4e-12;
+  r.nonorthogonality_deg = {0.1, 0.2, 0.3};
+  r.quality = 4;
+  r.accepted = false;
+  r.temperature_scale_ppm_per_C[2] = std::numeric_limits<double>::quiet_NaN();
+  const mic::MagnetometerCalibration m = mic::to_message(r);
+  EXPECT_EQ(m.header.stamp, ros::Time(1747191600, 123456789));
+  EXPECT_EQ(m.header.frame_id, "lemi036");
+  EXPECT_EQ(m.test_name, "fge");
+  EXPECT_EQ(m.window_start, ros::Time(1747180800, 500000000));
+  EXPECT_EQ(m.samples, 10800u);
+  EXPECT_TRUE(m.trend_column);
+  EXPECT_EQ(m.matrix[7], 1.25);
+  EXPECT_EQ(m.matrix_covariance[80], 4e-12);
+  EXPECT_EQ(m.nonorthogonality_deg[2], 0.3);
+  EXPECT_EQ(m.quality, mic::MagnetometerCalibration::QUALITY_LOW_COHERENCE);
+  EXPECT_FALSE(m.accepted);
+  EXPECT_TRUE(std::isnan(m.temperature_scale_ppm_per_C[2]));
+  r.window_end = {-5, 0};  // before 1970: no ROS time
+  EXPECT_THROW(mic::to_message(r), std::out_of_range);
+}
+
+TEST(CalibrationYaml, EveryFieldIsRequiredByTheFormatsThatHaveIt) {
+  // For each format: a file without the fields added after it loads; a file of the format
+  // without one of its own fields is refused, naming the field.
+  const std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
+  auto without = [](std::string t, const std::string& key) {
+    const std::size_t line = t.find("\n" + key + ": ");
+    EXPECT_NE(line, std::string::npos) << key;
+    if (line != std::string::npos) t.erase(line + 1, t.find('\n', line + 1) - line);
+    return t;
+  };
+  struct Field {
+    std::string name;
+    int since;
+  };
+  std::vector<Field> table;
+#define MIC_FIELD(kind, name, since, comment) table.push_back({#name, since});
+  MIC_CALIBRATION_FIELDS(MIC_FIELD)
+#undef MIC_FIELD
+  for (int version = 1; version <= mic::kCalibrationFileFormat; ++version) {
+    std::string old = text;
+    for (const Field& f : table) {
+      if (f.since > version) old = without(old, f.name);
+    }
+    old.replace(old.find("format_version: 5\n"), 17, "format_version: " + std::to_string(version));
+    EXPECT_NO_THROW(mic::calibration_from_yaml(old, "old.yaml")) << "format " << version;
+    for (const Field& f : table) {
+      if (f.since > version) continue;
+      try {
+        mic::calibration_from_yaml(without(old, f.name), "cut.yaml");
+        ADD_FAILURE() << "format " << version << " without " << f.name << " loaded";
+      } catch (const mic::CalibrationFileError& e) {
+        EXPECT_NE(std::string(e.what()).find("cut.yaml: field '" + f.name + "' is missing"), std::string::npos)
+            << e.what();
+      }
+    }
+  }
+}
+
+TEST(CalibrationYaml, Format1LoadsAsPlainWithoutDelayOrOffset) {
+  std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
+  for (const char* key : {"method", "band_used_low_hz", "band_used_high_hz", "delay_s", "delay_ci95_s", "offset_nT",
+                          "offset_ci95_nT", "reference_mean_nT", "covariance_cells", "interval_quantile"}) {
+    const std::size_t line = text.find(std::string("\n") + key + ": ");
+    ASSERT_NE(line, std::string::npos) << key;
+    text.erase(line + 1, text.find('\n', line + 1) - line);
+  }
+  for (std::size_t line = text.find("\ntemperature_"); line != std::string::npos; line = text.find("\ntemperature_")) {
+    text.erase(line + 1, text.find('\n', line + 1) - line);
+  }
+  text.replace(text.find("format_version: 5\n"), 17, "format_version: 1");
+  const mic::MagnetometerCalibration c = mic::calibration_from_yaml(text, "v1.yaml");
+  EXPECT_EQ(c.method, "plain");
+  EXPECT_EQ(c.band_used_low_hz, c.band_low_hz);
+  EXPECT_EQ(c.band_used_high_hz, c.band_high_hz);
+  EXPECT_TRUE(std::isnan(c.delay_s));
+  EXPECT_EQ(c.offset_nT[0], 0.0);
+  EXPECT_TRUE(std::isnan(c.offset_ci95_nT[0]));
+  EXPECT_TRUE(std::isinf(c.covariance_cells));
+  EXPECT_EQ(c.temperature_text, "calibration file format 1 has no temperature terms");
+}
 
 TEST(CalibrationYaml, RoundTripIsExact) {
   const mic::MagnetometerCalibration c = filled_calibration();
@@ -199,8 +321,9 @@ TEST(CalibrationYaml, Format4LoadsAsACovarianceTakenAsKnown) {
 
 TEST(CalibrationYaml, EveryTruncationIsRefused) {
   const std::string text = mic::calibration_to_yaml(filled_calibration(), "/calibration_fge");
-  const std::size_t complete = text.find("accepted: true") + std::string("accepted: true").size();
-  ASSERT_NE(complete, std::string::npos);
+  // The last line is the last field's list, with no comment after it.
+  const std::size_t complete = text.rfind(']') + 1;
+  ASSERT_EQ(complete, text.size() - 1) << text;
   for (std::size_t length = 0; length < complete; ++length) {
     EXPECT_THROW(mic::calibration_from_yaml(text.substr(0, length), "cut"), mic::CalibrationFileError)
         << "a file cut after " << length << " bytes was accepted";

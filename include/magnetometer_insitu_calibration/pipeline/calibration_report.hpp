@@ -16,19 +16,22 @@ struct ReportInputs {
   std::string test;
 };
 
-/// {"settings": {...}, "preprocessing": {...}, "windows": [...]}; per window: start, end (ISO
-/// 8601 UTC), samples, harmonics [m0, m], matrix (3x3 rows, T = R n), matrix_stderr,
-/// matrix_covariance (9x9, row-major vec(n)), trend_nT_per_day, scale_ratio(_ci95),
-/// nonorthogonality_deg {xy, xz, yz} (and _ci95_deg), misalignment_deg(_ci95_deg) [x, y, z],
-/// axis_deviation_deg(_ci95_deg), condition_number, coherence, residual_rms_nT, quality,
-/// quality_text. *_ci95 are half-widths of 95 % intervals. NaN is written as null.
-nlohmann::json window_to_json(const CalibrationWindow& window);
+/// One window of the report: its calibration record (calibration_record.hpp: every field of
+/// MIC_CALIBRATION_FIELDS under its own name: test_name "test" and empty frame ids, the inputs being
+/// named in the document's settings) and, beyond
+/// it, label, matrix_stderr (3 x 3 rows), screened_fraction, downweighted_fraction, eiv (the
+/// errors-in-variables text), eiv_applied, reference_noise_source, reference_noise (the
+/// identification's line or null), weights, intervals, relative_response (per band) and
+/// response_model. *_ci95 are half-widths of 95 % intervals; NaN is written as null.
+nlohmann::json window_to_json(const CalibrationWindow& window, const CalibrationSettings& settings);
 /// {"assessed", "agree", "windows", "joint_chi2", "joint_dof", "joint_expected_chi2",
 /// "joint_p_value", "joint_tested", "parameters": {"scale x": {"weighted_mean", "chi2", "expected_chi2",
 /// "sqrt_chi2_per_dof" (sqrt(chi2 / expected_chi2)), "p_value"}, ...}, "text"} of the
 /// disjoint windows (disjoint_window_estimates, window_agreement.hpp); null when there are none
 /// (one window, or overlapping sliding windows). The document's key "window_agreement".
 nlohmann::json window_agreement_to_json(const std::vector<CalibrationWindow>& windows);
+/// {"settings": {...}, "preprocessing": {...}, "windows": [window_to_json, ...],
+/// "window_agreement": ...}.
 nlohmann::json calibration_to_json(const PairCalibration& calibration, const CalibrationSettings& settings,
                                    const ReportInputs& inputs);
 

@@ -1,13 +1,13 @@
 // The calibration file: one MagnetometerCalibration as YAML, written atomically by
 // calibration_node (latest accepted window) and loaded by correction_node.
 //
-// Format (format_version 4; older files still load: version 3 without the temperature terms
-// (temperature_fitted false, coefficients NaN), 2 also without the reference mean (zero), 1 also
-// without method, band used, delay and offset (plain method, no delay, zero offset)): one key per message field with the message's field names and
-// units (header.stamp as "stamp", header.frame_id as "frame_id"; times as {secs, nsecs} so that
-// they load back exactly, plus an ISO 8601 comment; doubles with 17 significant digits, so that
-// every number loads back bit for bit). "accepted" is the last line: a file cut short anywhere
-// lacks it or has it unreadable, and is refused as a whole.
+// Format (format_version kCalibrationFileFormat): "stamp" and "frame_id" (the header), then one
+// key per field of pipeline/calibration_record.hpp, in its order, with the message's names and
+// units. Times as {secs, nsecs} (they load back exactly) with an ISO 8601 comment; doubles with 17
+// significant digits (every number loads back bit for bit). Older formats still load: the fields
+// a format lacks (their `since` is above it) get the meaning they had before they were written
+// (calibration_yaml.cpp, fill_older_format). Every field is required, so a file cut short
+// anywhere is refused as a whole.
 #pragma once
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>

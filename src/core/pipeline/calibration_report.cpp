@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_record.hpp"
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
 
 #include <algorithm>
@@ -17,8 +18,6 @@ using nlohmann::json;
 json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json vec3(const Eigen::Vector3d& v) { return json::array({number(v(0)), number(v(1)), number(v(2))}); }
-
-json pairs3(const Eigen::Vector3d& v) { return json{{"xy", number(v(0))}, {"xz", number(v(1))}, {"yz", number(v(2))}}; }
 
 template <typename Matrix>
 json rows(const Matrix& m) {
@@ -63,68 +62,27 @@ json model_to_json(const ResponseModel& m) {
               {"fit_max_hz", number(m.fit_max_hz)}, {"chi2_per_dof", number(m.chi2_per_dof)}, {"text", m.text}};
 }
 
-json fitted_or_null(const TemperatureFit& t, double v) { return t.fitted ? number(v) : json(nullptr); }
-json fitted_or_null(const TemperatureFit& t, const Eigen::Vector3d& v) { return t.fitted ? vec3(v) : json(nullptr); }
-
-json window_to_json(const CalibrationWindow& w) {
+json window_to_json(const CalibrationWindow& w, const CalibrationSettings& settings) {
   const WindowEstimate& e = w.estimate;
-  const CalibrationParameters& p = e.parameters;
-  return json{
-      {"label", w.label},
-      {"start", format_iso8601(w.start_s, 3)},
-      {"end", format_iso8601(w.end_s, 3)},
-      {"samples", e.samples},
-      {"sample_period_s", e.sample_period_s},
-      {"filled_samples", w.missing()},
-      {"harmonics", json::array({e.harmonic_first, e.harmonic_last})},
-      {"matrix", rows(e.n)},
-      {"matrix_stderr", rows(e.n_stderr())},
-      {"matrix_covariance", rows(e.n_covariance)},
-      {"trend_nT_per_day", vec3(e.trend_nT_per_day)},
-      {"trend_stderr_nT_per_day", vec3(e.trend_stderr_nT_per_day)},
-      {"scale_ratio", vec3(p.scale_ratio)},
-      {"scale_ratio_ci95", vec3(p.scale_ratio_ci95)},
-      {"nonorthogonality_deg", pairs3(p.nonorthogonality_deg)},
-      {"nonorthogonality_ci95_deg", pairs3(p.nonorthogonality_ci95_deg)},
-      {"misalignment_deg", vec3(p.misalignment_deg)},
-      {"misalignment_ci95_deg", vec3(p.misalignment_ci95_deg)},
-      {"axis_deviation_deg", vec3(p.axis_deviation_deg)},
-      {"axis_deviation_ci95_deg", vec3(p.axis_deviation_ci95_deg)},
-      {"condition_number", number(e.condition_number)},
-      {"coherence", vec3(e.coherence)},
-      {"residual_rms_nT", vec3(e.residual_rms_nT)},
-      {"quality", quality_name(e.quality)},
-      {"quality_text", e.quality_text},
-      {"method", e.method},
-      {"band_used_hz", json::array({number(e.band_low_hz), number(e.band_high_hz)})},
-      {"delay_s", number(e.delay_s)},
-      {"delay_ci95_s", number(e.delay_ci95_s)},
-      {"screened_fraction", e.screened_fraction},
-      {"downweighted_fraction", e.downweighted_fraction},
-      {"eiv", e.eiv_text()},
-      {"eiv_applied", errors_in_variables_name(e.eiv)},
-      {"reference_noise_source", noise_source_name(e.eiv_noise.source)},
-      {"weights", e.weights},
-      {"covariance_cells", number(e.covariance_dof)},
-      {"interval_quantile", number(p.interval_quantile)},
-      {"intervals", e.intervals},
-      {"relative_response", response_to_json(w.relative_response)},
-      {"response_model", model_to_json(w.response_model)},
-      {"reference_noise", w.reference_noise.text.empty() ? nlohmann::json() : nlohmann::json(w.reference_noise.text)},
-      {"offset_nT", vec3(w.offset_end_nT)},
-      {"offset_ci95_nT", vec3(w.offset_end_ci95_nT)},
-      {"reference_mean_nT", vec3(w.reference_mean_nT)},
-      // Temperature terms (temperature_regression.hpp): null when not fitted, text says why.
-      {"temperature_text", w.temperature.text},
-      {"temperature_reference_C", fitted_or_null(w.temperature, w.temperature.reference_C)},
-      {"temperature_range_C", fitted_or_null(w.temperature, w.temperature.range_C)},
-      {"temperature_apparent_nT_per_C", fitted_or_null(w.temperature, w.temperature.apparent_nT_per_C)},
-      {"temperature_apparent_ci95_nT_per_C", fitted_or_null(w.temperature, w.temperature.apparent_ci95_nT_per_C)},
-      {"temperature_offset_nT_per_C", fitted_or_null(w.temperature, w.temperature.offset_nT_per_C)},
-      {"temperature_offset_ci95_nT_per_C", fitted_or_null(w.temperature, w.temperature.offset_ci95_nT_per_C)},
-      {"temperature_scale_ppm_per_C", fitted_or_null(w.temperature, w.temperature.scale_ppm_per_C)},
-      {"temperature_scale_ci95_ppm_per_C", fitted_or_null(w.temperature, w.temperature.scale_ci95_ppm_per_C)},
-  };
+  // The record's names and frames are the node's; the inputs are the document's settings.
+  RecordContext context;
+  context.sample_period_s = e.sample_period_s;
+  context.estimator = settings.window.estimator;
+  json out = record_to_json(make_calibration_record(w, context));
+  // Beyond the calibration record: the window's label and how it was estimated.
+  out["label"] = w.label;
+  out["matrix_stderr"] = rows(e.n_stderr());
+  out["screened_fraction"] = e.screened_fraction;
+  out["downweighted_fraction"] = e.downweighted_fraction;
+  out["eiv"] = e.eiv_text();
+  out["eiv_applied"] = errors_in_variables_name(e.eiv);
+  out["reference_noise_source"] = noise_source_name(e.eiv_noise.source);
+  out["reference_noise"] = w.reference_noise.text.empty() ? json() : json(w.reference_noise.text);
+  out["weights"] = e.weights;
+  out["intervals"] = e.intervals;
+  out["relative_response"] = response_to_json(w.relative_response);
+  out["response_model"] = model_to_json(w.response_model);
+  return out;
 }
 
 json window_agreement_to_json(const std::vector<CalibrationWindow>& windows) {
@@ -158,7 +116,7 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
   const PreprocessReport& r = c.report;
   const WindowCalibrationSettings& s = settings.window;
   json windows = json::array();
-  for (const auto& w : c.windows) windows.push_back(window_to_json(w));
+  for (const auto& w : c.windows) windows.push_back(window_to_json(w, settings));
   return json{
       {"settings",
        {{"reference", inputs.reference},

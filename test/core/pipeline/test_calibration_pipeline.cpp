@@ -181,7 +181,7 @@ TEST(CalibrationPipeline, SlidingWindowsAndJsonReport) {
   const nlohmann::json j = mic::calibration_to_json(result, settings, {"ref", "test"});
   ASSERT_EQ(j["windows"].size(), 3u);
   const auto& w = j["windows"][1];
-  EXPECT_EQ(w["start"], "2025-05-14T03:00:00.000Z");
+  EXPECT_EQ(w["window_start"], "2025-05-14T03:00:00.000Z");
   EXPECT_EQ(w["samples"], 21600);
   EXPECT_EQ(w["matrix"].size(), 3u);
   EXPECT_EQ(w["matrix_covariance"].size(), 9u);

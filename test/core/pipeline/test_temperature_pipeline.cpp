@@ -84,7 +84,9 @@ TEST(TemperaturePipeline, CsvTemperatureColumnGivesTheCoefficientsAndWiderHonest
   }
   EXPECT_NEAR(jw.at("temperature_reference_C").get<double>(), w.temperature.reference_C, 1e-12);
   const nlohmann::json none = mic::calibration_to_json(without, settings, {"ref", "test"});
-  EXPECT_TRUE(none.at("windows").at(0).at("temperature_offset_nT_per_C").is_null());
+  const nlohmann::json& unfitted = none.at("windows").at(0);
+  EXPECT_EQ(unfitted.at("temperature_fitted"), false);
+  for (const auto& v : unfitted.at("temperature_offset_nT_per_C")) EXPECT_TRUE(v.is_null());
 }
 
 TEST(TemperaturePipeline, ChannelChoiceAndFallBacksAreStated) {

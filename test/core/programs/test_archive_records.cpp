@@ -297,8 +297,8 @@ TEST(ArchiveRecords, ReportWindowIsChosenByIndexLabelOrDefault) {
   for (const auto& [label, quality, scale] : windows) {
     report["windows"].push_back({{"label", label},
                                  {"quality", quality},
-                                 {"start", "2025-05-14T00:00:00.000Z"},
-                                 {"end", "2025-05-14T11:59:59.000Z"},
+                                 {"window_start", "2025-05-14T00:00:00.000Z"},
+                                 {"window_end", "2025-05-14T11:59:59.000Z"},
                                  {"matrix", {{scale, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}}}});
   }
   EXPECT_EQ(mic::select_report_window(report, "", "r.json").n(0, 0), 1.3);

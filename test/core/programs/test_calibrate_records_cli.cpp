@@ -47,7 +47,7 @@ TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
   const nlohmann::json j = nlohmann::json::parse(in);
   ASSERT_EQ(j["windows"].size(), 3u);
   const auto& day = j["windows"][2];
-  for (const char* key : {"start", "end", "samples", "harmonics", "matrix", "matrix_stderr", "matrix_covariance",
+  for (const char* key : {"window_start", "window_end", "samples", "harmonic_first", "matrix", "matrix_stderr", "matrix_covariance",
                           "trend_nT_per_day", "scale_ratio", "scale_ratio_ci95", "nonorthogonality_deg",
                           "nonorthogonality_ci95_deg", "misalignment_deg", "misalignment_ci95_deg",
                           "axis_deviation_deg", "condition_number", "coherence", "residual_rms_nT", "quality"}) {
@@ -57,8 +57,8 @@ TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
     const double value = day["matrix"][k / 3][k % 3], se = day["matrix_stderr"][k / 3][k % 3];
     EXPECT_LT(std::abs(value - pair_.n_true(k / 3, k % 3)), 3.0 * se) << k;
   }
-  EXPECT_EQ(day["harmonics"][0], 5);   // ceil(0.0002 * 21600)
-  EXPECT_EQ(day["harmonics"][1], 216);  // floor(0.01 * 21600)
+  EXPECT_EQ(day["harmonic_first"], 5);   // ceil(0.0002 * 21600)
+  EXPECT_EQ(day["harmonic_last"], 216);  // floor(0.01 * 21600)
 }
 
 TEST_F(CalibrateRecordsCli, MissingFileIsNamed) {

@@ -201,7 +201,7 @@ TEST_F(ExportCorrected, Iaga2002HeaderAndCommentsStateTheCalibration) {
   std::snprintf(row, sizeof row, "n row 1: %+.10f %+.10f %+.10f", first["matrix"][0][0].get<double>(),
                 first["matrix"][0][1].get<double>(), first["matrix"][0][2].get<double>());
   for (const std::string& expected : {std::string("r = t n^-1"), std::string(row), std::string("'interval 1/2'"),
-                                      first["start"].get<std::string>(), std::string("report.json"),
+                                      first["window_start"].get<std::string>(), std::string("report.json"),
                                       std::string("Baseline"), std::string("simulated test record")}) {
     EXPECT_NE(comments.find(expected), std::string::npos) << expected << " not in\n" << comments;
   }
