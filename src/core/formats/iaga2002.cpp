@@ -318,32 +318,26 @@ std::string default_interval_type(const std::vector<double>& times) {
   return buffer;
 }
 
-}  // namespace
-
-void write_iaga2002(const std::string& path, const VectorRecord& record,
-                    const Iaga2002WriteOptions& options) {
-  const std::size_t n = record.size();
-  if (n == 0) throw InputError(path, "cannot write an empty record (IAGA-2002 needs data lines)");
-  if (record.values_nT.rows() != static_cast<Eigen::Index>(n)) {
-    throw InputError(path, "record has " + std::to_string(n) + " times but " +
-                               std::to_string(record.values_nT.rows()) + " rows of values");
+/// A header value: the option, else the record's header field `key` (any case), else `fallback`.
+std::string header_value(const VectorRecord& record, const std::string& option, const std::string& key,
+                         const std::string& fallback) {
+  if (!option.empty()) return option;
+  if (const std::string* value = find_header(record.header, key)) {
+    if (!value->empty()) return *value;
   }
+  return fallback;
+}
 
-  // Header values: option, else the record's header field of that name, else the default.
+/// The header records' labels and values, in the order of the format.
+std::vector<std::pair<std::string, std::string>> header_fields(const VectorRecord& record,
+                                                               const Iaga2002WriteOptions& options,
+                                                               const std::string& iaga_code) {
   auto pick = [&](const std::string& option, const std::string& key, const std::string& fallback) {
-    if (!option.empty()) return option;
-    if (const std::string* value = find_header(record.header, key)) {
-      if (!value->empty()) return *value;
-    }
-    return fallback;
+    return header_value(record, option, key, fallback);
   };
   std::string component_letters;
   for (const std::string& name : record.components) component_letters += name;
-  const std::string iaga_code = upper(
-      !options.iaga_code.empty() ? options.iaga_code
-                                 : (!record.station.empty() ? record.station
-                                                            : pick("", "IAGA Code", "")));
-  const std::vector<std::pair<std::string, std::string>> fields = {
+  return {
       {"Format", "IAGA-2002"},
       {"Source of Data", pick(options.source_of_data, "Source of Data", "unknown")},
       {"Station Name", pick(options.station_name, "Station Name", record.station)},
@@ -359,9 +353,13 @@ void write_iaga2002(const std::string& path, const VectorRecord& record,
                                   default_interval_type(record.time_s))},
       {"Data Type", pick(options.data_type, "Data Type", "variation")},
   };
+}
 
-  std::string text;
-  text.reserve((n + 40) * (kRecordWidth + 2));
+/// Appends the header records, then the comment records (each '\n'-separated line of a comment
+/// word-wrapped to the comment width).
+void append_header_and_comments(std::string& text, const std::string& path,
+                                const std::vector<std::pair<std::string, std::string>>& fields,
+                                const std::vector<std::string>& comments) {
   for (const auto& field : fields) {
     const std::string value = ascii(trim_blanks(field.second));
     if (value.size() > kValueWidth) {
@@ -371,7 +369,7 @@ void write_iaga2002(const std::string& path, const VectorRecord& record,
     }
     text += " " + pad(field.first, kLabelWidth) + pad(value, kValueWidth) + "|\r\n";
   }
-  for (const std::string& paragraph : options.comments) {
+  for (const std::string& paragraph : comments) {
     std::size_t start = 0;
     for (;;) {  // each '\n'-separated line of the paragraph is wrapped separately
       const std::size_t end = paragraph.find('\n', start);
@@ -385,8 +383,10 @@ void write_iaga2002(const std::string& path, const VectorRecord& record,
       start = end + 1;
     }
   }
+}
 
-  // Column header: names start in columns 33, 43, 53 and 63.
+/// The column header record: names (IAGA code + component) start in columns 33, 43, 53 and 63.
+std::string column_header(const std::string& path, const VectorRecord& record, const std::string& iaga_code) {
   std::array<std::string, 4> columns;
   for (std::size_t i = 0; i < 3; ++i) {
     const std::string& component = record.components[i];
@@ -403,53 +403,77 @@ void write_iaga2002(const std::string& path, const VectorRecord& record,
                                  "too long for the IAGA-2002 column header");
     }
   }
-  text += "DATE       TIME         DOY     " + pad(columns[0], 10) + pad(columns[1], 10) +
-          pad(columns[2], 10) + pad(columns[3], 7) + "|\r\n";
+  return "DATE       TIME         DOY     " + pad(columns[0], 10) + pad(columns[1], 10) +
+         pad(columns[2], 10) + pad(columns[3], 7) + "|\r\n";
+}
 
-  // Data records: "yyyy-mm-dd hh:mm:ss.sss ddd" + 3 blanks + 4 values of 10 characters.
-  std::string previous_stamp;
+/// Appends data record r: "yyyy-mm-dd hh:mm:ss.sss ddd" + 3 blanks + 4 values of 10 characters
+/// (nT, F not recorded). `previous_stamp`: the previous record's ISO 8601 time ("" before the
+/// first), replaced by this one's.
+void append_data_record(std::string& text, const std::string& path, const VectorRecord& record, std::size_t r,
+                        std::string& previous_stamp) {
   char line[128];
-  for (std::size_t r = 0; r < n; ++r) {
-    std::string stamp;
-    try {
-      stamp = format_iso8601(record.time_s[r], 3);  // "2025-05-14T00:00:00.000Z"
-    } catch (const std::invalid_argument& error) {
-      throw InputError(path, "sample " + std::to_string(r) + ": " + error.what());
-    }
-    if (!previous_stamp.empty() && !(stamp > previous_stamp)) {  // fixed width: text order
-      throw InputError(path, "sample " + std::to_string(r) + " at " + stamp +
-                                 " is not after the previous sample at " + previous_stamp +
-                                 " (IAGA-2002 times have millisecond resolution)");
-    }
-    const std::int64_t year = std::stoi(stamp.substr(0, 4));
-    const int month = std::stoi(stamp.substr(5, 2));
-    const int day = std::stoi(stamp.substr(8, 2));
-    const int doy = static_cast<int>(days_from_civil(year, month, day) -
-                                     days_from_civil(year, 1, 1) + 1);
-    int length = std::snprintf(line, sizeof line, "%.10s %.12s %03d   ", stamp.c_str(),
-                               stamp.c_str() + 11, doy);
-    std::string data(line, static_cast<std::size_t>(length));
-    for (int c = 0; c < 3; ++c) {
-      const double value = record.values_nT(static_cast<Eigen::Index>(r), c);
-      if (std::isnan(value)) {
-        data += kMissing;
-        continue;
-      }
-      // Values that round to 88888.00 or more would read back as missing.
-      if (!(value < kSentinelThreshold_nT - 0.005 && value > -999999.995)) {
-        throw InputError(path, "sample " + std::to_string(r) + " at " + stamp + ", component " +
-                                   record.components[c] + ": " + std::to_string(value) +
-                                   " nT cannot be written in IAGA-2002 (must be between "
-                                   "-999999.99 and 88887.99, or NaN)");
-      }
-      length = std::snprintf(line, sizeof line, "%10.2f", value);
-      data.append(line, static_cast<std::size_t>(length));
-    }
-    data += kNotRecorded;
-    text += data;
-    text += "\r\n";
-    previous_stamp = std::move(stamp);
+  std::string stamp;
+  try {
+    stamp = format_iso8601(record.time_s[r], 3);  // "2025-05-14T00:00:00.000Z"
+  } catch (const std::invalid_argument& error) {
+    throw InputError(path, "sample " + std::to_string(r) + ": " + error.what());
   }
+  if (!previous_stamp.empty() && !(stamp > previous_stamp)) {  // fixed width: text order
+    throw InputError(path, "sample " + std::to_string(r) + " at " + stamp +
+                               " is not after the previous sample at " + previous_stamp +
+                               " (IAGA-2002 times have millisecond resolution)");
+  }
+  const std::int64_t year = std::stoi(stamp.substr(0, 4));
+  const int month = std::stoi(stamp.substr(5, 2));
+  const int day = std::stoi(stamp.substr(8, 2));
+  const int doy = static_cast<int>(days_from_civil(year, month, day) -
+                                   days_from_civil(year, 1, 1) + 1);
+  int length = std::snprintf(line, sizeof line, "%.10s %.12s %03d   ", stamp.c_str(),
+                             stamp.c_str() + 11, doy);
+  std::string data(line, static_cast<std::size_t>(length));
+  for (int c = 0; c < 3; ++c) {
+    const double value = record.values_nT(static_cast<Eigen::Index>(r), c);
+    if (std::isnan(value)) {
+      data += kMissing;
+      continue;
+    }
+    // Values that round to 88888.00 or more would read back as missing.
+    if (!(value < kSentinelThreshold_nT - 0.005 && value > -999999.995)) {
+      throw InputError(path, "sample " + std::to_string(r) + " at " + stamp + ", component " +
+                                 record.components[c] + ": " + std::to_string(value) +
+                                 " nT cannot be written in IAGA-2002 (must be between "
+                                 "-999999.99 and 88887.99, or NaN)");
+    }
+    length = std::snprintf(line, sizeof line, "%10.2f", value);
+    data.append(line, static_cast<std::size_t>(length));
+  }
+  data += kNotRecorded;
+  text += data;
+  text += "\r\n";
+  previous_stamp = std::move(stamp);
+}
+
+}  // namespace
+
+void write_iaga2002(const std::string& path, const VectorRecord& record,
+                    const Iaga2002WriteOptions& options) {
+  const std::size_t n = record.size();
+  if (n == 0) throw InputError(path, "cannot write an empty record (IAGA-2002 needs data lines)");
+  if (record.values_nT.rows() != static_cast<Eigen::Index>(n)) {
+    throw InputError(path, "record has " + std::to_string(n) + " times but " +
+                               std::to_string(record.values_nT.rows()) + " rows of values");
+  }
+  const std::string iaga_code = upper(
+      !options.iaga_code.empty() ? options.iaga_code
+                                 : (!record.station.empty() ? record.station
+                                                            : header_value(record, "", "IAGA Code", "")));
+  std::string text;
+  text.reserve((n + 40) * (kRecordWidth + 2));
+  append_header_and_comments(text, path, header_fields(record, options, iaga_code), options.comments);
+  text += column_header(path, record, iaga_code);
+  std::string previous_stamp;
+  for (std::size_t r = 0; r < n; ++r) append_data_record(text, path, record, r, previous_stamp);
 
   TextFileWriter writer(path);
   writer.write(text);

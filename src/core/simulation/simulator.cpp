@@ -133,6 +133,160 @@ bool hits_test(SimulatedInstrument i) {
   return i == SimulatedInstrument::kTest || i == SimulatedInstrument::kBoth;
 }
 
+/// The clean field, reference frame, nT: B(t_i) and B(t_i - delay).
+struct CleanField {
+  Readings field;
+  Readings field_delayed;
+};
+
+/// Adds the correlated power-law variations to the clean field: whitened (sample covariance ->
+/// identity), then given diag(rms) C diag(rms) exactly.
+void add_variations(const SimulationSettings& s, SpectralSynthesizer& synthesizer, CleanField& clean) {
+  const std::size_t n = static_cast<std::size_t>(clean.field.rows());
+  const Eigen::Index rows = clean.field.rows();
+  const double dt = s.sample_period_s;
+  SimulationRng rng(s.seed, kStreamVariations);
+  Readings w(rows, 3), w_delayed(rows, 3);
+  for (int c = 0; c < 3; ++c) {
+    const Eigen::VectorXcd spectrum =
+        power_law_spectrum(n, dt, s.spectral_index, s.variation_corner_hz, 1.0, rng);
+    w.col(c) = synthesizer.synthesize(spectrum, dt);
+    w_delayed.col(c) = s.delay_s != 0.0 ? synthesizer.synthesize(spectrum, dt, s.delay_s)
+                                        : Eigen::VectorXd(w.col(c));
+  }
+  // x = w M with M = Ls^-T Lc^T D (S = w^T w / N = Ls Ls^T, C = Lc Lc^T).
+  const Eigen::Matrix3d sample_cov = (w.transpose() * w) / static_cast<double>(n);
+  Eigen::LLT<Eigen::Matrix3d> sample_llt(sample_cov);
+  Eigen::Matrix3d whitening = Eigen::Matrix3d::Identity();
+  if (sample_llt.info() == Eigen::Success) {
+    whitening = sample_llt.matrixU().solve(Eigen::Matrix3d::Identity());  // Ls^-T
+  }
+  const Eigen::Matrix3d lc = correlation_matrix(s.variation_correlation).llt().matrixL();
+  const Eigen::Vector3d rms(s.variation_rms_nT, s.variation_rms_nT,
+                            s.variation_rms_nT * s.variation_z_ratio);
+  const Eigen::Matrix3d mixing = whitening * lc.transpose() * rms.asDiagonal();
+  clean.field += w * mixing;
+  clean.field_delayed += w_delayed * mixing;
+}
+
+/// The clean field of n samples: main field, variations, daily variation.
+CleanField clean_field(const SimulationSettings& s, std::size_t n, SpectralSynthesizer& synthesizer) {
+  const Eigen::Index rows = static_cast<Eigen::Index>(n);
+  const double dt = s.sample_period_s;
+  CleanField clean;
+  clean.field.resize(rows, 3);
+  clean.field_delayed.resize(rows, 3);
+  for (int c = 0; c < 3; ++c) {
+    clean.field.col(c).setConstant(s.main_field_nT(c));
+  }
+  clean.field_delayed = clean.field;
+  if (s.variation_rms_nT > 0.0) add_variations(s, synthesizer, clean);
+  if (!s.daily_amplitude_nT.isZero()) {
+    const double day_start = std::fmod(s.start_time_s, kSecondsPerDay);  // s of the UTC day
+    for (std::size_t i = 0; i < n; ++i) {
+      const double tau = day_start + static_cast<double>(i) * dt;
+      const Eigen::Index r = static_cast<Eigen::Index>(i);
+      clean.field.row(r) += daily_variation(s, tau);
+      clean.field_delayed.row(r) += daily_variation(s, tau - s.delay_s);
+    }
+  }
+  return clean;
+}
+
+/// The test readings without noise, test frame, nT: the delayed field through n_true (tilting
+/// about pair.tilt_rate_rad_per_s when set; then pair.tilt_trend_nT_per_day is filled), plus
+/// offset and drift.
+Readings test_readings(const SimulationSettings& s, const CleanField& clean, const std::vector<double>& time_s,
+                       SimulatedPair& pair) {
+  const std::size_t n = time_s.size();
+  const double dt = s.sample_period_s;
+  Readings test(static_cast<Eigen::Index>(n), 3);
+  if (s.tilt_rate_deg_per_day == 0.0) {
+    test.noalias() = clean.field_delayed * pair.n_true;
+  } else {
+    const Eigen::Vector3d axis = pair.tilt_rate_rad_per_s.normalized();
+    const double rate = pair.tilt_rate_rad_per_s.norm();  // rad/s
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Index r = static_cast<Eigen::Index>(i);
+      const Eigen::Matrix3d rotation =
+          Eigen::AngleAxisd(rate * (time_s[i] - pair.tilt_reference_time_s), axis).toRotationMatrix();
+      test.row(r) = clean.field_delayed.row(r) * rotation * pair.n_true;
+    }
+    const Eigen::RowVector3d mean_field = clean.field.colwise().mean();
+    Eigen::Matrix3d cross;  // [w]x, w in rad/day
+    const Eigen::Vector3d w_day = pair.tilt_rate_rad_per_s * kSecondsPerDay;
+    cross << 0.0, -w_day(2), w_day(1),  //
+        w_day(2), 0.0, -w_day(0),       //
+        -w_day(1), w_day(0), 0.0;
+    pair.tilt_trend_nT_per_day = (mean_field * cross * pair.n_true).transpose();
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const double days = static_cast<double>(i) * dt / kSecondsPerDay;
+    test.row(static_cast<Eigen::Index>(i)) +=
+        (s.test_offset_nT + s.drift_nT_per_day * days).transpose();
+  }
+  return test;
+}
+
+/// Gaps: gap_count runs of L samples, separated by >= 1 sample, set to NaN in the instruments
+/// they hit and listed in pair.gaps. Returns, per sample, whether it lies in a gap.
+std::vector<char> add_gaps(const SimulationSettings& s, Readings& reference, Readings& test, SimulatedPair& pair) {
+  const std::size_t n = static_cast<std::size_t>(reference.rows());
+  std::vector<char> in_gap(n, 0);
+  if (s.gap_count <= 0) return in_gap;
+  SimulationRng rng(s.seed, kStreamGaps);
+  const std::size_t length = gap_samples(s);
+  const std::size_t count = static_cast<std::size_t>(s.gap_count);
+  const std::size_t free = n - count * (length + 1);
+  std::vector<std::size_t> offsets(count);
+  for (auto& o : offsets) o = static_cast<std::size_t>(rng.uniform_index(free + 1));
+  std::sort(offsets.begin(), offsets.end());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t g = 0; g < count; ++g) {
+    SimulatedGap gap;
+    gap.first_index = offsets[g] + g * (length + 1);
+    gap.length = length;
+    gap.instrument = resolve(s.gap_instrument, rng);
+    const Eigen::Index first = static_cast<Eigen::Index>(gap.first_index);
+    const Eigen::Index len = static_cast<Eigen::Index>(length);
+    if (hits_reference(gap.instrument)) reference.middleRows(first, len).setConstant(nan);
+    if (hits_test(gap.instrument)) test.middleRows(first, len).setConstant(nan);
+    std::fill(in_gap.begin() + static_cast<std::ptrdiff_t>(gap.first_index),
+              in_gap.begin() + static_cast<std::ptrdiff_t>(gap.first_index + length), 1);
+    pair.gaps.push_back(gap);
+  }
+  return in_gap;
+}
+
+/// Spikes: distinct samples outside every gap, +-spike_amplitude_nT on one component of the
+/// instruments they hit; listed in pair.spikes in sample order.
+void add_spikes(const SimulationSettings& s, const std::vector<char>& in_gap, Readings& reference, Readings& test,
+                SimulatedPair& pair) {
+  const std::size_t n = in_gap.size();
+  const std::size_t spikes = spike_count(s);
+  if (spikes == 0) return;
+  SimulationRng rng(s.seed, kStreamSpikes);
+  std::vector<char> taken = in_gap;
+  for (std::size_t k = 0; k < spikes; ++k) {
+    std::size_t index;
+    do {
+      index = static_cast<std::size_t>(rng.uniform_index(n));
+    } while (taken[index]);
+    taken[index] = 1;
+    SimulatedSpike spike;
+    spike.index = index;
+    spike.instrument = resolve(s.spike_instrument, rng);
+    spike.component = static_cast<int>(rng.uniform_index(3));
+    spike.amplitude_nT = rng.uniform() < 0.5 ? -s.spike_amplitude_nT : s.spike_amplitude_nT;
+    const Eigen::Index r = static_cast<Eigen::Index>(index);
+    if (hits_reference(spike.instrument)) reference(r, spike.component) += spike.amplitude_nT;
+    if (hits_test(spike.instrument)) test(r, spike.component) += spike.amplitude_nT;
+    pair.spikes.push_back(spike);
+  }
+  std::sort(pair.spikes.begin(), pair.spikes.end(),
+            [](const SimulatedSpike& a, const SimulatedSpike& b) { return a.index < b.index; });
+}
+
 }  // namespace
 
 const char* simulated_instrument_name(SimulatedInstrument instrument) {
@@ -246,7 +400,6 @@ Eigen::Matrix3d SimulatedPair::n_at(double time_s) const {
 SimulatedPair simulate_pair(const SimulationSettings& s) {
   s.validate();
   const std::size_t n = s.samples();
-  const Eigen::Index rows = static_cast<Eigen::Index>(n);
   const double dt = s.sample_period_s;
 
   SimulatedPair pair;
@@ -262,76 +415,10 @@ SimulatedPair simulate_pair(const SimulationSettings& s) {
   for (std::size_t i = 0; i < n; ++i) time_s[i] = s.start_time_s + static_cast<double>(i) * dt;
 
   SpectralSynthesizer synthesizer(n);
+  CleanField clean = clean_field(s, n, synthesizer);
 
-  // --- Clean field B(t_i) and B(t_i - delay), reference frame ---------------------------------
-  Readings field(rows, 3);
-  Readings field_delayed(rows, 3);
-  for (int c = 0; c < 3; ++c) {
-    field.col(c).setConstant(s.main_field_nT(c));
-  }
-  field_delayed = field;
-  if (s.variation_rms_nT > 0.0) {
-    SimulationRng rng(s.seed, kStreamVariations);
-    Readings w(rows, 3), w_delayed(rows, 3);
-    for (int c = 0; c < 3; ++c) {
-      const Eigen::VectorXcd spectrum =
-          power_law_spectrum(n, dt, s.spectral_index, s.variation_corner_hz, 1.0, rng);
-      w.col(c) = synthesizer.synthesize(spectrum, dt);
-      w_delayed.col(c) = s.delay_s != 0.0 ? synthesizer.synthesize(spectrum, dt, s.delay_s)
-                                          : Eigen::VectorXd(w.col(c));
-    }
-    // Whiten (sample covariance -> identity), then impose diag(rms) C diag(rms) exactly:
-    // x = w M with M = Ls^-T Lc^T D (S = w^T w / N = Ls Ls^T, C = Lc Lc^T).
-    const Eigen::Matrix3d sample_cov = (w.transpose() * w) / static_cast<double>(n);
-    Eigen::LLT<Eigen::Matrix3d> sample_llt(sample_cov);
-    Eigen::Matrix3d whitening = Eigen::Matrix3d::Identity();
-    if (sample_llt.info() == Eigen::Success) {
-      whitening = sample_llt.matrixU().solve(Eigen::Matrix3d::Identity());  // Ls^-T
-    }
-    const Eigen::Matrix3d lc = correlation_matrix(s.variation_correlation).llt().matrixL();
-    const Eigen::Vector3d rms(s.variation_rms_nT, s.variation_rms_nT,
-                              s.variation_rms_nT * s.variation_z_ratio);
-    const Eigen::Matrix3d mixing = whitening * lc.transpose() * rms.asDiagonal();
-    field += w * mixing;
-    field_delayed += w_delayed * mixing;
-  }
-  if (!s.daily_amplitude_nT.isZero()) {
-    const double day_start = std::fmod(s.start_time_s, kSecondsPerDay);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double tau = day_start + static_cast<double>(i) * dt;
-      const Eigen::Index r = static_cast<Eigen::Index>(i);
-      field.row(r) += daily_variation(s, tau);
-      field_delayed.row(r) += daily_variation(s, tau - s.delay_s);
-    }
-  }
-
-  // --- Readings --------------------------------------------------------------------------------
-  Readings reference = field;
-  Readings test(rows, 3);
-  if (s.tilt_rate_deg_per_day == 0.0) {
-    test.noalias() = field_delayed * pair.n_true;
-  } else {
-    const Eigen::Vector3d axis = pair.tilt_rate_rad_per_s.normalized();
-    const double rate = pair.tilt_rate_rad_per_s.norm();
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Index r = static_cast<Eigen::Index>(i);
-      const Eigen::Matrix3d rotation =
-          Eigen::AngleAxisd(rate * (time_s[i] - pair.tilt_reference_time_s), axis).toRotationMatrix();
-      test.row(r) = field_delayed.row(r) * rotation * pair.n_true;
-    }
-    const Eigen::RowVector3d mean_field = field.colwise().mean();
-    Eigen::Matrix3d cross;  // [w]x, w in rad/day
-    const Eigen::Vector3d w_day = pair.tilt_rate_rad_per_s * kSecondsPerDay;
-    cross << 0.0, -w_day(2), w_day(1),  //
-        w_day(2), 0.0, -w_day(0),       //
-        -w_day(1), w_day(0), 0.0;
-    pair.tilt_trend_nT_per_day = (mean_field * cross * pair.n_true).transpose();
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    const double days = static_cast<double>(i) * dt / kSecondsPerDay;
-    test.row(static_cast<Eigen::Index>(i)) +=
-        (s.test_offset_nT + s.drift_nT_per_day * days).transpose();
-  }
+  Readings reference = clean.field;
+  Readings test = test_readings(s, clean, time_s, pair);
   {
     SimulationRng rng(s.seed, kStreamReferenceNoise);
     add_noise(reference, s.reference_white_nT, s.reference_pink_nT_per_sqrt_hz, dt, rng, synthesizer);
@@ -340,57 +427,8 @@ SimulatedPair simulate_pair(const SimulationSettings& s) {
     SimulationRng rng(s.seed, kStreamTestNoise);
     add_noise(test, s.test_white_nT, s.test_pink_nT_per_sqrt_hz, dt, rng, synthesizer);
   }
-
-  // --- Gaps: gap_count runs of L samples, separated by >= 1 sample --------------------------------
-  std::vector<char> in_gap(n, 0);
-  if (s.gap_count > 0) {
-    SimulationRng rng(s.seed, kStreamGaps);
-    const std::size_t length = gap_samples(s);
-    const std::size_t count = static_cast<std::size_t>(s.gap_count);
-    const std::size_t free = n - count * (length + 1);
-    std::vector<std::size_t> offsets(count);
-    for (auto& o : offsets) o = static_cast<std::size_t>(rng.uniform_index(free + 1));
-    std::sort(offsets.begin(), offsets.end());
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    for (std::size_t g = 0; g < count; ++g) {
-      SimulatedGap gap;
-      gap.first_index = offsets[g] + g * (length + 1);
-      gap.length = length;
-      gap.instrument = resolve(s.gap_instrument, rng);
-      const Eigen::Index first = static_cast<Eigen::Index>(gap.first_index);
-      const Eigen::Index len = static_cast<Eigen::Index>(length);
-      if (hits_reference(gap.instrument)) reference.middleRows(first, len).setConstant(nan);
-      if (hits_test(gap.instrument)) test.middleRows(first, len).setConstant(nan);
-      std::fill(in_gap.begin() + static_cast<std::ptrdiff_t>(gap.first_index),
-                in_gap.begin() + static_cast<std::ptrdiff_t>(gap.first_index + length), 1);
-      pair.gaps.push_back(gap);
-    }
-  }
-
-  // --- Spikes: distinct samples outside every gap ----------------------------------------------
-  const std::size_t spikes = spike_count(s);
-  if (spikes > 0) {
-    SimulationRng rng(s.seed, kStreamSpikes);
-    std::vector<char> taken = in_gap;
-    for (std::size_t k = 0; k < spikes; ++k) {
-      std::size_t index;
-      do {
-        index = static_cast<std::size_t>(rng.uniform_index(n));
-      } while (taken[index]);
-      taken[index] = 1;
-      SimulatedSpike spike;
-      spike.index = index;
-      spike.instrument = resolve(s.spike_instrument, rng);
-      spike.component = static_cast<int>(rng.uniform_index(3));
-      spike.amplitude_nT = rng.uniform() < 0.5 ? -s.spike_amplitude_nT : s.spike_amplitude_nT;
-      const Eigen::Index r = static_cast<Eigen::Index>(index);
-      if (hits_reference(spike.instrument)) reference(r, spike.component) += spike.amplitude_nT;
-      if (hits_test(spike.instrument)) test(r, spike.component) += spike.amplitude_nT;
-      pair.spikes.push_back(spike);
-    }
-    std::sort(pair.spikes.begin(), pair.spikes.end(),
-              [](const SimulatedSpike& a, const SimulatedSpike& b) { return a.index < b.index; });
-  }
+  const std::vector<char> in_gap = add_gaps(s, reference, test, pair);
+  add_spikes(s, in_gap, reference, test, pair);
 
   // --- Records ---------------------------------------------------------------------------------
   pair.reference.time_s = time_s;
@@ -402,8 +440,8 @@ SimulatedPair simulate_pair(const SimulationSettings& s) {
   pair.test.source = "simulated test (seed " + std::to_string(s.seed) + ")";
   pair.test.station = "SIM";
   if (s.keep_clean_field) {
-    pair.field_nT = std::move(field);
-    pair.field_delayed_nT = std::move(field_delayed);
+    pair.field_nT = std::move(clean.field);
+    pair.field_delayed_nT = std::move(clean.field_delayed);
   }
   return pair;
 }
