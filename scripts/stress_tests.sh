@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs the ctest suite N times and prints, per test, in how many runs it failed: the check that
-# the suite does not flake (issue #12). It does NOT build: build first (bash scripts/run_tests.sh
+# the suite does not flake. It does NOT build: build first (bash scripts/run_tests.sh
 # once, or scripts/build.sh all tests); it stops if build/ has no tests.
 #
 #   bash scripts/stress_tests.sh N [--hog K] [--ptys] [--logs DIR] [-- CTEST_ARGS...]
@@ -9,8 +9,8 @@
 #   --hog K      beside K busy-loop processes (each keeps one core busy), started before the
 #                first run and stopped at the end (by their process ids)
 #   --ptys       beside a process that opens a pseudo-terminal every 0.1 s and keeps each 20 s
-#                (another program's ptys take freed pty numbers: what made the driver rostests
-#                fail in issue #12 when one test's stale link named the other test's pty)
+#                (another program's ptys take freed pty numbers: what once made the driver
+#                rostests fail when one test's stale link named the other test's pty)
 #   --logs DIR   where each run's output goes (run_<i>.log); default a new mktemp -d folder
 #   -- ARGS      more ctest arguments, e.g. -- -R 'lemi025_driver|faults_driver' for a subset
 #

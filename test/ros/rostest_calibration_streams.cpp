@@ -310,7 +310,7 @@ TEST(Calibration, ThreeCorneredHat) {
     EXPECT_EQ(d->values.at("intervals (last window)"), "sandwich raised to the jackknife over 8 interleaved frequency groups, "
                                                        "plus the identified reference noise's uncertainty");
     EXPECT_EQ(d->values.at("weights (last window)"), "lambda^gamma x Huber cell x section");
-    // The identified level against the simulated 100 pT, within 20 % (issue 13's aim).
+    // The identified level against the simulated 100 pT, within 20 %.
     const Eigen::Vector3d level = identified_level_pT(noise, 0.002, 0.05);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(level(c) / 100.0, 1.0, 0.2) << c << ": " << noise;
   }

@@ -112,7 +112,7 @@ TEST(Calibration, RotationOnTfStatic) {
     // component of the error within 3 half-widths (about 6 stated standard errors). Measured
     // with ~seed 41, 43, 47, 53, 59 (30 components): error / half-width up to 2.28 (seed 53),
     // 4 of 30 above 1 where 95 % intervals would give 1.5: the robust method's intervals run
-    // narrow (docs/robust_estimation.md). A transform in the wrong direction errs by 10 deg,
+    // narrow (docs/validation.md, coverage of the intervals). A transform in the wrong direction errs by 10 deg,
     // about 1000 half-widths.
     const Eigen::AngleAxisd published(r_tf.transpose()), truth(r_true.transpose());
     const Eigen::Vector3d v_pub = published.axis() * published.angle() / kDeg;

@@ -279,9 +279,8 @@ TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
 
   // With the reference's noise from the pair (the default): on the second 2-hour interval the
   // one-ulp tesla round trip once flipped its x fit between white 6.5 pT and 1/f 3.0
-  // pT/sqrt(Hz), moving n(z,x) by 6e-5 (session 11; the one positive bin of six was fitted
-  // alone, by either term exactly). The fit is continuous since session 12: the two readers
-  // agree to 1e-7 with it.
+  // pT/sqrt(Hz), moving n(z,x) by 6e-5 (the one positive bin of six was fitted alone, by
+  // either term exactly), before the fit was made continuous: the two readers agree to 1e-7.
   const std::string common = " --intervals 2 --json ";
   r = run_program(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/lemi.bag --reference-topic /lemi/ref/magnetic_field --test-topic "
                                  "/lemi/test/magnetic_field" + common + dir + "/bag.json");

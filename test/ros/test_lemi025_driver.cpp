@@ -252,7 +252,7 @@ TEST_F(Lemi025DriverOnPty, SerialDisconnectIsSurvived) {
 }
 
 // The link is re-pointed at a new pty while the old one stays open and silent: socat, ser2net or
-// a simulator re-created its pty; or, the flaky failure of issue #12, the stale link of an
+// a simulator re-created its pty; or (a flaky failure once seen) the stale link of an
 // unplugged pty named a pty number the kernel had given to another test's pty, the driver opened
 // that one, and then the instrument's new pty replaced the link. The driver must follow the link
 // (it used to stay on the old pty until that one closed: 24 s without data).

@@ -137,7 +137,7 @@ TEST(Lemi025DriverRecordings, LemiBinWithoutGpsUsesRecordedPcTime) {
         // The last reading of the last packet, stamped with its PC time t0 + 3619.75. The
         // packet's ten readings (0.1 s apart from t0 + 3618.85) arrive one by one; waiting for a
         // stamp past t0 + 3619 stopped at the third and counted 93 of the 100 passive readings
-        // (fresh-clone run S11B).
+        // (seen on a fresh clone).
         return !f.empty() && f.back().header.stamp.toSec() > t0 + 3600.0 + 19.75 - 1e-3;
       }))
       << recorder.field_count() << " readings";

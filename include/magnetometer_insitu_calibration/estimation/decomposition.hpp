@@ -58,7 +58,7 @@ CalibrationParameters decompose(const Eigen::Matrix3d& n);
 /// covariance's degrees of freedom (spectral cells); the half-widths are Student's t quantile
 /// with as many degrees of freedom times the standard errors (the normal's 1.960 when infinite).
 /// A covariance from few cells is itself uncertain: with the normal quantile an interval from 10
-/// cells would cover 92 %, its half-width 12 % too narrow (docs/estimator_validation.md B26).
+/// cells would cover 92 %, its half-width 12 % too narrow (docs/validation.md, coverage).
 CalibrationParameters decompose(const Eigen::Matrix3d& n, const Matrix9d& covariance,
                                 double covariance_dof = std::numeric_limits<double>::infinity());
 

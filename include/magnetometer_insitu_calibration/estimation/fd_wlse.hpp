@@ -101,7 +101,7 @@ struct WindowEstimate {
   /// as cells that share it equally ((sum t)^2 / sum t^2 of the cells' expected shares t,
   /// Satterthwaite; src/core/estimation/sandwich_cells.hpp). At most the band's cells; fewer when
   /// a few strong harmonics carry the sandwich (a simulated hour's 36 cells count 24-30, a real
-  /// WIC hour's 9-22; docs/estimator_validation.md B25). A covariance estimated from nu cells makes
+  /// WIC hour's 9-22; docs/validation.md, coverage). A covariance estimated from nu cells makes
   /// a quadratic form in it (chi2 against vec(n)) larger than chi2 by nu / (nu - p - 1) on average
   /// and heavier in the tail (Hotelling's T^2). The change and agreement checks use it; JSON
   /// "covariance_cells"; infinity: the covariance is taken as known (e.g. a calibration read back

@@ -35,8 +35,7 @@ struct ResponseModelSettings {
   /// most max_corner_above_fit times above the highest fitted band (else no filter: a roll-off
   /// extrapolated from far above the data is what reference noise does to the measured gain at
   /// high frequency). At 1.5 the 1-pole's gain at the top of the fit is 0.83: its roll-off was
-  /// seen. (1.0, the rule until session 6, missed the 0.03 Hz filter on disturbed records whose
-  /// fit stops at 0.0225 Hz.)
+  /// seen. (1.0 would miss the 0.03 Hz filter on disturbed records whose fit stops at 0.0225 Hz.)
   double min_significance = 3.0;
   double max_corner_above_fit = 1.5;
 

@@ -24,7 +24,7 @@
 //  2. Sections. The window is cut into K sections of about section_s (>= 2 / band_low), each
 //     linearly detrended and transformed. A cell is one harmonic of one section inside the
 //     band; it gives X (3 reference DFT values) and Y (3 test values). With section_trend (the
-//     default since session 11) each section also takes Eq. 2's trend column: the DFT of a
+//     default) each section also takes Eq. 2's trend column: the DFT of a
 //     ramp, with one real coefficient per section and component, is projected out of every
 //     column of its cells (section_trend.hpp). The time-domain line alone leaves the section's
 //     end mismatch, which an untapered DFT spreads over all its harmonics as that ramp: a
@@ -78,7 +78,7 @@
 //        J Sigma J^T of those levels through the correction (noise_level_covariance_term): the
 //        jackknife re-solves with the same levels, so it cannot see their uncertainty.
 //     Measured coverage and the reasoning: section_jackknife.cpp (combine_covariances) and
-//     docs/robust_estimation.md.
+//     docs/validation.md (coverage of the intervals).
 //
 // The plain estimator (FdWlseEstimator, Eq. 2 on the whole window) stays available through
 // EstimatorSettings::method = kPlain, with unchanged results.

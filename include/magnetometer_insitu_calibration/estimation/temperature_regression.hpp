@@ -1,4 +1,4 @@
-// Temperature of the test sensor as a regressor beside the reference (issue 14), like the
+// Temperature of the test sensor as a regressor beside the reference, like the
 // paper's trend column: the frequency-domain weighted least squares of Eq. 2 over the same band
 // and weights, with two more columns per test component.
 //

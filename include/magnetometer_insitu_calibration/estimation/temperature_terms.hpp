@@ -1,4 +1,4 @@
-// The temperature terms of one window estimate (issue 14), shared by the offline pipeline
+// The temperature terms of one window estimate, shared by the offline pipeline
 // (calibrate_prepared) and calibration_node (live_window): fit_temperature with n0 = the window's
 // estimate, the fitted terms removed from T, n estimated again (then at the window's mean
 // temperature, TemperatureFit::reference_C) and the coefficients' uncertainty added to n's

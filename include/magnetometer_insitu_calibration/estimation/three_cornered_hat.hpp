@@ -1,6 +1,6 @@
 // Noise of each of three co-located instruments from their pairwise residuals (the
 // three-cornered hat of clock metrology), for the errors-in-variables correction with
-// IDENTIFIED noise (errors_in_variables.hpp, issue 13).
+// IDENTIFIED noise (errors_in_variables.hpp).
 //
 // For instruments a, b, c recording the same field, the residual of the pair (a, b),
 // e_ab = T_b - T_a n_ab (n_ab from Eq. 2, T_a as the reference), has the one-sided PSD

@@ -1,4 +1,4 @@
-// The reference's noise from the pair itself, above the calibration band (issue 13): the part of
+// The reference's noise from the pair itself, above the calibration band: the part of
 // the reference's auto-spectrum that is not coherent with the test through the calibration.
 //
 // With row spectra R_j, T_j (1 x 3) of harmonic j and a test that records the reference's field

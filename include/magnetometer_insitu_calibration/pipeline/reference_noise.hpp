@@ -53,7 +53,7 @@ struct IdentifiedNoise {
 /// all bins (the mean |S|), then two passes relative to the previous fit's model value. Every
 /// finite bin enters, negative ones too (an estimate scatters about its true value; leaving out
 /// the negative ones biases the level up), and the levels are continuous in the bins: not
-/// weighting by each bin's own value, where a value near zero took all the weight (session 12).
+/// weighting by each bin's own value, where a value near zero would take all the weight.
 /// With one bin, a white level only. Returns false for an axis whose two levels come out zero
 /// (no finite bin, or bins that do not support a positive level).
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, const std::vector<double>& bin_low_hz,
@@ -68,7 +68,7 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz, cons
 /// ThreeCorneredHatResult::psd_floor_nT2_per_hz): a bin's scatter is then taken as (model +
 /// floor) / sqrt(harmonics), harmonics from the bin's width; without it every bin counts equally
 /// relative to its model value (the pair's noise, whose top bins carry the test's response
-/// mismatch: B18 in docs/estimator_validation.md).
+/// mismatch: docs/validation.md, design choices).
 bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz,
                         const std::vector<Eigen::Vector3d>& psd_sd_nT2_per_hz, const std::vector<double>& bin_low_hz,
                         const std::vector<double>& bin_high_hz, double dt, Eigen::Vector3d& white_nT,

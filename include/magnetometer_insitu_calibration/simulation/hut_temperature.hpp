@@ -1,4 +1,4 @@
-// A field hut's temperature and what it does to the test fluxgate (issue 14), added to a
+// A field hut's temperature and what it does to the test fluxgate, added to a
 // simulated pair (simulator.hpp) after simulate_pair() and any other disturbances.
 //
 // Temperature of the test sensor, deg C, at UNIX time t (s UTC):

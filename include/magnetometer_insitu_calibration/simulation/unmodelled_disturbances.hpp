@@ -1,7 +1,7 @@
 // Disturbances that reach the TEST instrument only and that the estimators do not model, added
 // to a simulated pair (simulator.hpp) after simulate_pair() and, if used,
-// add_station_disturbances(). They are what made the package's own simulator an easy case
-// (issue 13): the robust default was tuned on records without them.
+// add_station_disturbances(). Without them the package's own simulator is an easy case: the
+// robust default must also be judged on records with them.
 //
 //  - Response mismatch: the test instrument sees everything through a one-pole low-pass filter
 //    H(f) = 1 / (1 + i f / corner) and a pure delay, H(f) e^{-2 pi i f delay}; the reference is

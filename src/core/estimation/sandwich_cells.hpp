@@ -8,7 +8,8 @@
 // Satterthwaite count (sum t)^2 / sum t^2 (Bell and McCaffrey 2002; Pustejovsky and Tipton 2018
 // for Hotelling's T^2 with such a count) is the cells' number when they share equally and fewer
 // when a few carry most of the sandwich, as the band's strong lowest harmonics do under a red
-// geomagnetic spectrum (docs/estimator_validation.md B25). Not installed: src/core only.
+// geomagnetic spectrum (docs/validation.md, coverage of the intervals). Not installed: src/core
+// only.
 #pragma once
 
 #include <Eigen/Cholesky>

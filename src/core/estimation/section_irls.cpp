@@ -24,7 +24,7 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   // Huber weights need a scale that is one level across its bin. When the band's cells make a
   // single bin (a window under about 2 h), that one scale spans the residual's colour (the
   // instruments' 1/f noise, a pier's tilt) and the strong low cells would be down-weighted as
-  // outliers: there the cells keep weight 1 (docs/estimator_validation.md, B24). The
+  // outliers: there the cells keep weight 1 (docs/validation.md, design choices). The
   // rejection of wild cells (kCellRejection) and the section weights stay.
   const bool huber = huber_cell_weights(bins);
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);

@@ -12,8 +12,8 @@
 // 11000, no EIV: errors 1.39-1.49 standard errors rms for the scale ratios, 1.15 without the
 // tilt; plain Eq. 2, whose trend column is this ramp over the whole window, 1.11-1.12).
 // Eq. 2's trend column, applied per section, removes it (the same runs: 1.04-1.07 for the x and
-// y scale ratios, coverage of the six parameters 86.2 -> 93.2 %; docs/estimator_validation.md
-// B16): by Frisch-Waugh-Lovell, fitting
+// y scale ratios, coverage of the six parameters 86.2 -> 93.2 %; docs/validation.md,
+// design choices): by Frisch-Waugh-Lovell, fitting
 // n together with a real coefficient on r per section and component is fitting n to the cells
 // with r projected out of every column of X and Y.
 #pragma once

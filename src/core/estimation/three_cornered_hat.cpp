@@ -130,8 +130,8 @@ std::array<std::vector<Eigen::Vector3d>, 3> cross_spectral_psd(const std::array<
     // N_x + N_y' the mean |r|^2 and N_x + N_z' the mean |r'|^2 of r' = X - Z W'^H, W' = S_xy S_zy^-1;
     // over count - 3 independent harmonics (no taper). For the noisiest instrument this is about
     // N_x^2; for one much quieter than the other two it is N_y' N_z' / 2, which does not vanish
-    // with N_x (session 13: N_x^2 + N_x N_d / 2 before, zero wherever a quiet instrument's
-    // estimate came out negative).
+    // with N_x (N_x^2 + N_x N_d / 2 would state zero wherever a quiet instrument's estimate
+    // came out negative).
     const auto residual_power = [&](int x, int y, const Eigen::Matrix3cd& w_adjoint) -> Eigen::Vector3d {
       Eigen::Vector3d r2_sum = Eigen::Vector3d::Zero();
       for (Eigen::Index j = first; j < end; ++j) {

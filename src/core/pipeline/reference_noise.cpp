@@ -84,16 +84,17 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd, const std::vect
     for (const std::size_t k : used) mean_width += (high[k] - low[k]) / static_cast<double>(used.size());
     // Least squares relative to each bin's model value: first with one scale for all bins (the
     // first fit's model is not known yet), then twice relative to the previous fit's model value.
-    // Not relative to the bin's own value (session 12): a value near zero would take all the
+    // Not relative to the bin's own value: a value near zero would take all the
     // weight, and the levels jumped when one ulp of the input moved it; weighting by the noisy
     // value itself also favours low bins and biases the level low. With a scatter floor (the
     // cross-spectral hat) each row is weighted by its harmonics too, sqrt(bin width) (the width
     // times the record's duration), relative to model + floor: the hat's estimate scatters by
     // (N + floor) / sqrt(harmonics), and equal weights let a log-spaced bottom bin of 16 harmonics
-    // count as much as a top one of thousands (session 13). Without one (the pair's noise) every
+    // count as much as a top one of thousands. Without one (the pair's noise) every
     // bin counts equally relative to its model: the pair's top bins carry what a pair cannot
     // cancel, the test's response mismatch, and weighting them by their harmonics moved the
-    // disturbed records' scale errors by +0.15 standard errors on average (B18).
+    // disturbed records' scale errors by +0.15 standard errors on average (docs/validation.md,
+    // design choices).
     Eigen::Vector2d x = Eigen::Vector2d::Zero();
     const auto rows = static_cast<Eigen::Index>(used.size());
     Eigen::MatrixX2d a(rows, 2);
@@ -199,7 +200,7 @@ int bins_for(double duration_s, double low_hz, double high_hz, int most) {
 /// band reaches it). The cross-spectral hat cancels the field in every bin, so the bins above
 /// the band need no gap below them (the pair's noise does); they hold most of the record's
 /// harmonics and so fix the white level, where one day's in-band harmonics (about 850 at 1 s)
-/// leave a quiet instrument's level undetermined beside a noisy one (session 13).
+/// leave a quiet instrument's level undetermined beside a noisy one.
 std::vector<double> hat_bin_edges(double duration_s, double sample_period_s, double band_low_hz, double band_high_hz,
                                   int bins) {
   std::vector<double> edges =

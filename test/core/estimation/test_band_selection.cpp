@@ -64,7 +64,7 @@ TEST(BandSelection, UsedAndReportedByTheEstimator) {
     const Eigen::Matrix3d se = e.n_stderr();
     for (int k = 0; k < 9; ++k) {
       // 5 se: with a 1 nT white test noise the robust intervals of an automatic band run narrow
-      // (seen at 4.8 se on this record; see docs/robust_estimation.md, what is left).
+      // (seen at 4.8 se on this record; docs/validation.md, known limits).
       EXPECT_LT(std::abs(e.n(k / 3, k % 3) - pair.n_true(k / 3, k % 3)), 5.0 * se(k / 3, k % 3)) << e.method << " " << k;
     }
   }

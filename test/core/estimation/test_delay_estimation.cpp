@@ -77,7 +77,7 @@ TEST(AdvanceRecord, ShiftsBandLimitedSeriesAndLinesByAFractionOfASample) {
 // A test instrument 2 s late, no instrument noise: removing the delay from the whole window
 // before the record is cut into sections leaves n nearly exact. The delay is not circular: the
 // test is the same station's record cut 2 samples earlier. A phase shift of each 3-hour
-// section's own DFT (before session 8) took each section's wrapped-around ends for data.
+// section's own DFT would take each section's wrapped-around ends for data.
 TEST(DelayEstimation, RemovedDelayLeavesNoiseFreeScaleExact) {
   mic::SimulationSettings s = station(25, 0.0);
   s.reference_white_nT = s.test_white_nT = 0.0;

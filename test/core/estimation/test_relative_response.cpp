@@ -98,7 +98,7 @@ TEST(RelativeResponse, LowPassAndDelayRecoveredWithinIntervals) {
   const double corner = 0.03;
   const int delay = 2;
   int inside = 0, total = 0;
-  // MIC_RESPONSE_SEEDS=100 for the figure in docs/estimator.md; 40 in the test suite.
+  // MIC_RESPONSE_SEEDS=100 for the figure in docs/method.md; 40 in the test suite.
   const char* seeds_env = std::getenv("MIC_RESPONSE_SEEDS");
   const unsigned seeds = seeds_env != nullptr ? static_cast<unsigned>(std::atoi(seeds_env)) : 40u;
   for (unsigned seed = 100; seed < 100 + seeds; ++seed) {

@@ -255,7 +255,7 @@ TEST(RobustEstimator, ShortWindowIntervalsCoverTheTruth) {
   // 800-805 gave 0.889, 0.907, 0.870, 0.889, 0.833 against 0.856, 0.856, 0.838, 0.852, 0.792 for
   // the sandwich: 216 intervals, 9 correlated ones per window; 400-405 give 0.894 since the
   // screen fills masked runs through local means, 0.949 (sandwich 0.921) since each section
-  // takes Eq. 2's trend column, session 11).
+  // takes Eq. 2's trend column).
   Coverage tally;
   for (int k = 0; k < 6; ++k) {
     mic::SimulationSettings s = station(400 + static_cast<std::uint64_t>(k));
@@ -288,7 +288,7 @@ TEST(RobustEstimator, ShortWindowIntervalsCoverTheTruth) {
 
 // A one-hour window's band (0.0002-0.01 Hz) holds 36 harmonics, one scale bin of the Huber
 // weights: one scale cannot follow the residual's colour, so the cells keep weight 1 and the
-// window says so (B24: with Huber weights there, 1 h windows were less accurate than Eq. 2).
+// window says so (with Huber weights there, 1 h windows were less accurate than Eq. 2).
 // Six hours hold 4 bins, and the Huber weights apply to the same record's cells.
 TEST(RobustEstimator, OneScaleBinWindowKeepsItsCellsUnweighted) {
   mic::SimulationSettings s = station(41);

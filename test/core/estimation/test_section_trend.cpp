@@ -112,7 +112,7 @@ TEST(SectionTrend, KeepsSixHourIntervalsHonestWhenOnePierTilts) {
   std::printf("6-hour windows, test pier tilting: errors %.2f standard errors rms with the section trend, %.2f without\n",
               with, without);
   // Measured (16 days, 64 windows, 384 errors): 1.21 with, 1.40 without. Without any tilt the
-  // same windows are near 1 either way (monte_carlo_unmodelled, docs/estimator_validation.md B16).
+  // same windows are near 1 either way (monte_carlo_unmodelled, docs/validation.md).
   EXPECT_LT(with, 1.3);
   EXPECT_GT(without, 1.1 * with);
 }

@@ -51,7 +51,7 @@ TEST(ThreeCorneredHat, RecoversEachInstrumentsNoiseLevel) {
   for (int inst = 0; inst < 3; ++inst) {
     const double truth = 2.0 * sigma[inst] * sigma[inst] * 1.0;  // one-sided white PSD, nT^2/Hz
     for (int k = 0; k < 3; ++k) {
-      // Noise level (ASD, sqrt of the PSD) within 20 %, as issue 13 asks.
+      // Noise level (ASD, sqrt of the PSD) within 20 %.
       EXPECT_NEAR(std::sqrt(r.psd_nT2_per_hz[inst][0](k) / truth), 1.0, 0.2) << "instrument " << inst << " axis " << k;
     }
   }
@@ -63,8 +63,8 @@ TEST(ThreeCorneredHat, StatesTheScatterOfItsEstimates) {
   // instruments of white noise 0.1 / 0.01 / 0.05 nT (a noisy reference, as the hat is used),
   // 240 values per instrument. All three are held to their stated deviation, the quiet one too:
   // its estimates scatter about its small truth by about the other two's noise, sqrt(N_b N_c / 2
-  // / harmonics), not by its own (session 13: the formula before stated zero wherever its estimate
-  // came out negative; the noisy two were at 1.15-1.17 with it).
+  // / harmonics), not by its own (a formula stating zero wherever its estimate
+  // came out negative put the noisy two at 1.15-1.17).
   const double sigma[3] = {0.1, 0.01, 0.05};
   double z2[3] = {0.0, 0.0, 0.0};
   int values = 0;

@@ -66,7 +66,7 @@ TEST(FitWhiteAndPink, TakesNegativeBinsAndReportsAnAxisWhoseBinsSupportNoLevel) 
 }
 
 TEST(FitWhiteAndPink, LevelsAreContinuousWhereABinCrossesZero) {
-  // The pair's estimate of a quiet reference over 2 hours (session 12, test_bag_records): six
+  // The pair's estimate of a quiet reference over 2 hours (as in test_bag_records): six
   // bins of 0.03-0.25 Hz, five of them negative on x, the sixth barely positive. The levels
   // once jumped between white 6.5 pT and 1/f 3.0 pT/sqrt(Hz) when one ulp of the records moved
   // (the one positive bin was fitted alone, by either term exactly, and the choice fell to
@@ -234,8 +234,7 @@ TEST(IdentifyReferenceNoise, RecoversTheReferenceNoiseOfThreeInstruments) {
   EXPECT_EQ(noise.samples, t.third.time_s.size());  // the epochs all three share
   EXPECT_NE(noise.text.find("three-cornered hat"), std::string::npos) << noise.text;
   // The identified noise level (ASD, the square root of the fitted PSD) against the simulated one
-  // in every bin of the band, every axis: within 20 % (issue 13's aim for each instrument's
-  // level). The lowest bin holds 56 harmonics: its periodogram alone scatters by about 13 % in PSD.
+  // in every bin of the band, every axis: within 20 % (the aim for each instrument's level). The lowest bin holds 56 harmonics: its periodogram alone scatters by about 13 % in PSD.
   const Bins b;
   const std::vector<Eigen::Vector3d> truth =
       b.psd(Eigen::Vector3d::Constant(0.1), Eigen::Vector3d::Constant(0.02), 1.0);
@@ -248,7 +247,7 @@ TEST(IdentifyReferenceNoise, RecoversTheReferenceNoiseOfThreeInstruments) {
 }
 
 TEST(IdentifyReferenceNoise, RecoversTheQuietTestsLevelFromTheBinsAboveTheBand) {
-  // Issue 13: each instrument's noise level, the quietest too: one day at 1 Hz, white noise
+  // Each instrument's noise level, the quietest too: one day at 1 Hz, white noise
   // 0.1 nT in the reference, 0.01 nT in the test, 0.05 nT in the third (the node benchmark's
   // instruments). The quiet test's estimate scatters by the others' noise, sqrt(N_r N_c / 2 /
   // harmonics), not by its own. Its level as a maker states it, the fitted ASD at the top of the

@@ -51,7 +51,7 @@ TEST(TemperaturePipeline, CsvTemperatureColumnGivesTheCoefficientsAndWiderHonest
         << "component " << l << ": " << w.temperature.apparent_nT_per_C(l) << " vs " << truth;
   }
   // The published c, s and a describe one model with the published n: a = c + s F, F = (mean(R) n)_l,
-  // the lever correction_node takes (it was n0's until session 11: on a 4-hour window with
+  // the lever correction_node takes (with n0's instead: on a 4-hour window with
   // s = -2300 +- 12700 ppm/degC that put the full model's correction 1.3 nT rms off, rostest
   // temperature.test).
   const Eigen::RowVector3d mean_field = h.pair.reference.values_nT.colwise().mean() * w.estimate.n;

@@ -63,8 +63,8 @@ TEST(WicRecords, SixHourIntervalsAgreeWithTheWholeDay) {
   // variance se_q^2 - se_day^2 (the day is the efficient combination of its quarters), so
   // z = (q - day) / sqrt(se_q^2 - se_day^2), se = half-width / interval_quantile. Honest intervals give z of
   // unit variance: over the 36 (4 quarters x 9 parameters) an rms near 1 (the real pair, whose
-  // piers differ, was measured at 1.47 with the per-section trend column of session 11; about
-  // 1.3 over the 35 defined before it), and no |z| beyond 4 (measured largest 3.28: the third quarter's misalignment
+  // piers differ, was measured at 1.47 with the per-section trend column; about 1.3 over
+  // the 35 defined without it), and no |z| beyond 4 (measured largest 3.28: the third quarter's misalignment
   // about z). Intervals half as wide as they should be would give an rms near 3.
   double sum_z2 = 0.0;
   for (int i = 0; i < 4; ++i) {
@@ -75,8 +75,8 @@ TEST(WicRecords, SixHourIntervalsAgreeWithTheWholeDay) {
     const Eigen::Matrix<double, 9, 1> se_q = half_widths(e.parameters) / e.parameters.interval_quantile;
     const Eigen::Matrix<double, 9, 1> se_day = half_widths(day.parameters) / day.parameters.interval_quantile;
     for (int k = 0; k < 9; ++k) {
-      // A quarter is never more precise than the day that contains it (before session 11 the
-      // third quarter's H scale ratio was: +-0.00318 against the day's +-0.00358).
+      // A quarter is never more precise than the day that contains it (without the per-section
+      // trend column the third quarter's H scale ratio was: +-0.00318 against the day's +-0.00358).
       ASSERT_GT(se_q(k), se_day(k)) << result.windows[i].label << " parameter " << k;
       const double z = (values(e.parameters)(k) - values(day.parameters)(k)) /
                        std::sqrt(se_q(k) * se_q(k) - se_day(k) * se_day(k));
@@ -112,9 +112,9 @@ TEST(WicRecords, SwappingTheRolesGivesTheInverse) {
 TEST(WicRecords, TheQuartersAgreeWithinTheDefaultsIntervalsAndNotWithinPlainEq2s) {
   // The check an observatory reads in the report (window_agreement.hpp): do the four quarters
   // scatter as their intervals say? The default's do (measured joint chi2 39.3 / 27 dof, p 0.09;
-  // largest sqrt(chi2/3.03) 1.60, Z scale, p 0.05; B23: p 0.06 before the covariances' cells
-  // entered the tail). Plain Eq. 2's sandwich on 6-hour windows is known to be optimistic
-  // (docs/estimator_validation.md B6, B19): its quarters scatter beyond it (measured joint p
+  // largest sqrt(chi2/3.03) 1.60, Z scale, p 0.05; p 0.06 with the covariances taken as
+  // known). Plain Eq. 2's sandwich on 6-hour windows is known to be optimistic
+  // (docs/validation.md, window agreement): its quarters scatter beyond it (measured joint p
   // below 1e-5), which the check must say.
   mic::CalibrationSettings settings;
   settings.windows.intervals = 4;
