@@ -197,7 +197,7 @@ MethodResult estimate_method(const std::string& name, const SeedRecords& r, cons
     if (name == "nopair") cs.window.pair_noise = false;  // no EIV correction without a figure or a third
     if (name == "givenmodel") cs.window.reference_noise_figure = simulated;
     const mic::CalibrationWindow w =
-        name == "hat" ? mic::calibrate_records(r.pair.reference, r.pair.test, cs, &r.third).windows.back()
+        name == "hat" ? mic::calibrate_records(r.pair.reference, r.pair.test, cs, {&r.third}).windows.back()
                       : mic::calibrate_prepared(r.prepared, cs).back();
     out.estimate = w.estimate;
     out.model_text = w.response_model.text;

@@ -31,6 +31,12 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   std::vector<std::pair<std::string, bool>> tests;
   for (const TestInstrumentSettings& t : settings_.tests) tests.emplace_back(t.name, !t.temperature_topic.empty());
   streams_ = std::make_unique<LiveCalibrationStreams>(settings_.streams, tests, settings_.hat_active());
+  if (!settings_.remote_topic.empty()) {
+    remote_.topic = settings_.remote_topic;
+    streams_->add_remote(nh_.resolveName(settings_.remote_topic));
+    remote_subscriber_ = nh_.subscribe(settings_.remote_topic, static_cast<std::uint32_t>(settings_.queue_size),
+                                       &CalibrationNode::on_remote, this, hints);
+  }
   for (std::size_t i = 0; i < settings_.tests.size(); ++i) {
     const TestInstrumentSettings& t = settings_.tests[i];
     channels_.push_back(std::make_unique<Channel>(t));
@@ -65,7 +71,9 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
            streams.estimation_period_s(), streams.decimating() ? "low-passed and decimated" : "input rate",
            streams.despike ? ", despiked" : "", estimator.band_low_hz, estimator.band_high_hz,
            estimator.robust.auto_band ? " (auto band)" : "", estimator_method_name(estimator.method));
-  ROS_INFO("%s: errors in variables: %s", node_name_.c_str(), settings_.noise_model_state().c_str());
+  ROS_INFO("%s: errors in variables: %s; remote reference: %s", node_name_.c_str(),
+           settings_.noise_model_state().c_str(),
+           settings_.remote_topic.empty() ? "none" : nh_.resolveName(settings_.remote_topic).c_str());
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });
   worker_ = std::thread([this] { run_worker(); });
@@ -110,6 +118,15 @@ void CalibrationNode::on_test(std::size_t index, const sensor_msgs::MagneticFiel
              ch.settings.name.c_str());
   }
   enqueue(streams_->push_test(index, t, nanotesla(*message)));
+}
+
+void CalibrationNode::on_remote(const sensor_msgs::MagneticField::ConstPtr& message) {
+  const double t = message->header.stamp.toSec();
+  if (remote_.observe(t, ros::Time::now().toSec(), message->header.frame_id, settings_.time_jump_threshold_s) ==
+      StreamMonitor::Jump::kBackward) {
+    ROS_WARN("%s: remote stamps went backwards to %s", node_name_.c_str(), time_for_message(t).c_str());
+  }
+  streams_->push_remote(t, nanotesla(*message));
 }
 
 void CalibrationNode::on_temperature(std::size_t index, const sensor_msgs::Temperature::ConstPtr& message) {

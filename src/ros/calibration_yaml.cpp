@@ -192,6 +192,14 @@ void fill_older_format(MagnetometerCalibration& c, long long version) {
       a->fill(nan);
     }
   }
+  if (version < 6) {  // no remote reference
+    c.remote_used = false;
+    c.pair_biased = false;
+    c.remote_text = "";
+    c.remote_strength = c.pair_difference_p_value = nan;
+    c.remote_coherence = {nan, nan, nan};
+    c.pair_only_matrix.fill(nan);
+  }
   if (version < 5) {  // the covariance taken as known, intervals of 1.96 standard errors
     c.covariance_cells = std::numeric_limits<double>::infinity();
     c.interval_quantile = kNormalQuantile95;

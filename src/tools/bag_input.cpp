@@ -56,6 +56,26 @@ BagInputOptions::BagInputOptions(CLI::App& app, CLI::Option* reference, CLI::Opt
   bag->excludes(reference)->excludes(test)->needs(reference_topic)->needs(test_topic);
   reference_topic->needs(bag);
   test_topic->needs(bag);
+  bag_option_ = bag;
+}
+
+void BagInputOptions::add_remote_topic(CLI::App& app, CLI::Option* remote_files) {
+  app.add_option("--remote-topic", remote_topic_,
+                 "a remote observatory's MagneticField topic in --bag (any frame), instead of --remote files")
+      ->needs(bag_option_)
+      ->excludes(remote_files);
+}
+
+bool BagInputOptions::remote(VectorRecord& out) const {
+  if (remote_topic_.empty()) return false;
+  std::vector<std::string> warnings;
+  out = std::move(read_bag_records(bag_, {remote_topic_}, &warnings).front());
+  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  return true;
+}
+
+std::string BagInputOptions::remote_input() const {
+  return remote_topic_.empty() ? std::string() : bag_ + ":" + bag_topic_name(remote_topic_);
 }
 
 std::pair<VectorRecord, VectorRecord> BagInputOptions::records(const std::string& reference_path,

@@ -35,8 +35,16 @@ class BagInputOptions {
 
   bool from_bag() const { return !bag_.empty(); }
 
+  /// Adds --remote-topic (a remote observatory's MagneticField topic in --bag); call once.
+  void add_remote_topic(CLI::App& app, CLI::Option* remote_files);
+  /// The remote's record from the bag; false when no --remote-topic was given.
+  bool remote(VectorRecord& out) const;
+  /// "<bag>:<topic>" of the remote, "" without one.
+  std::string remote_input() const;
+
  private:
-  std::string bag_, reference_topic_, test_topic_;
+  std::string bag_, reference_topic_, test_topic_, remote_topic_;
+  CLI::Option* bag_option_ = nullptr;
 };
 
 }  // namespace magnetometer_insitu_calibration

@@ -91,8 +91,9 @@ enum class ErrorsInVariables : int {
   kNoNoiseModel = 2,   ///< no reference noise model for the window: no correction
   kRefused = 3,        ///< the model's noise was as large as the signal in some direction: none
   kApplied = 4,        ///< n corrected for the model's noise
+  kRemoteReference = 5,  ///< n from a remote reference: the reference's noise does not bias it
 };
-/// "not_applicable", "off", "no_noise_model", "refused", "applied".
+/// "not_applicable", "off", "no_noise_model", "refused", "applied", "remote_reference".
 const char* errors_in_variables_name(ErrorsInVariables applied);
 /// One line for reports and diagnostics: what was applied and, when applied, the noise model
 /// (source, provider and levels), e.g. "applied: reference noise from the pair above the band,

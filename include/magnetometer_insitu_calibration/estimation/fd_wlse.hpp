@@ -4,6 +4,7 @@
 
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
+#include "magnetometer_insitu_calibration/estimation/remote_reference.hpp"
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <Eigen/Core>
@@ -133,6 +134,8 @@ struct WindowEstimate {
   /// "sandwich raised to the jackknife over K sections" / "... over 8 interleaved frequency
   /// groups" (windows of fewer than 6 sections) / "sandwich (no jackknife: ...)" when it cannot be formed.
   std::string intervals = "sandwich";
+  /// The remote reference: whether n rests on it, how well it serves, the pair-only comparison.
+  RemoteReference remote;
 
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
   Eigen::Matrix3d n_stderr() const;
@@ -144,8 +147,13 @@ struct WindowEstimate {
 /// estimators, never settings (a setting is what a user sets).
 struct WindowInputs {
   /// The reference's noise for the errors-in-variables correction of the robust estimator
-  /// (source kNone: no correction); ignored by plain Eq. 2.
+  /// (source kNone: no correction); ignored by plain Eq. 2. With a remote used, it serves the
+  /// pair-only estimate the remote's is compared with.
   ReferenceNoiseModel reference_noise;
+  /// A remote observatory's record on the window's epochs (N x 3, its own frame and units, no
+  /// NaN): the instruments of the regression (remote_reference.hpp); null: none.
+  const Readings* remote_nT = nullptr;
+  std::string remote_name;  ///< names the remote in texts ("--remote", a topic)
 };
 
 /// Estimates n of a window (reference nT, test nT, sample period s): the estimator the window was
@@ -170,8 +178,10 @@ class FdWlseEstimator {
   FdWlseEstimator(const FdWlseEstimator&) = delete;
   FdWlseEstimator& operator=(const FdWlseEstimator&) = delete;
 
+  /// inputs: the window's remote (remote_reference.hpp; its reference noise is not used here).
   WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT,
-                          const Eigen::Ref<const Readings>& test_nT, double sample_period_s);
+                          const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
+                          const WindowInputs& inputs = {});
 
   /// Bins j = 0 .. N/2 (FFTW's convention, unnormalised) of column `column` of the last
   /// estimate()'s whole-window transform: 0-2 the reference minus its mean, 3-5 the test minus
@@ -181,8 +191,9 @@ class FdWlseEstimator {
 
   const EstimatorSettings& settings() const { return settings_; }
 
+  struct Workspace;  ///< FFTW plan and buffers (fd_wlse.cpp)
+
  private:
-  struct Workspace;
   EstimatorSettings settings_;
   std::unique_ptr<Workspace> workspace_;
 };

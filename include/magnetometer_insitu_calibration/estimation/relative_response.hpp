@@ -58,9 +58,16 @@ struct ResponseBand {
 /// and tapered by a 10 % split-cosine bell; the N - 1 differences are transformed with one zero
 /// appended (N: a fast FFT length where N - 1 seldom is). Returns the bands, lowest first; empty when no band
 /// has min_harmonics harmonics.
+/// With `remote` (a remote observatory on the same epochs, any frame and units: remote_reference.hpp)
+/// H is an instrumental-variable estimate: per band and component the remote's prediction of P,
+/// Q = Z b (b by least squares of P on the remote's three DFTs Z over the band), is the
+/// instrument, H = (Q^H X)^-1 Q^H T with X = [P, P u], and its variance the sandwich
+/// (Q^H X)^-1 Q^H Q (X^H Q)^-1 sigma^2. The reference's noise then does not attenuate H, and no
+/// correction for it is made.
 std::vector<ResponseBand> relative_response(const Readings& reference, const Readings& test,
                                             const Eigen::Matrix3d& n, double period_s,
-                                            const RelativeResponseSettings& settings = {});
+                                            const RelativeResponseSettings& settings = {},
+                                            const Readings* remote = nullptr);
 
 /// Summary for diagnostics: the largest |gain - 1| over the bands whose frequency lies in
 /// [low_hz, high_hz] (NaN when none) with that band's 95 % half-width (a departure inside it is

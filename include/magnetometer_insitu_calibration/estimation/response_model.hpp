@@ -67,9 +67,11 @@ Readings remove_modelled_filter(const Readings& test, double period_s, const Res
 /// relative response of test_nT against R n (estimate.n, as
 /// estimated from test_nT), the model fitted to it and, when a corner is applied, test_nT replaced
 /// by the record with the filter removed and estimate by estimate_again on it. A window whose
-/// estimate is not finite is left alone (model not fitted, text says why).
+/// estimate is not finite is left alone (model not fitted, text says why). `remote`: the
+/// window's remote when the estimate rests on it (the relative response on its instruments).
 ResponseModel with_response_model(const WindowEstimateFunction& estimate_again, const Eigen::Ref<const Readings>& reference_nT,
                                   Readings& test_nT, double period_s, const RelativeResponseSettings& response,
-                                  const ResponseModelSettings& model, WindowEstimate& estimate);
+                                  const ResponseModelSettings& model, WindowEstimate& estimate,
+                                  const Readings* remote = nullptr);
 
 }  // namespace magnetometer_insitu_calibration

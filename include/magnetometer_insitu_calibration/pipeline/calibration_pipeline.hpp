@@ -95,24 +95,37 @@ struct WindowSpan {
 };
 std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const WindowLayout& layout);
 
+/// Records measured beside the pair that go with every window, each optional (null: none).
+struct SideRecords {
+  const VectorRecord* third = nullptr;   ///< a third co-located instrument, any frame (three-cornered hat)
+  const VectorRecord* remote = nullptr;  ///< a remote observatory, any frame and units (remote reference)
+};
+
+/// The side records prepared against the reference like the test (prepare_pair: despiked,
+/// paired, on the estimation grid): each one's `test_nT` is the side record; null: none.
+struct PreparedSides {
+  std::unique_ptr<PreparedPair> third, remote;
+  std::string third_name = "--third", remote_name = "--remote";  ///< name them in texts
+};
+
 /// The window [first, first + count) of a prepared pair as the per-window stage takes it: the
 /// grid's epochs (NaN = missing), the test's temperature samples within temperature_margin_s
-/// of it and, with `third` (a third instrument prepared against the same reference), the
-/// third's record on the same epochs.
+/// of it and the side records' samples of the same epochs.
 WindowRecords window_records(const PreparedPair& prepared, std::size_t first, std::size_t count,
-                             double temperature_margin_s, const PreparedPair* third = nullptr,
-                             const std::string& third_name = "--third");
+                             double temperature_margin_s, const PreparedSides* sides = nullptr);
 
-/// Calibrates every window of a prepared pair with one WindowCalibrator; `third`: a third
-/// instrument prepared against the same reference, for the three-cornered hat.
+/// Calibrates every window of a prepared pair with one WindowCalibrator, with the side records.
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings,
-                                                  const PreparedPair* third = nullptr);
+                                                  const PreparedSides* sides = nullptr);
 
-/// Everything: prepare_pair + calibrate_prepared. `third`: a third co-located instrument's
-/// record (any frame), prepared against the reference like the test; InputError("--third", ...)
-/// when it does not pair with the reference or has another estimation period.
+/// The side records prepared against the reference; InputError("--third" / "--remote", ...)
+/// when one does not pair with the reference or has another estimation period than the pair.
+PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& prepared, const SideRecords& sides,
+                            const CalibrationSettings& settings);
+
+/// Everything: prepare_pair, prepare_sides, calibrate_prepared.
 PairCalibration calibrate_records(const VectorRecord& reference, const VectorRecord& test,
-                                  const CalibrationSettings& settings, const VectorRecord* third = nullptr);
+                                  const CalibrationSettings& settings, const SideRecords& sides = {});
 
 /// The estimates whose agreement the reports assess (window_agreement.hpp): the K intervals of
 /// the paper's layout, or sliding windows that do not overlap (step >= window), in order. Empty

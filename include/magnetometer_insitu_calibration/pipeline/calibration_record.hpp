@@ -96,10 +96,17 @@ using Matrix81 = std::array<double, 81>;      ///< 9 x 9 row-major (JSON: rows)
   F(Vector3, temperature_offset_nT_per_C, 4, "c")                                                                  \
   F(Vector3, temperature_offset_ci95_nT_per_C, 4, "")                                                              \
   F(Vector3, temperature_scale_ppm_per_C, 4, "s")                                                                  \
-  F(Vector3, temperature_scale_ci95_ppm_per_C, 4, "")
+  F(Vector3, temperature_scale_ci95_ppm_per_C, 4, "")                                                              \
+  F(Flag, remote_used, 6, "n from a remote reference's instruments (estimation/remote_reference.hpp)")             \
+  F(Text, remote_text, 6, "what the remote did, or why it was refused; empty: no remote")                          \
+  F(Vector3, remote_coherence, 6, "share of each local reference component the remote predicts")                   \
+  F(Real, remote_strength, 6, "first-stage F of the remote's instruments (used from 10)")                          \
+  F(Matrix9, pair_only_matrix, 6, "the pair-only estimate on the same cells (remote used)")                        \
+  F(Real, pair_difference_p_value, 6, "joint p-value of the pair-only minus the remote estimate")                  \
+  F(Flag, pair_biased, 6, "the pair alone is biased beyond its uncertainty")
 
 /// The calibration file's format: the largest `since` of the table.
-constexpr int kCalibrationFileFormat = 5;
+constexpr int kCalibrationFileFormat = 6;
 
 /// One window's calibration, every field of MIC_CALIBRATION_FIELDS, plus the header's stamp and
 /// frame_id (the time the estimate was made, the reference frame).

@@ -14,6 +14,7 @@ namespace magnetometer_insitu_calibration {
 struct ReportInputs {
   std::string reference;  ///< file, bag topic, ...
   std::string test;
+  std::string remote;     ///< the remote observatory's record, "" without one
 };
 
 /// One window of the report: its calibration record (calibration_record.hpp: every field of

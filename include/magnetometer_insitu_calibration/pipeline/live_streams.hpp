@@ -13,6 +13,9 @@
 //             test's thermometer samples around each window (TemperatureBuffer)
 //          -> CoincidentWindows (with two or more tests and the three-cornered hat: each window
 //             released with another test's window of the same epochs as its third instrument).
+// A remote observatory's stream (optional) goes the test's way, paired with the reference and
+// decimated like a test (as calibrate_records prepares --remote against the reference), into a
+// buffer from which every completed window takes the remote's samples of its epochs.
 // Units: nT and UNIX seconds; each instrument in its own frame.
 #pragma once
 
@@ -24,6 +27,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -70,6 +74,24 @@ struct LiveTestStream {
   PairingCounters counters() const;
 };
 
+/// A remote observatory's part of the streams: its pairing with the reference, decimation, and
+/// the samples the windows still to complete need.
+struct LiveRemoteStream {
+  LiveRemoteStream(const std::string& name, const LiveStreamSettings& settings);
+
+  std::string name;  ///< names the remote in texts (its topic)
+  StreamingDespiker despiker;
+  StreamPairer pairer;
+  std::unique_ptr<StreamingDecimator> reference_decimator, remote_decimator;  ///< when decimating
+  std::deque<std::pair<double, Eigen::Vector3d>> samples;  ///< on the estimation grid, its own frame, nT
+  bool any_pair = false;
+  double last_pair_s = 0.0;
+  std::size_t received = 0;
+
+  /// Its samples within [low_s, high_s), as a window's remote.
+  std::shared_ptr<VectorRecord> copy(double low_s, double high_s) const;
+};
+
 class LiveCalibrationStreams {
  public:
   /// `tests`: names and whether each has a thermometer; `coincident`: release each window with
@@ -88,6 +110,12 @@ class LiveCalibrationStreams {
   std::vector<Completed> push_test(std::size_t test, double time_s, const Eigen::Vector3d& value_nT);
   /// The test's thermometer, deg C (NaN: none in that message).
   void push_temperature(std::size_t test, double time_s, double value_C);
+  /// A remote observatory's stream, named `name` in texts; call once, before any sample.
+  void add_remote(const std::string& name);
+  /// A remote sample (its own frame, nT).
+  void push_remote(double time_s, const Eigen::Vector3d& value_nT);
+  /// The remote's part, null without one.
+  const LiveRemoteStream* remote() const { return remote_.get(); }
   /// Restarts a test's pairing, decimation and windows (its stamps went back).
   void restart(std::size_t test);
   /// Restarts everything (the reference's stamps went back).
@@ -101,12 +129,14 @@ class LiveCalibrationStreams {
 
  private:
   void drain(std::size_t test, std::vector<Completed>& out);
+  void drain_remote();
   void window_done(std::size_t test, WindowRecords&& window, std::vector<Completed>& out);
 
   LiveStreamSettings settings_;
   StreamingDespiker reference_despiker_;
   std::vector<std::unique_ptr<LiveTestStream>> tests_;
   std::unique_ptr<CoincidentWindows> coincident_;
+  std::unique_ptr<LiveRemoteStream> remote_;
 };
 
 }  // namespace magnetometer_insitu_calibration

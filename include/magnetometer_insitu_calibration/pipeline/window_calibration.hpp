@@ -8,11 +8,15 @@
 //  1. puts the window on its regular grid and fills its gaps in both records at the same epochs
 //     (regularize_and_fill: straight lines, which keep T = R n); epochs missing at its edges
 //     are counted, not filled;
+//     The remote's samples (when the window has a remote) go onto the same epochs, its gaps
+//     bridged by straight lines (still a valid instrument: only its strength suffers, which the
+//     estimator measures); a remote with samples at fewer than half the epochs is refused;
 //  2. chooses the reference noise model of the errors-in-variables correction (robust method,
 //     correction on): the maker's figure when one is set; else the three-cornered hat with the
 //     window's third instrument; else the pair itself above the band, identified after a first
 //     estimate (pipeline/reference_noise.hpp); the window's `reference_noise` says which and why;
-//  3. estimates n (WindowEstimator: plain Eq. 2 or the robust estimator), the response model
+//  3. estimates n (WindowEstimator: plain Eq. 2 or the robust estimator; on the remote's
+//     instruments when it serves, estimation/remote_reference.hpp), the response model
 //     (n through a modelled filter of the test), the temperature terms (when the window has a
 //     varying sensor temperature) and the relative response;
 //  4. the offset of the test against the reference at the window's end;
@@ -98,6 +102,11 @@ struct WindowRecords {
   /// frame, nT, NaN = missing), for the three-cornered hat; null: none.
   std::shared_ptr<const PairedRecord> third;
   std::string third_name;            ///< names the third in texts and errors ("--third", "test 'b'")
+  /// A remote observatory's samples around the window (its own frame and units, nT, on the same
+  /// estimation grid; NaN = missing), the instruments of a remote-reference estimate
+  /// (estimation/remote_reference.hpp); null: none.
+  std::shared_ptr<const VectorRecord> remote;
+  std::string remote_name;           ///< names the remote in texts ("--remote", a station, a topic)
 
   /// Nominal last epoch, UNIX s.
   double end_s() const { return start_s + (static_cast<double>(expected_samples) - 1.0) * period_s; }
@@ -123,6 +132,9 @@ struct CalibrationWindow {
   ResponseSummary response;
   /// The response model: fitted and applied, or why not (text).
   ResponseModel response_model;
+  /// Why the window's remote was not used before any estimate (its samples do not cover the
+  /// window); "" otherwise (estimate.remote says the rest).
+  std::string remote_refused;
   /// Temperature terms: fitted, or why not (text). When fitted, the estimate, the relative
   /// response and the offset are those of T with the terms removed, n at temperature.reference_C.
   TemperatureFit temperature;

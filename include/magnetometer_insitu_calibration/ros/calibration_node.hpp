@@ -71,6 +71,9 @@ struct TestInstrumentSettings {
 struct CalibrationNodeSettings {
   std::string reference_topic;
   std::vector<TestInstrumentSettings> tests;
+  /// A remote observatory's sensor_msgs/MagneticField (any frame), the instruments of every
+  /// window's remote-reference estimate; "" = none.
+  std::string remote_topic;
   /// Periods and decimation (s), pairing, window and step (s), despiking, the thermometer margin.
   LiveStreamSettings streams;
   /// The per-window stage: estimator, reference noise, response model, temperature, gap rule.
@@ -123,6 +126,7 @@ class CalibrationNode {
   void on_reference(const sensor_msgs::MagneticField::ConstPtr& message);
   void on_test(std::size_t channel, const sensor_msgs::MagneticField::ConstPtr& message);
   void on_temperature(std::size_t channel, const sensor_msgs::Temperature::ConstPtr& message);
+  void on_remote(const sensor_msgs::MagneticField::ConstPtr& message);
   // Windows (calibration_node_windows.cpp): enqueue on the callback thread, the rest on the worker.
   void enqueue(std::vector<LiveCalibrationStreams::Completed> windows);
   void run_worker();
@@ -143,8 +147,8 @@ class CalibrationNode {
   ros::NodeHandle nh_, private_nh_;
   CalibrationNodeSettings settings_;
   std::string node_name_;
-  StreamMonitor reference_;
-  ros::Subscriber reference_subscriber_;
+  StreamMonitor reference_, remote_;
+  ros::Subscriber reference_subscriber_, remote_subscriber_;
   std::vector<std::unique_ptr<Channel>> channels_;
   std::unique_ptr<LiveCalibrationStreams> streams_;  ///< callback thread
   diagnostic_updater::Updater updater_;

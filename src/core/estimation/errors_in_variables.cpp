@@ -74,6 +74,7 @@ const char* errors_in_variables_name(ErrorsInVariables applied) {
     case ErrorsInVariables::kNoNoiseModel: return "no_noise_model";
     case ErrorsInVariables::kRefused: return "refused";
     case ErrorsInVariables::kApplied: return "applied";
+    case ErrorsInVariables::kRemoteReference: return "remote_reference";
   }
   return "unknown";
 }
@@ -86,6 +87,7 @@ std::string errors_in_variables_text(ErrorsInVariables applied, const ReferenceN
     case ErrorsInVariables::kOff: return "none (off)";
     case ErrorsInVariables::kNoNoiseModel: return "none (no reference noise model)";
     case ErrorsInVariables::kRefused: return "none (the reference noise from the " + source + " is as large as the signal: refused)";
+    case ErrorsInVariables::kRemoteReference: return "none needed (remote reference)";
     case ErrorsInVariables::kApplied: break;
   }
   const Eigen::Vector3d white = 1e3 * noise.spectrum.white_nT, pink = 1e3 * noise.spectrum.pink_nT_per_sqrt_hz;

@@ -11,6 +11,7 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <limits>
 
 namespace magnetometer_insitu_calibration {
@@ -35,6 +36,81 @@ Eigen::VectorXd whitened_tapered(const Eigen::VectorXd& x) {
   return d;
 }
 
+/// H of one component over the band's harmonics [j0, j1): H0 at f_band, and Var(H0).
+struct BandFit {
+  std::complex<double> h0;
+  double var_h0 = 0.0;
+};
+
+/// H varies across a band (a filter's phase turns with frequency): a band average would be
+/// biased where it turns fastest. So H is fitted as H0 + H1 (f - f_band) over the band's
+/// harmonics (complex least squares, 2 parameters) and H0 is the response at f_band. With
+/// `noise` (the reference noise's expected |P|^2 at f), X^H X is corrected for it where it stays
+/// positive definite. Var(H0) = sigma^2 [(X^H X)^-1]_00, sigma^2 = residual / (M - 2).
+BandFit band_fit(const Eigen::VectorXcd& p_dft, const Eigen::VectorXcd& t_dft, std::size_t j0, std::size_t j1,
+                 double f_band, double df, const std::function<double(double)>& noise_power) {
+  Eigen::Matrix2cd xhx = Eigen::Matrix2cd::Zero();
+  Eigen::Vector2cd xht = Eigen::Vector2cd::Zero();
+  Eigen::Matrix2d noise = Eigen::Matrix2d::Zero();  // E of the reference noise's share of X^H X
+  for (std::size_t j = j0; j < j1; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    const double u = (static_cast<double>(j) * df - f_band) / df;
+    const Eigen::Vector2cd x(p_dft(jj), p_dft(jj) * u);
+    xhx += x.conjugate() * x.transpose();
+    xht += x.conjugate() * t_dft(jj);
+    if (noise_power) noise += noise_power(static_cast<double>(j) * df) * Eigen::Vector2d(1.0, u) * Eigen::RowVector2d(1.0, u);
+  }
+  if (noise_power) {
+    const Eigen::Matrix2cd corrected = xhx - noise.cast<std::complex<double>>();
+    // Positive definite (the noise below the signal in both directions), else uncorrected.
+    if (corrected(0, 0).real() > 0.0 && corrected.determinant().real() > 0.0) xhx = corrected;
+  }
+  const Eigen::Matrix2cd inverse = xhx.inverse();
+  const Eigen::Vector2cd h = inverse * xht;
+  double residual = 0.0;
+  for (std::size_t j = j0; j < j1; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    residual += std::norm(t_dft(jj) - p_dft(jj) * (h(0) + h(1) * ((static_cast<double>(j) * df - f_band) / df)));
+  }
+  return {h(0), residual / (static_cast<double>(j1 - j0) - 2.0) * std::abs(inverse(0, 0))};
+}
+
+/// The same with the remote's prediction of P as the instrument (relative_response.hpp).
+BandFit band_fit_remote(const Eigen::VectorXcd& p_dft, const Eigen::VectorXcd& t_dft,
+                        const std::array<Eigen::VectorXcd, 3>& z_dft, std::size_t j0, std::size_t j1, double f_band,
+                        double df) {
+  // First stage: P ~ Z b over the band.
+  Eigen::Matrix3cd zhz = Eigen::Matrix3cd::Zero();
+  Eigen::Vector3cd zhp = Eigen::Vector3cd::Zero();
+  for (std::size_t j = j0; j < j1; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    const Eigen::Vector3cd z(z_dft[0](jj), z_dft[1](jj), z_dft[2](jj));
+    zhz += z.conjugate() * z.transpose();
+    zhp += z.conjugate() * p_dft(jj);
+  }
+  const Eigen::Vector3cd b = zhz.ldlt().solve(zhp);
+  Eigen::Matrix2cd qhx = Eigen::Matrix2cd::Zero(), qhq = Eigen::Matrix2cd::Zero();
+  Eigen::Vector2cd qht = Eigen::Vector2cd::Zero();
+  for (std::size_t j = j0; j < j1; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    const double u = (static_cast<double>(j) * df - f_band) / df;
+    const std::complex<double> q = z_dft[0](jj) * b(0) + z_dft[1](jj) * b(1) + z_dft[2](jj) * b(2);
+    const Eigen::Vector2cd x(p_dft(jj), p_dft(jj) * u), w(q, q * u);
+    qhx += w.conjugate() * x.transpose();
+    qhq += w.conjugate() * w.transpose();
+    qht += w.conjugate() * t_dft(jj);
+  }
+  const Eigen::Matrix2cd inverse = qhx.inverse();
+  const Eigen::Vector2cd h = inverse * qht;
+  double residual = 0.0;
+  for (std::size_t j = j0; j < j1; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    residual += std::norm(t_dft(jj) - p_dft(jj) * (h(0) + h(1) * ((static_cast<double>(j) * df - f_band) / df)));
+  }
+  const Eigen::Matrix2cd bread = inverse * qhq * inverse.adjoint();
+  return {h(0), residual / (static_cast<double>(j1 - j0) - 2.0) * std::abs(bread(0, 0))};
+}
+
 }  // namespace
 
 void RelativeResponseSettings::validate() const {
@@ -50,10 +126,10 @@ void RelativeResponseSettings::validate() const {
 
 std::vector<ResponseBand> relative_response(const Readings& reference, const Readings& test,
                                             const Eigen::Matrix3d& n, double period_s,
-                                            const RelativeResponseSettings& settings) {
+                                            const RelativeResponseSettings& settings, const Readings* remote) {
   settings.validate();
-  if (reference.rows() != test.rows()) {
-    throw InputError("relative_response", "reference and test differ in length");
+  if (reference.rows() != test.rows() || (remote != nullptr && remote->rows() != reference.rows())) {
+    throw InputError("relative_response", "reference, test and remote differ in length");
   }
   if (!(period_s > 0.0)) throw InputError("relative_response", "sample period must be > 0 s");
   std::vector<ResponseBand> out;
@@ -66,19 +142,22 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
   const auto length = static_cast<std::size_t>(reference.rows() - 1);
   const std::size_t padded = length + 1;
   detail::RealDft& dft = detail::thread_real_dft();
-  thread_local std::array<Eigen::VectorXcd, 3> p_dft, t_dft;
+  thread_local std::array<Eigen::VectorXcd, 3> p_dft, t_dft, z_dft;
   for (int k = 0; k < 3; ++k) {
     const Eigen::VectorXd p = whitened_tapered(predicted.col(k));
     const Eigen::VectorXd t = whitened_tapered(test.col(k));
     dft.transform(p.data(), length, padded, p_dft[k]);
     dft.transform(t.data(), length, padded, t_dft[k]);
+    if (remote == nullptr) continue;
+    const Eigen::VectorXd z = whitened_tapered(remote->col(k));
+    dft.transform(z.data(), length, padded, z_dft[k]);
   }
   const double df = 1.0 / (static_cast<double>(padded) * period_s);  // harmonic spacing, Hz
   // Errors in variables: E|P_noise,k(j)|^2 of the differenced, tapered DFT of L samples is
   // L / (2 dt) * sum_i n_ik^2 S_r,i(f) * 4 sin^2(pi f dt) * mean(taper^2); the 10 % split-cosine
   // bell has mean(taper^2) = 0.9 + 0.1 * 3/8.
-  const bool eiv = (settings.reference_noise.white_nT.array() != 0.0).any() ||
-                   (settings.reference_noise.pink_nT_per_sqrt_hz.array() != 0.0).any();
+  const bool eiv = remote == nullptr && ((settings.reference_noise.white_nT.array() != 0.0).any() ||
+                                          (settings.reference_noise.pink_nT_per_sqrt_hz.array() != 0.0).any());
   const Eigen::Matrix3d n2 = n.cwiseAbs2();
   const auto noise_power = [&](double f, int k) {
     const double s = std::sin(kPi * f * period_s);
@@ -107,43 +186,16 @@ std::vector<ResponseBand> relative_response(const Readings& reference, const Rea
     }
     band.frequency_hz = total_power > 0.0 ? weighted_f / total_power : std::sqrt(band.low_hz * band.high_hz);
     for (int k = 0; k < 3; ++k) {
-      // H varies across a band (a filter's phase turns with frequency): a band average would be
-      // biased where it turns fastest. So H is fitted as H0 + H1 (f - f_band) over the band's
-      // harmonics (complex least squares, 2 parameters) and H0 is the response at f_band.
-      Eigen::Matrix2cd xhx = Eigen::Matrix2cd::Zero();
-      Eigen::Vector2cd xht = Eigen::Vector2cd::Zero();
-      Eigen::Matrix2d noise = Eigen::Matrix2d::Zero();  // E of the reference noise's share of X^H X
-      for (std::size_t j = j0; j < j1; ++j) {
-        const auto jj = static_cast<Eigen::Index>(j);
-        const std::complex<double> p = p_dft[k](jj);
-        const double u = (static_cast<double>(j) * df - band.frequency_hz) / df;
-        const Eigen::Vector2cd x(p, p * u);
-        xhx += x.conjugate() * x.transpose();
-        xht += x.conjugate() * t_dft[k](jj);
-        if (eiv) noise += noise_power(static_cast<double>(j) * df, k) * Eigen::Vector2d(1.0, u) * Eigen::RowVector2d(1.0, u);
-      }
-      if (eiv) {
-        const Eigen::Matrix2cd corrected = xhx - noise.cast<std::complex<double>>();
-        // Positive definite (the noise below the signal in both directions), else uncorrected.
-        if (corrected(0, 0).real() > 0.0 && corrected.determinant().real() > 0.0) xhx = corrected;
-      }
-      const Eigen::Matrix2cd inverse = xhx.inverse();
-      const Eigen::Vector2cd h = inverse * xht;
-      double residual = 0.0;
-      for (std::size_t j = j0; j < j1; ++j) {
-        const auto jj = static_cast<Eigen::Index>(j);
-        const std::complex<double> p = p_dft[k](jj);
-        const std::complex<double> fit = p * (h(0) + h(1) * ((static_cast<double>(j) * df - band.frequency_hz) / df));
-        residual += std::norm(t_dft[k](jj) - fit);
-      }
-      // Var(H0) = sigma^2 [(X^H X)^-1]_00 with sigma^2 = residual / (M - 2); half of it in the
-      // real (gain) and half in the imaginary (phase) direction of H0.
-      const double var_h = residual / (m - 2.0) * std::abs(inverse(0, 0));
-      const double half = student_t_two_sided_quantile(0.05, 2.0 * (m - 2.0)) * std::sqrt(0.5 * var_h);
-      const double gain = std::abs(h(0));
+      const BandFit fit = remote != nullptr ? band_fit_remote(p_dft[k], t_dft[k], z_dft, j0, j1, band.frequency_hz, df)
+                                            : band_fit(p_dft[k], t_dft[k], j0, j1, band.frequency_hz, df,
+                                                       eiv ? [&](double f) { return noise_power(f, k); }
+                                                           : std::function<double(double)>());
+      // Half of Var(H0) in the real (gain) and half in the imaginary (phase) direction of H0.
+      const double half = student_t_two_sided_quantile(0.05, 2.0 * (m - 2.0)) * std::sqrt(0.5 * fit.var_h0);
+      const double gain = std::abs(fit.h0);
       band.gain(k) = gain;
       band.gain_ci95(k) = half;
-      band.phase_deg(k) = std::arg(h(0)) * 180.0 / kPi;
+      band.phase_deg(k) = std::arg(fit.h0) * 180.0 / kPi;
       band.phase_ci95_deg(k) = gain > 0.0 ? std::min(180.0, half / gain * 180.0 / kPi) : 180.0;
     }
     out.push_back(band);

@@ -262,13 +262,13 @@ Readings remove_modelled_filter(const Readings& test, double period_s, const Res
 
 ResponseModel with_response_model(const WindowEstimateFunction& estimate_again, const Eigen::Ref<const Readings>& reference_nT,
                                   Readings& test_nT, double period_s, const RelativeResponseSettings& response,
-                                  const ResponseModelSettings& model, WindowEstimate& estimate) {
+                                  const ResponseModelSettings& model, WindowEstimate& estimate, const Readings* remote) {
   ResponseModel fit;
   if (!estimate.n.allFinite()) {
     fit.text = "response model not fitted: the window has no finite estimate";
     return fit;
   }
-  fit = fit_response_model(relative_response(reference_nT, test_nT, estimate.n, period_s, response), model);
+  fit = fit_response_model(relative_response(reference_nT, test_nT, estimate.n, period_s, response, remote), model);
   if (fit.applied) {
     test_nT = remove_modelled_filter(test_nT, period_s, fit);
     estimate = estimate_again(reference_nT, test_nT, period_s);

@@ -31,12 +31,12 @@ std::vector<Eigen::Vector3d> final_scales(const std::vector<Cell>& cells, const 
 /// The cells the sandwich rests on, counted as cells that share it equally (sandwich_cells.hpp);
 /// the weights' sum when a column's residual power is zero in every bin (noise-free records).
 double sandwich_cell_count(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                           const std::vector<Eigen::Vector3d>& scale2, double weight_sum) {
+                           const std::vector<Eigen::Vector3d>& scale2, double weight_sum, const Regression& regression) {
   detail::SandwichCells sandwich_cells(3);
   for (std::size_t i = 0; i < cells.size(); ++i)
-    sandwich_cells.add(cells[i].x, weight[i] * cells[i].g, scale2[static_cast<std::size_t>(cells[i].bin)]);
+    sandwich_cells.add(regression.instrument(cells[i]), weight[i] * cells[i].g, scale2[static_cast<std::size_t>(cells[i].bin)]);
   for (std::size_t i = 0; i < cells.size(); ++i)
-    sandwich_cells.share(cells[i].x, weight[i] * cells[i].g, scale2[static_cast<std::size_t>(cells[i].bin)]);
+    sandwich_cells.share(regression.instrument(cells[i]), weight[i] * cells[i].g, scale2[static_cast<std::size_t>(cells[i].bin)]);
   const double count = sandwich_cells.count();
   return std::isfinite(count) ? count : weight_sum;
 }
@@ -60,9 +60,10 @@ Matrix9d sandwich_covariance(const Eigen::Matrix<double, 9, 9>& omega, const Eig
 }  // namespace
 
 CellCovariance cell_covariance(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
-                               std::size_t bins, const ReferenceNoiseModel* noise, double sample_period_s) {
+                               std::size_t bins, const ReferenceNoiseModel* noise, const Regression& regression) {
   CellCovariance out;
   const NoiseSpectrum* spectrum = noise != nullptr ? &noise->spectrum : nullptr;
+  const double sample_period_s = regression.sample_period_s;
   const std::vector<Eigen::Vector3d> scale2 = final_scales(cells, fit.n, bins);
   // Step 6a: the sandwich's middle over the cells with the final weights; the D_c term centres
   // the score when the errors-in-variables term is used.
@@ -81,7 +82,7 @@ CellCovariance cell_covariance(const std::vector<Cell>& cells, const IrlsResult&
     Eigen::Vector3d d = Eigen::Vector3d::Zero();
     if (fit.eiv_applied) d = spectrum->expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
     for (int l = 0; l < 3; ++l) {
-      score.segment<3>(3 * l) = wg * ((cell.x * std::conj(e(l))).real() + d.cwiseProduct(fit.n.col(l)));
+      score.segment<3>(3 * l) = wg * ((regression.instrument(cell) * std::conj(e(l))).real() + d.cwiseProduct(fit.n.col(l)));
     }
     omega.noalias() += score * score.transpose();
     residual_power += w * e.cwiseAbs2();
@@ -90,13 +91,13 @@ CellCovariance cell_covariance(const std::vector<Cell>& cells, const IrlsResult&
     inband_variance += (2.0 / l2) * e.cwiseAbs2() / static_cast<double>(k_sections);
   }
   const double effective = std::max(weight_sum, 4.0);
-  out.cells = sandwich_cell_count(cells, fit.weight, scale2, weight_sum);
+  out.cells = sandwich_cell_count(cells, fit.weight, scale2, weight_sum, regression);
   out.sandwich = sandwich_covariance(omega, fit.a_inverse, 2.0 * effective / (2.0 * effective - 3.0));
   // Step 6b: delete-one-section jackknife with the same final weights; too few sections for
   // their own jackknife: interleaved frequency groups instead.
-  out.jackknife = section_jackknife(cells, fit, k_sections, spectrum, sample_period_s);
+  out.jackknife = section_jackknife(cells, fit.weight, k_sections, regression);
   if (out.jackknife.sections < kMinJackknifeSections) {
-    out.jackknife = frequency_group_jackknife(cells, fit, kFrequencyGroups, spectrum, sample_period_s);
+    out.jackknife = frequency_group_jackknife(cells, fit.weight, kFrequencyGroups, regression);
   }
   // Step 6c, then 6d: the identified noise's own uncertainty through the correction (the
   // jackknife re-solves with the same levels, so it does not see it).

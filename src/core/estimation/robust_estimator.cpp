@@ -88,7 +88,10 @@ class RobustFdEstimator::Window {
         length_(static_cast<std::size_t>(reference_nT.rows())),
         duration_s_(static_cast<double>(length_) * sample_period_s),
         eiv_(plan_eiv(owner.settings_.robust, inputs)),
-        inputs_(inputs) {}
+        inputs_(inputs) {
+    regression_.noise = eiv_spectrum();
+    regression_.sample_period_s = period_s_;
+  }
 
   WindowEstimate estimate();
 
@@ -107,7 +110,10 @@ class RobustFdEstimator::Window {
   std::vector<Cell> section_cells(const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test,
                                   bool with_reference);
   std::size_t assign_scale_bins(std::vector<Cell>& cells) const;
+  void choose_instruments(const std::vector<Cell>& cells, WindowEstimate& result);
   void remove_delay(std::vector<Cell>& cells, IrlsResult& fit, std::size_t bins, WindowEstimate& result);
+  void compare_with_pair(const std::vector<Cell>& cells, const IrlsResult& fit, double covariance_cells,
+                         WindowEstimate& result);
   void finish(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t bins, WindowEstimate& result);
 
   Impl& impl_;
@@ -122,13 +128,14 @@ class RobustFdEstimator::Window {
   const WindowInputs& inputs_;
   ScreenedWindow screened_;
   SectionLayout sections_;
+  Regression regression_;  ///< least squares with the EIV plan's noise, or the remote's instruments
 };
 
 WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& reference_nT,
                                            const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
                                            const WindowInputs& inputs) {
-  if (reference_nT.rows() != test_nT.rows()) {
-    throw std::invalid_argument("RobustFdEstimator: reference and test have different lengths");
+  if (reference_nT.rows() != test_nT.rows() || (inputs.remote_nT != nullptr && inputs.remote_nT->rows() != reference_nT.rows())) {
+    throw std::invalid_argument("RobustFdEstimator: reference, test and remote have different lengths");
   }
   if (!(sample_period_s > 0.0)) throw std::invalid_argument("RobustFdEstimator: sample period <= 0");
   inputs.reference_noise.validate();
@@ -171,8 +178,9 @@ WindowEstimate RobustFdEstimator::Window::estimate() {
   }
   const std::size_t bins = assign_scale_bins(cells);
   result.weights = robust_weights_text(bins);
-  // Steps 3 and 5: IRLS with the errors-in-variables term.
-  IrlsResult fit = irls(cells, sections_.count, bins, rs_, eiv_spectrum(), period_s_);
+  choose_instruments(cells, result);
+  // Steps 3 and 5: IRLS with the errors-in-variables term, or on the remote's instruments.
+  IrlsResult fit = irls(cells, sections_.count, bins, rs_, regression_);
   if (!fit.ok) {
     return detail::failed_window_estimate(result, Quality::kIllConditioned, "weighted A is singular: no signal in the band");
   }
@@ -188,7 +196,7 @@ WindowEstimate RobustFdEstimator::Window::estimate() {
   // The last step with the final weights frozen, so that n, the sandwich and the jackknife all
   // belong to the same weighted estimating equation.
   {
-    const WeightedSolution last = solve_frozen(cells, fit.weight, eiv_spectrum(), period_s_, -1);
+    const WeightedSolution last = solve_frozen(cells, fit.weight, regression_, -1);
     if (last.ok) static_cast<WeightedSolution&>(fit) = last;
   }
   finish(cells, fit, bins, result);  // step 6, trend, quality
@@ -261,9 +269,11 @@ SectionLayout RobustFdEstimator::Window::plan_sections() {
 /// the test's spectra are new: with_reference false leaves x zero and transforms the test alone.
 std::vector<Cell> RobustFdEstimator::Window::section_cells(const Eigen::Ref<const Readings>& reference,
                                                            const Eigen::Ref<const Readings>& test, bool with_reference) {
+  // Columns 0-2 the reference, 3-5 the test, 6-8 the remote (with the reference, when given).
   const int first_column = with_reference ? 0 : 3;
+  const int end_column = with_reference && inputs_.remote_nT != nullptr ? 9 : 6;
   std::vector<Cell> cells;
-  std::vector<Eigen::VectorXcd> spectra(6);
+  std::vector<Eigen::VectorXcd> spectra(9);
   for (std::size_t s = 0; s < sections_.count; ++s) {
     const std::size_t first = sections_.first[s], count = sections_.first[s + 1] - first;
     const double section_duration = static_cast<double>(count) * period_s_;
@@ -272,17 +282,21 @@ std::vector<Cell> RobustFdEstimator::Window::section_cells(const Eigen::Ref<cons
                              static_cast<long>((count - 1) / 2));
     // Each column's least-squares line (as detrend() fits it), subtracted on the way into the
     // transform's input; only the bins up to j1 are copied out.
-    const double* columns[6] = {};
-    for (int c = 0; c < 6; ++c) columns[c] = (c < 3 ? reference : test).col(c % 3).data() + first;
-    double mean[6] = {}, slope[6] = {};
+    const double* columns[9] = {};
+    for (int c = 0; c < end_column; ++c) {
+      const Eigen::Ref<const Readings> record = c < 3 ? reference : (c < 6 ? test : Eigen::Ref<const Readings>(*inputs_.remote_nT));
+      columns[c] = record.col(c % 3).data() + first;
+    }
+    double mean[9] = {}, slope[9] = {};
     if (count < 2) {  // as detrend(): a lone sample becomes 0
-      for (int c = 0; c < 6; ++c) mean[c] = count == 1 ? columns[c][0] : 0.0;
+      for (int c = 0; c < end_column; ++c) mean[c] = count == 1 ? columns[c][0] : 0.0;
     } else if (with_reference) {
       detail::fit_lines<6>(columns, count, mean, slope);
+      if (end_column == 9) detail::fit_lines<3>(columns + 6, count, mean + 6, slope + 6);
     } else {
       detail::fit_lines<3>(columns + 3, count, mean + 3, slope + 3);  // column by column: as in the 6
     }
-    for (int c = first_column; c < 6; ++c) {
+    for (int c = first_column; c < end_column; ++c) {
       detail::subtract_line(columns[c], count, mean[c], slope[c], impl_.dft.input(count));
       impl_.dft.execute(count, static_cast<std::size_t>(std::max(j1, 0L)) + 1, spectra[static_cast<std::size_t>(c)]);
     }
@@ -297,10 +311,11 @@ std::vector<Cell> RobustFdEstimator::Window::section_cells(const Eigen::Ref<cons
       for (int k = 0; k < 3; ++k) {
         cell.x(k) = with_reference ? spectra[static_cast<std::size_t>(k)](j) : std::complex<double>(0.0, 0.0);
         cell.y(k) = spectra[static_cast<std::size_t>(k + 3)](j);
+        if (end_column == 9) cell.z(k) = spectra[static_cast<std::size_t>(k + 6)](j);
       }
       cells.push_back(cell);
     }
-    if (rs_.section_trend) remove_section_trend(cells, section_begin, cells.size());
+    if (rs_.section_trend) remove_section_trend(cells, section_begin, cells.size(), end_column == 9);
   }
   return cells;
 }
@@ -354,7 +369,7 @@ void RobustFdEstimator::Window::remove_delay(std::vector<Cell>& cells, IrlsResul
     const std::vector<Cell> shifted = section_cells(r, advance_record(t, period_s_, d.delay_s), false);
     for (std::size_t i = 0; i < aligned.size(); ++i) aligned[i].y = shifted[i].y;
   }
-  IrlsResult again = irls(aligned, sections_.count, bins, rs_, eiv_spectrum(), period_s_);
+  IrlsResult again = irls(aligned, sections_.count, bins, rs_, regression_);
   if (!again.ok) return;  // the cells and fit without the correction stay
   fit = std::move(again);
   cells = std::move(aligned);
@@ -367,9 +382,12 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   diagnostics_.eiv_applied = fit.eiv_applied;
   diagnostics_.eiv_noise = fit.noise;
   diagnostics_.n_uncorrected = fit.n_uncorrected;
-  result.eiv = fit.eiv_applied ? ErrorsInVariables::kApplied : eiv_.without;
+  result.eiv = regression_.remote ? ErrorsInVariables::kRemoteReference
+                                  : (fit.eiv_applied ? ErrorsInVariables::kApplied : eiv_.without);
+  Regression as_solved = regression_;  // the jackknife refits as n was solved
+  if (!fit.eiv_applied) as_solved.noise = nullptr;
   const CellCovariance cov =
-      cell_covariance(cells, fit, sections_.count, bins, fit.eiv_applied ? eiv_.noise : nullptr, period_s_);
+      cell_covariance(cells, fit, sections_.count, bins, fit.eiv_applied ? eiv_.noise : nullptr, as_solved);
   diagnostics_.covariance_sandwich = cov.sandwich;
   diagnostics_.covariance_jackknife = cov.jackknife.covariance;
   diagnostics_.jackknife_sections = cov.jackknife.sections;
@@ -389,7 +407,52 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   // Quality figures, as for Eq. 2 but over the weighted cells.
   result.coherence = cov.coherence;
   result.residual_rms_nT = cov.residual_rms_nT;
-  apply_quality_rules(result, fit.a, static_cast<long>(cells.size()), "section harmonics", settings_);
+  // The condition of the reference's own weighted sums (the IV sums are not symmetric).
+  apply_quality_rules(result, weighted_normal_equations(cells, fit.weight, Regression{}, -1).a,
+                      static_cast<long>(cells.size()), "section harmonics", settings_);
+  if (regression_.remote) compare_with_pair(cells, fit, cov.cells, result);
+}
+
+/// With a remote: the instrumental-variable regression when the remote predicts every direction
+/// of the local reference strongly enough over the cells (remote_reference.hpp), else least
+/// squares on the pair, the refusal stated.
+void RobustFdEstimator::Window::choose_instruments(const std::vector<Cell>& cells, WindowEstimate& result) {
+  RemoteReference& remote = result.remote;
+  remote.given = inputs_.remote_nT != nullptr;
+  if (!remote.given) return;
+  const std::string name = inputs_.remote_name.empty() ? std::string("the remote") : inputs_.remote_name;
+  assess_cells_remote_strength(remote, cells, std::vector<double>(cells.size(), 1.0));
+  std::ostringstream text;
+  text.precision(3);
+  if (!(remote.strength >= kMinRemoteStrength)) {
+    text << "remote " << name << " refused: it predicts the local reference too weakly (first-stage F "
+         << remote.strength << " < " << kMinRemoteStrength << ", smallest canonical coherence "
+         << remote.canonical_coherence << "; coherence x/y/z " << remote.coherence(0) << "/" << remote.coherence(1)
+         << "/" << remote.coherence(2) << "): a different field or a wrong time base; n from the pair alone";
+    remote.text = text.str();
+    return;
+  }
+  remote.used = true;
+  regression_.remote = true;
+  text << "remote reference " << name;
+  remote.text = text.str();
+}
+
+/// The remote's strength over the final weights, and the pair-only estimate on the same cells
+/// and weights against n (remote_reference.hpp).
+void RobustFdEstimator::Window::compare_with_pair(const std::vector<Cell>& cells, const IrlsResult& fit,
+                                                  double covariance_cells, WindowEstimate& result) {
+  RemoteReference& remote = result.remote;
+  assess_cells_remote_strength(remote, cells, fit.weight);
+  std::ostringstream text;
+  text.precision(3);
+  text << " (first-stage F " << remote.strength << ", coherence x/y/z " << remote.coherence(0) << "/"
+       << remote.coherence(1) << "/" << remote.coherence(2) << ")";
+  remote.text += text.str();
+  Regression pair;
+  pair.noise = eiv_spectrum();
+  pair.sample_period_s = period_s_;
+  assess_cells_pair_difference(remote, cells, fit, sections_.count, pair, regression_, covariance_cells);
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/remote_reference.hpp"
 
 #include <Eigen/Core>
 
@@ -32,7 +33,19 @@ struct Cell {
   long harmonic = 0;     ///< j: the cell is the section's DFT bin j (frequency_hz = j / section duration)
   double g = 0.0;        ///< lambda^gamma
   std::size_t length = 0;  ///< section length, samples
-  Eigen::Vector3cd x, y;
+  Eigen::Vector3cd x, y;   ///< the reference's and the test's DFT, nT
+  Eigen::Vector3cd z = Eigen::Vector3cd::Zero();  ///< the remote's DFT (its units); zero without one
+};
+
+/// How n is solved from the cells: least squares on the reference's own cells, corrected for a
+/// reference noise when one is given (errors_in_variables.hpp); or instrumental variables on the
+/// remote's cells (remote_reference.hpp), which need no correction.
+struct Regression {
+  const NoiseSpectrum* noise = nullptr;  ///< least squares: the reference noise to correct for (null: none)
+  bool remote = false;                   ///< instrumental variables on cell.z
+  double sample_period_s = 1.0;
+  /// The cell's instruments: the remote's DFT, or the reference's own.
+  const Eigen::Vector3cd& instrument(const Cell& cell) const { return remote ? cell.z : cell.x; }
 };
 
 /// n from the weighted sums (solve_weighted, solve_frozen): Eq. 2, n = A^-1 C, or, where the
@@ -59,13 +72,15 @@ struct IrlsResult : WeightedSolution {
 };
 
 /// Weighted sums of Eq. 2 over the cells (cell weight w times lambda^gamma g; cells of weight 0
-/// and of section `exclude` left out, -1 for none): A = sum w g Re(x x^H) and
-/// C = sum w g Re(x y^H) (nT^2), and with a reference noise to correct for its expected
-/// periodogram N = sum w g E|X_noise|^2 (nT^2, diagonal; zero without one).
+/// and of section `exclude` left out, -1 for none): A = sum w g Re(z x^H) and
+/// C = sum w g Re(z y^H) with z the instruments (the reference's own x, or the remote's), and
+/// with a reference noise to correct for its expected periodogram N = sum w g E|X_noise|^2
+/// (nT^2, diagonal; zero without one).
 struct NormalEquations {
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d given_noise = Eigen::Matrix3d::Zero();
+  bool instrumental = false;  ///< A is sum w g Re(z x^H) of a remote: solved by LU, never corrected
 };
 
 /// Delete-one-group jackknife of row-major vec(n) (step 6b): groups are sections, or interleaved
@@ -78,15 +93,14 @@ struct JackknifeResult {
   bool usable() const { return sections >= kMinJackknifeSections && covariance.allFinite(); }
 };
 
-// weighted_eiv_solve.cpp. `noise`: the reference noise n is corrected for (errors in
-// variables), null for none.
+// weighted_eiv_solve.cpp.
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                                          const NoiseSpectrum* noise, double sample_period_s, int exclude);
+                                          const Regression& regression, int exclude);
 WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise);
 /// n for frozen cell weights: the last step of the IRLS, and each refit of the jackknife
 /// (exclude = a section; -1 for none).
 WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                              const NoiseSpectrum* noise, double sample_period_s, int exclude);
+                              const Regression& regression, int exclude);
 /// Step 6d: the covariance of row-major vec(n) that the uncertainty of the noise model's levels
 /// (ReferenceNoiseModel::level_covariance) carries through the correction; zero unless the
 /// correction was applied.
@@ -105,16 +119,16 @@ inline const char* robust_weights_text(std::size_t scale_bins) {
 
 // section_irls.cpp: steps 3 and 5, IRLS over the cells.
 IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,
-                const NoiseSpectrum* noise, double sample_period_s);
+                const Regression& regression);
 
 // section_jackknife.cpp: step 6b and 6c.
-JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
-                                  const NoiseSpectrum* noise, double sample_period_s);
+JackknifeResult section_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                  std::size_t k_sections, const Regression& regression);
 /// Delete-one-group jackknife over `groups` interleaved frequency groups (the cells in frequency
 /// order, every groups-th in one group), n refitted without each group with the same weights
 /// (step 6b for windows of fewer than kMinJackknifeSections weighted sections).
-JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t groups,
-                                          const NoiseSpectrum* noise, double sample_period_s);
+JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                          std::size_t groups, const Regression& regression);
 Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& jack);
 
 /// Step 6 over the final weighted cells: the reported covariance of row-major vec(n) and its
@@ -132,6 +146,18 @@ struct CellCovariance {
 };
 /// robust_covariance.cpp. `noise`: the model n was corrected with (null: none).
 CellCovariance cell_covariance(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
-                               std::size_t bins, const ReferenceNoiseModel* noise, double sample_period_s);
+                               std::size_t bins, const ReferenceNoiseModel* noise, const Regression& regression);
+
+// remote_cells.cpp: the remote's strength over the weighted cells, and the pair-only estimate on
+// the same cells and weights against the remote's (remote_reference.hpp).
+/// coherence, canonical coherence and first-stage F of the remote over the cells and weights.
+void assess_cells_remote_strength(RemoteReference& remote, const std::vector<Cell>& cells,
+                                  const std::vector<double>& weight);
+/// The pair-only estimate (least squares with `pair`'s noise correction) with the remote fit's
+/// final weights, the covariance of its difference from the remote's n (per-cell influence
+/// difference, raised to the jackknife of the difference over the same groups) and the test.
+void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cell>& cells, const IrlsResult& fit,
+                                  std::size_t k_sections, const Regression& pair, const Regression& iv,
+                                  double covariance_cells);
 
 }  // namespace magnetometer_insitu_calibration::detail::robust

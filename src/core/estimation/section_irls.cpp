@@ -14,7 +14,7 @@ namespace magnetometer_insitu_calibration::detail::robust {
 
 /// Steps 3 and 5: IRLS over the cells.
 IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,
-                const NoiseSpectrum* noise, double sample_period_s) {
+                const Regression& regression) {
   IrlsResult out;
   const std::size_t m = cells.size();
   out.weight.assign(m, 1.0);
@@ -30,7 +30,7 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);
   std::vector<double> r2(m, 0.0);
   for (int it = 0; it < rs.iterations; ++it) {
-    const NormalEquations sums = weighted_normal_equations(cells, out.weight, noise, sample_period_s, -1);
+    const NormalEquations sums = weighted_normal_equations(cells, out.weight, regression, -1);
     // N is zero without a noise to correct for: Eq. 2 with the weights.
     const WeightedSolution solved = solve_weighted(sums, sums.given_noise);
     if (!solved.ok) return out;

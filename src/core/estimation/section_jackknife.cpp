@@ -33,14 +33,14 @@ Eigen::Matrix<double, 9, 1> row_major(const Eigen::Matrix3d& n) {
 
 }  // namespace
 
-JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
-                                  const NoiseSpectrum* noise, double sample_period_s) {
+JackknifeResult section_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                  std::size_t k_sections, const Regression& regression) {
   std::vector<double> section_weight(k_sections, 0.0);
-  for (std::size_t i = 0; i < cells.size(); ++i) section_weight[static_cast<std::size_t>(cells[i].section)] += fit.weight[i];
+  for (std::size_t i = 0; i < cells.size(); ++i) section_weight[static_cast<std::size_t>(cells[i].section)] += weight[i];
   std::vector<Eigen::Matrix<double, 9, 1>> leave_out;
   for (std::size_t s = 0; s < k_sections; ++s) {
     if (!(section_weight[s] > 0.0)) continue;  // a rejected section: deleting it changes nothing
-    const WeightedSolution f = solve_frozen(cells, fit.weight, noise, sample_period_s, static_cast<int>(s));
+    const WeightedSolution f = solve_frozen(cells, weight, regression, static_cast<int>(s));
     if (!f.ok) return JackknifeResult{};  // one section held the whole signal of a direction: no jackknife
     leave_out.push_back(row_major(f.n));
   }
@@ -70,8 +70,8 @@ JackknifeResult section_jackknife(const std::vector<Cell>& cells, const IrlsResu
 ///  Measured (quiet / disturbed, 100 seeds each, sandwich -> interleaved groups): 6 h, seeds
 ///  11000: 88.7 -> 91.8 %, 84.0 -> 86.8 %; seeds 12000 (held out): 89.3 -> 92.7 %, 80.0 -> 85.2 %;
 ///  12 h, seeds 12000: 88.3 -> 91.3 %, 82.7 -> 87.8 %.
-JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t groups,
-                                          const NoiseSpectrum* noise, double sample_period_s) {
+JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const std::vector<double>& fit_weight,
+                                          std::size_t groups, const Regression& regression) {
   std::vector<std::size_t> order(cells.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
@@ -79,14 +79,14 @@ JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const 
   std::vector<Eigen::Matrix<double, 9, 1>> leave_out;
   std::vector<double> weight;
   for (std::size_t g = 0; g < groups; ++g) {
-    weight = fit.weight;
+    weight = fit_weight;
     double removed = 0.0;
     for (std::size_t r = g; r < order.size(); r += groups) {
       removed += weight[order[r]];
       weight[order[r]] = 0.0;
     }
     if (!(removed > 0.0)) continue;  // a group of rejected cells: deleting it changes nothing
-    const WeightedSolution f = solve_frozen(cells, weight, noise, sample_period_s, -1);
+    const WeightedSolution f = solve_frozen(cells, weight, regression, -1);
     if (!f.ok) return JackknifeResult{};  // one group held the whole signal of a direction
     leave_out.push_back(row_major(f.n));
   }

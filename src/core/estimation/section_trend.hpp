@@ -38,8 +38,11 @@ inline std::complex<double> ramp_dft(long j, std::size_t length) {
 /// Removes, from the cells [first, last) of one section (all of one length), each column's
 /// component along the ramp's DFT: v <- v - beta r, beta = sum g Re(conj(r) v) / sum g |r|^2
 /// (real: the trend of a real record), the inner product of Eq. 2 with weights g = lambda^gamma.
-/// Columns that are zero (the reference's, when only the test was transformed) stay zero.
-inline void remove_section_trend(std::vector<Cell>& cells, std::size_t first, std::size_t last) {
+/// Columns that are zero (the reference's, when only the test was transformed) stay zero. The
+/// remote's columns (cell.z) with with_remote: it is an instrument of the same regression, and
+/// the same projection keeps its own drift out of the low harmonics.
+inline void remove_section_trend(std::vector<Cell>& cells, std::size_t first, std::size_t last,
+                                 bool with_remote = false) {
   if (last <= first + 1) return;  // one harmonic: the trend would take all of it
   const std::size_t length = cells[first].length;
   std::vector<std::complex<double>> r(last - first);
@@ -49,17 +52,14 @@ inline void remove_section_trend(std::vector<Cell>& cells, std::size_t first, st
     rr += cells[i].g * std::norm(r[i - first]);
   }
   if (!(rr > 0.0)) return;
-  for (int k = 0; k < 6; ++k) {
+  auto column = [](Cell& cell, int k) -> std::complex<double>& {
+    return k < 3 ? cell.x(k) : (k < 6 ? cell.y(k - 3) : cell.z(k - 6));
+  };
+  for (int k = 0; k < (with_remote ? 9 : 6); ++k) {
     double num = 0.0;
-    for (std::size_t i = first; i < last; ++i) {
-      const std::complex<double> v = k < 3 ? cells[i].x(k) : cells[i].y(k - 3);
-      num += cells[i].g * (std::conj(r[i - first]) * v).real();
-    }
+    for (std::size_t i = first; i < last; ++i) num += cells[i].g * (std::conj(r[i - first]) * column(cells[i], k)).real();
     const double beta = num / rr;
-    for (std::size_t i = first; i < last; ++i) {
-      std::complex<double>& v = k < 3 ? cells[i].x(k) : cells[i].y(k - 3);
-      v -= beta * r[i - first];
-    }
+    for (std::size_t i = first; i < last; ++i) column(cells[i], k) -= beta * r[i - first];
   }
 }
 

@@ -12,16 +12,20 @@
 namespace magnetometer_insitu_calibration::detail::robust {
 
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                                          const NoiseSpectrum* noise, double sample_period_s, int exclude) {
+                                          const Regression& regression, int exclude) {
   NormalEquations out;
+  out.instrumental = regression.remote;
+  const NoiseSpectrum* noise = regression.remote ? nullptr : regression.noise;
   for (std::size_t i = 0; i < cells.size(); ++i) {
     const Cell& cell = cells[i];
     const double wg = weight[i] * cell.g;
     if (wg == 0.0 || cell.section == exclude) continue;
-    out.a.noalias() += wg * (cell.x * cell.x.adjoint()).real();
-    out.c.noalias() += wg * (cell.x * cell.y.adjoint()).real();
+    const Eigen::Vector3cd& z = regression.instrument(cell);
+    out.a.noalias() += wg * (z * cell.x.adjoint()).real();
+    out.c.noalias() += wg * (z * cell.y.adjoint()).real();
     if (noise != nullptr) {
-      out.given_noise.diagonal() += wg * noise->expected_periodogram(cell.frequency_hz, sample_period_s, cell.length);
+      out.given_noise.diagonal() +=
+          wg * noise->expected_periodogram(cell.frequency_hz, regression.sample_period_s, cell.length);
     }
   }
   return out;
@@ -45,6 +49,15 @@ bool solve_corrected(const NormalEquations& sums, const Eigen::Matrix3d& noise, 
 
 WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise) {
   WeightedSolution out;
+  if (sums.instrumental) {  // the remote's instruments: no correction (remote_reference.hpp)
+    Eigen::MatrixXd solution, inverse;
+    if (!instrumental_solve(sums.a, sums.c, solution, inverse)) return out;
+    out.ok = true;
+    out.a = sums.a;
+    out.n = out.n_uncorrected = solution;
+    out.a_inverse = out.a_inverse_uncorrected = inverse;
+    return out;
+  }
   if (!solve_corrected(sums, Eigen::Matrix3d::Zero(), out.n_uncorrected, out.a_inverse_uncorrected)) return out;
   out.ok = true;
   out.a = sums.a;
@@ -61,8 +74,8 @@ WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix
 }
 
 WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                              const NoiseSpectrum* noise, double sample_period_s, int exclude) {
-  const NormalEquations sums = weighted_normal_equations(cells, weight, noise, sample_period_s, exclude);
+                              const Regression& regression, int exclude) {
+  const NormalEquations sums = weighted_normal_equations(cells, weight, regression, exclude);
   return solve_weighted(sums, sums.given_noise);
 }
 

@@ -36,7 +36,7 @@ WindowEstimate WindowEstimator::estimate(const Eigen::Ref<const Readings>& refer
     }
   }
   FdWlseEstimator plain(s);
-  WindowEstimate e = plain.estimate(reference_nT, test_nT, sample_period_s);
+  WindowEstimate e = plain.estimate(reference_nT, test_nT, sample_period_s, inputs);
   e.method = "plain";
   e.band_low_hz = static_cast<double>(e.harmonic_first) / duration_s;
   e.band_high_hz = static_cast<double>(e.harmonic_last) / duration_s;

@@ -165,8 +165,41 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
   return spans;
 }
 
+namespace {
+
+/// The rows of a prepared side record within [low_s, high_s).
+PairedRecord slice(const PairedRecord& q, double low_s, double high_s) {
+  const auto lo = std::lower_bound(q.time_s.begin(), q.time_s.end(), low_s);
+  const auto hi = std::lower_bound(lo, q.time_s.end(), high_s);
+  const auto a = static_cast<Eigen::Index>(lo - q.time_s.begin()), rows = static_cast<Eigen::Index>(hi - lo);
+  PairedRecord out;
+  out.time_s.assign(lo, hi);
+  out.reference_nT = q.reference_nT.middleRows(a, rows);
+  out.test_nT = q.test_nT.middleRows(a, rows);
+  return out;
+}
+
+/// A side record paired with the reference like the test, on the same estimation period.
+std::unique_ptr<PreparedPair> prepare_side(const VectorRecord& reference, const VectorRecord& side,
+                                           const PreparedPair& prepared, const CalibrationSettings& settings,
+                                           const char* option) {
+  std::unique_ptr<PreparedPair> out;
+  try {
+    out = std::make_unique<PreparedPair>(
+        prepare_pair(reference, side, settings.preprocess, nullptr, settings.window.gaps.max_fill_s));
+  } catch (const InputError& e) {  // name the side record, not the pair's own options
+    throw InputError(option, "paired with the reference: " + e.problem());
+  }
+  if (std::abs(out->sample_period_s - prepared.sample_period_s) > 1e-9 * prepared.sample_period_s) {
+    throw InputError(option, "its pair with the reference has another estimation period than the test's");
+  }
+  return out;
+}
+
+}  // namespace
+
 WindowRecords window_records(const PreparedPair& prepared, std::size_t first, std::size_t count,
-                             double temperature_margin_s, const PreparedPair* third, const std::string& third_name) {
+                             double temperature_margin_s, const PreparedSides* sides) {
   const PairedRecord& p = prepared.paired;
   const double period = prepared.sample_period_s;
   WindowRecords w;
@@ -184,29 +217,31 @@ WindowRecords window_records(const PreparedPair& prepared, std::size_t first, st
   const auto to = std::upper_bound(from, t.time_s.end(), high);
   w.temperature.time_s.assign(from, to);
   w.temperature.value_C.assign(t.value_C.begin() + (from - t.time_s.begin()), t.value_C.begin() + (to - t.time_s.begin()));
-  if (third != nullptr) {
-    const PairedRecord& q = third->paired;
-    const auto lo = std::lower_bound(q.time_s.begin(), q.time_s.end(), w.start_s - 0.5 * period);
-    const auto hi = std::lower_bound(lo, q.time_s.end(), w.end_s() + 0.5 * period);
-    const auto a = static_cast<Eigen::Index>(lo - q.time_s.begin()), rows = static_cast<Eigen::Index>(hi - lo);
-    auto record = std::make_shared<PairedRecord>();
-    record->time_s.assign(lo, hi);
-    record->reference_nT = q.reference_nT.middleRows(a, rows);
-    record->test_nT = q.test_nT.middleRows(a, rows);
-    w.third = std::move(record);
-    w.third_name = third_name;
+  if (sides == nullptr) return w;
+  const double from_s = w.start_s - 0.5 * period, to_s = w.end_s() + 0.5 * period;
+  if (sides->third) {
+    w.third = std::make_shared<PairedRecord>(slice(sides->third->paired, from_s, to_s));
+    w.third_name = sides->third_name;
+  }
+  if (sides->remote) {
+    const PairedRecord r = slice(sides->remote->paired, from_s, to_s);
+    auto remote = std::make_shared<VectorRecord>();
+    remote->time_s = r.time_s;
+    remote->values_nT = r.test_nT;
+    w.remote = std::move(remote);
+    w.remote_name = sides->remote_name;
   }
   return w;
 }
 
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings,
-                                                  const PreparedPair* third) {
+                                                  const PreparedSides* sides) {
   settings.validate();
   WindowCalibrator calibrator(settings.window);
   std::vector<CalibrationWindow> out;
   for (const WindowSpan& span : plan_windows(prepared.paired.size(), prepared.sample_period_s, settings.windows)) {
     CalibrationWindow w = calibrator.calibrate(window_records(prepared, span.first, span.count,
-                                                              settings.window.temperature_max_gap_s, third));
+                                                              settings.window.temperature_max_gap_s, sides));
     w.label = span.label;
     w.first_index = span.first;
     out.push_back(std::move(w));
@@ -231,24 +266,25 @@ std::vector<WindowEstimate> disjoint_window_estimates(const std::vector<Calibrat
   return out;
 }
 
+PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& prepared, const SideRecords& sides,
+                            const CalibrationSettings& settings) {
+  PreparedSides out;
+  if (sides.third != nullptr) out.third = prepare_side(reference, *sides.third, prepared, settings, "--third");
+  if (sides.remote != nullptr) {
+    out.remote = prepare_side(reference, *sides.remote, prepared, settings, "--remote");
+    if (!sides.remote->station.empty()) out.remote_name = sides.remote->station;
+  }
+  return out;
+}
+
 PairCalibration calibrate_records(const VectorRecord& reference, const VectorRecord& test,
-                                  const CalibrationSettings& settings, const VectorRecord* third) {
+                                  const CalibrationSettings& settings, const SideRecords& sides) {
   settings.validate();
   PairCalibration result;
   const double max_fill = settings.window.gaps.max_fill_s;
   const PreparedPair prepared = prepare_pair(reference, test, settings.preprocess, &result.report, max_fill);
-  std::unique_ptr<PreparedPair> with_third;
-  if (third != nullptr) {
-    try {
-      with_third = std::make_unique<PreparedPair>(prepare_pair(reference, *third, settings.preprocess, nullptr, max_fill));
-    } catch (const InputError& e) {  // name the third record, not the pair's own options
-      throw InputError("--third", "paired with the reference: " + e.problem());
-    }
-    if (std::abs(with_third->sample_period_s - prepared.sample_period_s) > 1e-9 * prepared.sample_period_s) {
-      throw InputError("--third", "its pair with the reference has another estimation period than the test's");
-    }
-  }
-  result.windows = calibrate_prepared(prepared, settings, with_third.get());
+  const PreparedSides prepared_sides = prepare_sides(reference, prepared, sides, settings);
+  result.windows = calibrate_prepared(prepared, settings, &prepared_sides);
   return result;
 }
 

@@ -44,6 +44,17 @@ void fill_temperature(CalibrationRecord& r, const CalibrationWindow& w) {
   r.temperature_scale_ci95_ppm_per_C = array3(f.fitted ? f.scale_ci95_ppm_per_C : none);
 }
 
+/// The remote reference's fields (NaN where there is no remote, or it was not used).
+void fill_remote(CalibrationRecord& r, const RemoteReference& remote) {
+  r.remote_used = remote.used;
+  r.remote_text = remote.text;
+  r.remote_coherence = array3(remote.coherence);
+  r.remote_strength = remote.strength;
+  for (int k = 0; k < 9; ++k) r.pair_only_matrix[static_cast<std::size_t>(k)] = remote.pair_n(k / 3, k % 3);
+  r.pair_difference_p_value = remote.joint_p_value;
+  r.pair_biased = remote.pair_biased;
+}
+
 /// The estimate's fields: n, its covariance and cells, trend, parameters, quality figures.
 void fill_estimate(CalibrationRecord& r, const WindowEstimate& e) {
   for (int k = 0; k < 9; ++k) r.matrix[static_cast<std::size_t>(k)] = e.n(k / 3, k % 3);
@@ -107,6 +118,7 @@ CalibrationRecord make_calibration_record(const CalibrationWindow& w, const Reco
     r.quality_text = "offset not finite";
   }
   r.accepted = r.quality == static_cast<std::uint8_t>(Quality::kOk);
+  fill_remote(r, e.remote);
   return r;
 }
 

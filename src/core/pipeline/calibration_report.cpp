@@ -121,6 +121,7 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
       {"settings",
        {{"reference", inputs.reference},
         {"test", inputs.test},
+        {"remote", inputs.remote.empty() ? json() : json(inputs.remote)},
         {"model", "T = R n + trend, rows are samples (nT); column l of n is test axis l in reference coordinates"},
         {"band_hz", json::array({s.estimator.band_low_hz, s.estimator.band_high_hz})},
         {"gamma", s.estimator.gamma},

@@ -32,6 +32,30 @@ LiveTestStream::LiveTestStream(const std::string& test_name, bool has_temperatur
   }
 }
 
+LiveRemoteStream::LiveRemoteStream(const std::string& remote_name, const LiveStreamSettings& settings)
+    : name(remote_name),
+      despiker(settings.despike_settings),
+      pairer(settings.pairing_tolerance_s, settings.pairing_max_wait_s) {
+  if (settings.decimating()) {
+    reference_decimator = std::make_unique<StreamingDecimator>(settings.input_period_s, settings.decimation);
+    remote_decimator = std::make_unique<StreamingDecimator>(settings.input_period_s, settings.decimation);
+  }
+}
+
+std::shared_ptr<VectorRecord> LiveRemoteStream::copy(double low_s, double high_s) const {
+  auto out = std::make_shared<VectorRecord>();
+  std::vector<Eigen::Vector3d> values;
+  for (const auto& [time, value] : samples) {
+    if (time < low_s || time >= high_s) continue;
+    out->time_s.push_back(time);
+    values.push_back(value);
+  }
+  out->values_nT.resize(static_cast<Eigen::Index>(values.size()), 3);
+  for (std::size_t i = 0; i < values.size(); ++i) out->values_nT.row(static_cast<Eigen::Index>(i)) = values[i].transpose();
+  out->source = name;
+  return out;
+}
+
 PairingCounters LiveTestStream::counters() const {
   PairingCounters total = counters_before_reset;
   add_counters(total, pairer.counters());
@@ -50,11 +74,54 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
   std::vector<Completed> out;
   StreamingDespiker::Sample s{time_s, value_nT};
   if (settings_.despike && !reference_despiker_.push(time_s, value_nT, s)) return out;
+  if (remote_) {  // first: its samples of a window are in before the window completes
+    remote_->pairer.push_reference(s.time_s, s.value_nT);
+    drain_remote();
+  }
   for (std::size_t i = 0; i < tests_.size(); ++i) {
     tests_[i]->pairer.push_reference(s.time_s, s.value_nT);
     drain(i, out);
   }
   return out;
+}
+
+void LiveCalibrationStreams::add_remote(const std::string& name) {
+  remote_ = std::make_unique<LiveRemoteStream>(name, settings_);
+}
+
+void LiveCalibrationStreams::push_remote(double time_s, const Eigen::Vector3d& value_nT) {
+  if (!remote_) return;
+  ++remote_->received;
+  StreamingDespiker::Sample s{time_s, value_nT};
+  if (settings_.despike && !remote_->despiker.push(time_s, value_nT, s)) return;
+  remote_->pairer.push_test(s.time_s, s.value_nT);
+  drain_remote();
+}
+
+/// The remote's pairs with the reference, decimated like a test's, into its buffer; samples
+/// older than every test's next window (less a period) are no longer needed.
+void LiveCalibrationStreams::drain_remote() {
+  LiveRemoteStream& r = *remote_;
+  for (const PairedSample& pair : r.pairer.take_pairs()) {
+    if (!r.reference_decimator) {
+      r.samples.emplace_back(pair.time_s, pair.test_nT);
+    } else {
+      if (r.any_pair && pair.time_s - r.last_pair_s > settings_.time_jump_threshold_s) {
+        r.reference_decimator->reset();
+        r.remote_decimator->reset();
+      }
+      const auto a = r.reference_decimator->push(pair.time_s, pair.reference_nT);
+      const auto b = r.remote_decimator->push(pair.time_s, pair.test_nT);
+      for (std::size_t k = 0; k < std::min(a.size(), b.size()); ++k) r.samples.emplace_back(b[k].first, b[k].second);
+    }
+    r.any_pair = true;
+    r.last_pair_s = pair.time_s;
+  }
+  double needed = r.samples.empty() ? 0.0 : r.samples.back().first;
+  for (const auto& t : tests_) needed = std::min(needed, t->windows.next_start_s() - 2.0 * t->windows.period_s());
+  // Bounded whatever the tests do: at most two windows' span behind the newest sample.
+  if (!r.samples.empty()) needed = std::max(needed, r.samples.back().first - 2.0 * settings_.window_s);
+  while (!r.samples.empty() && r.samples.front().first < needed) r.samples.pop_front();
 }
 
 std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_test(std::size_t test, double time_s,
@@ -107,6 +174,10 @@ void LiveCalibrationStreams::drain(std::size_t test, std::vector<Completed>& out
 }
 
 void LiveCalibrationStreams::window_done(std::size_t test, WindowRecords&& window, std::vector<Completed>& out) {
+  if (remote_) {
+    window.remote = remote_->copy(window.start_s - 0.5 * window.period_s, window.end_s() + 0.5 * window.period_s);
+    window.remote_name = remote_->name;
+  }
   if (!coincident_) {
     out.push_back(Completed{test, std::move(window), 0});
     return;
@@ -135,6 +206,16 @@ void LiveCalibrationStreams::restart(std::size_t test) {
 
 void LiveCalibrationStreams::restart_all() {
   reference_despiker_.reset();
+  if (remote_) {
+    remote_->despiker.reset();
+    remote_->pairer.reset();
+    if (remote_->reference_decimator) {
+      remote_->reference_decimator->reset();
+      remote_->remote_decimator->reset();
+    }
+    remote_->samples.clear();
+    remote_->any_pair = false;
+  }
   for (std::size_t i = 0; i < tests_.size(); ++i) restart(i);
 }
 

@@ -51,6 +51,47 @@ void estimate_offset(CalibrationWindow& w, const PairedRecord& paired) {
   }
 }
 
+/// The remote's samples at the filled window's epochs: runs of missing epochs inside bridged by
+/// straight lines, at the edges held from the nearest sample. An instrument filled so is still
+/// one (a function of the remote's record alone, independent of the local errors): what it
+/// costs is strength, which the estimator measures. "" when usable, else why not: fewer than
+/// kMinRemoteCover of the epochs have a sample (too short an overlap).
+constexpr double kMinRemoteCover = 0.5;
+
+std::string remote_on_grid(const VectorRecord& remote, const std::vector<double>& epochs, double period_s,
+                           Readings& out) {
+  const auto n = static_cast<Eigen::Index>(epochs.size());
+  out = Readings::Constant(n, 3, std::numeric_limits<double>::quiet_NaN());
+  if (n == 0) return "no epoch";
+  const double start = epochs.front();
+  std::vector<char> have(static_cast<std::size_t>(n), 0);
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < remote.time_s.size(); ++i) {
+    const long long k = std::llround((remote.time_s[i] - start) / period_s);
+    if (k < 0 || k >= n || !remote.values_nT.row(static_cast<Eigen::Index>(i)).allFinite()) continue;
+    out.row(static_cast<Eigen::Index>(k)) = remote.values_nT.row(static_cast<Eigen::Index>(i));
+    count += have[static_cast<std::size_t>(k)] == 0;
+    have[static_cast<std::size_t>(k)] = 1;
+  }
+  if (static_cast<double>(count) < kMinRemoteCover * static_cast<double>(n)) {
+    std::ostringstream text;
+    text << "it has samples at " << count << " of the window's " << n << " epochs (fewer than "
+         << 100.0 * kMinRemoteCover << " %: too short an overlap)";
+    return text.str();
+  }
+  Eigen::Index last = -1;  // the last epoch with a sample
+  for (Eigen::Index i = 0; i <= n; ++i) {
+    if (i < n && !have[static_cast<std::size_t>(i)]) continue;
+    for (Eigen::Index k = last + 1; k < i; ++k) {
+      if (last < 0) out.row(k) = out.row(i);                                // leading edge: hold
+      else if (i >= n) out.row(k) = out.row(last);                          // trailing edge: hold
+      else out.row(k) = out.row(last) + (out.row(i) - out.row(last)) * double(k - last) / double(i - last);
+    }
+    last = i;
+  }
+  return "";
+}
+
 /// Step 5 (window_calibration.hpp).
 void apply_gap_rule(CalibrationWindow& w, const WindowCalibrationSettings& settings) {
   const double fraction = static_cast<double>(w.missing()) / static_cast<double>(w.expected_samples);
@@ -127,7 +168,7 @@ void WindowCalibrator::estimate_pass(CalibrationWindow& w, const PairedRecord& p
   w.response_model = ResponseModel{};
   if (settings_.response_model) {
     w.response_model = with_response_model(estimate_again, reference, test, period_s, response, settings_.model,
-                                           w.estimate);
+                                           w.estimate, w.estimate.remote.used ? inputs.remote_nT : nullptr);
   }
   const Readings before_temperature = w.response_model.applied ? test : Readings();
   w.temperature = TemperatureFit{};
@@ -144,7 +185,8 @@ void WindowCalibrator::estimate_pass(CalibrationWindow& w, const PairedRecord& p
     // Of the test as recorded (a modelled filter shows), without the temperature terms.
     const Readings shown =
         w.response_model.applied ? Readings(paired.test_nT - (before_temperature - test)) : test;
-    w.relative_response = relative_response(reference, shown, w.estimate.n, period_s, response);
+    w.relative_response = relative_response(reference, shown, w.estimate.n, period_s, response,
+                                            w.estimate.remote.used ? inputs.remote_nT : nullptr);
   }
   const double band_low = std::isfinite(w.estimate.band_low_hz) ? w.estimate.band_low_hz : 0.0;
   const double band_high = std::isfinite(w.estimate.band_high_hz) ? w.estimate.band_high_hz : 0.5 / period_s;
@@ -203,6 +245,16 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
   // Steps 2 and 3.
   WindowInputs inputs;
   inputs.reference_noise = noise_before_estimate(w, window, window.paired);
+  Readings remote;
+  if (window.remote) {
+    const std::string refused = remote_on_grid(*window.remote, window.paired.time_s, period, remote);
+    if (refused.empty()) {
+      inputs.remote_nT = &remote;
+      inputs.remote_name = window.remote_name;
+    } else {
+      w.remote_refused = "remote " + window.remote_name + " refused: " + refused;
+    }
+  }
   estimate_pass(w, window.paired, temperature_C, period, inputs);
   if (temperature_C.size() == 0) w.temperature.text = without_temperature;
   if (settings_.corrects_reference_noise() && settings_.pair_noise && !inputs.reference_noise.has_noise()) {
@@ -223,6 +275,10 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
       estimate_pass(w, window.paired, temperature_C, period, inputs);
       if (temperature_C.size() == 0) w.temperature.text = without_temperature;
     }
+  }
+  if (!w.remote_refused.empty()) {  // the estimate is the pair's; it says why
+    w.estimate.remote.given = true;
+    w.estimate.remote.text = w.remote_refused;
   }
   // Steps 4 and 5.
   estimate_offset(w, window.paired);

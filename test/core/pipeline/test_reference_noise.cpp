@@ -296,7 +296,7 @@ TEST(IdentifyReferenceNoise, AThirdRecordOutsideThePairIsNamed) {
   ThreeInstruments t = three_instruments(92);
   for (double& time : t.third.time_s) time += 2.0 * 86400.0;  // two days later: no shared epoch
   try {
-    mic::calibrate_records(t.pair.reference, t.pair.test, mic::CalibrationSettings{}, &t.third);
+    mic::calibrate_records(t.pair.reference, t.pair.test, mic::CalibrationSettings{}, {&t.third});
     FAIL() << "no error";
   } catch (const mic::InputError& e) {
     EXPECT_EQ(e.where(), "--third") << e.what();

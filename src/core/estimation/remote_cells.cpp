@@ -1,0 +1,134 @@
+// The remote reference over the robust estimator's cells (remote_reference.hpp): how strongly
+// the remote predicts the local reference, and the pair-only estimate on the same cells and
+// weights against the remote's.
+#include "robust_sections.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <vector>
+
+namespace magnetometer_insitu_calibration::detail::robust {
+
+namespace {
+
+using Vector9 = Eigen::Matrix<double, 9, 1>;
+
+/// Row-major vec(n_pair - n_remote) of two frozen-weight solves; false when either is singular.
+bool difference(const std::vector<Cell>& cells, const std::vector<double>& weight, const Regression& pair,
+                const Regression& iv, int exclude, Vector9& out) {
+  const WeightedSolution a = solve_frozen(cells, weight, pair, exclude);
+  const WeightedSolution b = solve_frozen(cells, weight, iv, exclude);
+  if (!a.ok || !b.ok) return false;
+  for (int k = 0; k < 9; ++k) out(k) = a.n(k / 3, k % 3) - b.n(k / 3, k % 3);
+  return true;
+}
+
+/// Delete-one-group jackknife of the difference over the groups n's own covariance uses: the
+/// weighted sections, or interleaved frequency groups when there are too few.
+JackknifeResult difference_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                     std::size_t k_sections, const Regression& pair, const Regression& iv) {
+  std::vector<Vector9> leave_out;
+  std::vector<double> section_weight(k_sections, 0.0);
+  for (std::size_t i = 0; i < cells.size(); ++i) section_weight[static_cast<std::size_t>(cells[i].section)] += weight[i];
+  const bool by_section =
+      static_cast<std::size_t>(std::count_if(section_weight.begin(), section_weight.end(),
+                                             [](double w) { return w > 0.0; })) >= kMinJackknifeSections;
+  Vector9 d;
+  if (by_section) {
+    for (std::size_t s = 0; s < k_sections; ++s) {
+      if (!(section_weight[s] > 0.0)) continue;
+      if (!difference(cells, weight, pair, iv, static_cast<int>(s), d)) return JackknifeResult{};
+      leave_out.push_back(d);
+    }
+  } else {
+    std::vector<std::size_t> order(cells.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return cells[a].frequency_hz < cells[b].frequency_hz; });
+    for (std::size_t g = 0; g < kFrequencyGroups; ++g) {
+      std::vector<double> w = weight;
+      double removed = 0.0;
+      for (std::size_t r = g; r < order.size(); r += kFrequencyGroups) {
+        removed += w[order[r]];
+        w[order[r]] = 0.0;
+      }
+      if (!(removed > 0.0)) continue;
+      if (!difference(cells, w, pair, iv, -1, d)) return JackknifeResult{};
+      leave_out.push_back(d);
+    }
+  }
+  JackknifeResult out;
+  out.sections = leave_out.size();
+  out.frequency_groups = !by_section;
+  if (out.sections < 2) return out;
+  Vector9 mean = Vector9::Zero();
+  for (const Vector9& v : leave_out) mean += v;
+  mean /= static_cast<double>(out.sections);
+  out.covariance.setZero();
+  for (const Vector9& v : leave_out) out.covariance.noalias() += (v - mean) * (v - mean).transpose();
+  out.covariance *= static_cast<double>(out.sections - 1) / static_cast<double>(out.sections);
+  return out;
+}
+
+}  // namespace
+
+void assess_cells_remote_strength(RemoteReference& remote, const std::vector<Cell>& cells,
+                                  const std::vector<double>& weight) {
+  Eigen::Matrix3d m_xx = Eigen::Matrix3d::Zero(), m_zz = Eigen::Matrix3d::Zero(), m_zx = Eigen::Matrix3d::Zero();
+  double sum = 0.0, sum_squares = 0.0;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const double wg = weight[i] * cells[i].g;
+    if (wg == 0.0) continue;
+    m_xx.noalias() += wg * (cells[i].x * cells[i].x.adjoint()).real();
+    m_zz.noalias() += wg * (cells[i].z * cells[i].z.adjoint()).real();
+    m_zx.noalias() += wg * (cells[i].z * cells[i].x.adjoint()).real();
+    sum += wg;
+    sum_squares += wg * wg;
+  }
+  // Two real equations per cell.
+  const double effective = sum_squares > 0.0 ? 2.0 * sum * sum / sum_squares : 0.0;
+  assess_remote_strength(remote, m_xx, m_zz, m_zx, effective);
+}
+
+void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cell>& cells, const IrlsResult& fit,
+                                  std::size_t k_sections, const Regression& pair, const Regression& iv,
+                                  double covariance_cells) {
+  const WeightedSolution ls = solve_frozen(cells, fit.weight, pair, -1);
+  if (!ls.ok) {
+    remote.text += "; the pair alone is singular on these cells";
+    return;
+  }
+  // Per cell, the difference of the two estimators' influence, vec_col of (p x 3):
+  // A_pair^-1 s_pair - A_iv^-1 s_iv, each score from its own residual.
+  Eigen::Matrix<double, 9, 9> omega = Eigen::Matrix<double, 9, 9>::Zero();
+  double weight_sum = 0.0;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const Cell& cell = cells[i];
+    const double wg = fit.weight[i] * cell.g;
+    if (wg == 0.0) continue;
+    weight_sum += fit.weight[i];
+    const Eigen::Vector3cd e_ls = cell.y - ls.n.transpose() * cell.x;
+    const Eigen::Vector3cd e_iv = cell.y - fit.n.transpose() * cell.x;
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    if (ls.eiv_applied) d = pair.noise->expected_periodogram(cell.frequency_hz, pair.sample_period_s, cell.length);
+    Vector9 influence;
+    for (int l = 0; l < 3; ++l) {
+      const Eigen::Vector3d s_ls = wg * ((cell.x * std::conj(e_ls(l))).real() + d.cwiseProduct(ls.n.col(l)));
+      const Eigen::Vector3d s_iv = wg * (cell.z * std::conj(e_iv(l))).real();
+      influence.segment<3>(3 * l) = ls.a_inverse * s_ls - fit.a_inverse * s_iv;
+    }
+    omega.noalias() += influence * influence.transpose();
+  }
+  const double effective = std::max(weight_sum, 4.0);
+  omega *= 2.0 * effective / (2.0 * effective - 3.0);
+  Matrix9d sandwich;
+  for (int r = 0; r < 9; ++r) {
+    for (int q = 0; q < 9; ++q) sandwich(r, q) = omega(3 * (r % 3) + r / 3, 3 * (q % 3) + q / 3);  // to row-major
+  }
+  const Matrix9d covariance =
+      combine_covariances(sandwich, difference_jackknife(cells, fit.weight, k_sections, pair, iv));
+  assess_pair_difference(remote, ls.n, fit.n, covariance, covariance_cells);
+}
+
+}  // namespace magnetometer_insitu_calibration::detail::robust
