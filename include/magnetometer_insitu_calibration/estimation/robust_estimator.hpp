@@ -46,10 +46,10 @@
 //     and correct_delay, the test record is advanced by tau over the whole window
 //     (advance_record), cut into the same sections again (Y_c replaced) and step 3 is repeated,
 //     so that a timing offset cannot leak into n through the imaginary part of the
-//     cross-spectra (first order when the field's components are not in phase). Until session
-//     8 each section's Y_c was multiplied by e^{+2 pi i f tau} instead; that takes the section's
-//     wrapped-around ends for data and biased n: a noise-free pair 2 s apart erred 0.05 % in
-//     scale and 0.022 deg (test_delay_estimation), a 10 / 30 pT white pair -0.027 % on average.
+//     cross-spectra (first order when the field's components are not in phase). Multiplying
+//     each section's Y_c by e^{+2 pi i f tau} instead would take the section's wrapped-around
+//     ends for data and bias n: a noise-free pair 2 s apart erred 0.05 % in scale and 0.022 deg
+//     that way (test_delay_estimation), a 10 / 30 pT white pair -0.027 % on average.
 //  5. Errors in variables (errors_in_variables.hpp): with a reference noise model among the
 //     window's inputs (WindowInputs::reference_noise: a maker's figure, or the noise identified
 //     from a third instrument or from the pair above the band), N_r = sum w g E|X_noise|^2 is

@@ -148,8 +148,8 @@ TEST_F(ExportCorrected, WithTheEstimatedMatrixTheOutputIsTheCleanFieldWithinTheC
   }
   const mic::VectorRecord out = mic::read_iaga2002(dir_ + "/est.sec");
   expect_rounded_correction(out, test_read_, n);
-  // r - B = B (n_true - n) n^-1 + noise (first order, n^-1 ~ I). With B = B0 + b(t): a constant
-  // offset B0 (n_true - n), which the calibration cannot see (harmonic 0 is not used; the
+  // r - B = B (n_true - n) n^-1 + noise (first order, n^-1 ~ I). With B = B_mean + b(t): a constant
+  // offset B_mean (n_true - n), which the calibration cannot see (harmonic 0 is not used; the
   // baseline comes from absolute measurements), and a variation part b(t) (n_true - n) on top
   // of the noise. Both bounded at 4 sigma from the report's standard errors of n; the noise
   // (0.028 nT rms with the true matrix, previous test) at 0.035 nT.
