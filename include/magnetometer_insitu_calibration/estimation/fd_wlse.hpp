@@ -136,6 +136,8 @@ struct WindowEstimate {
   std::string intervals = "sandwich";
   /// The remote reference: whether n rests on it, how well it serves, the pair-only comparison.
   RemoteReference remote;
+  /// Without a remote (robust estimator): n of the band's two halves compared.
+  BandSplitCheck band_split;
 
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
   Eigen::Matrix3d n_stderr() const;

@@ -78,6 +78,19 @@ struct RemoteReference {
   bool pair_biased = false;   ///< the pair-only estimate differs beyond its uncertainty
 };
 
+/// Without a remote, what the pair can say about a disturbance both sensors see: n from the
+/// band's lower and upper halves (the cells split at their median frequency, the final weights
+/// kept; each half's covariance as n's own: sandwich raised to the jackknife), compared by the
+/// rule of estimate_comparison.hpp at kPairBiasAlpha. One n holds at every frequency of the band;
+/// a disturbance whose share of the field's power changes across the band pulls the halves apart
+/// (not one whose share is the same at every frequency: the check cannot see that one).
+struct BandSplitCheck {
+  bool assessed = false;
+  double p_value = std::numeric_limits<double>::quiet_NaN();  ///< the smaller of a parameter's (x 9) and the joint
+  bool differs = false;   ///< the halves' n differ beyond their uncertainty: the window is not vouched for
+  std::string text;       ///< what was found, or why not assessed
+};
+
 /// How strongly the remote's cells predict the local reference's (see above). m_xx = sum w g
 /// Re(x x^H), m_zz = sum w g Re(z z^H), m_zx = sum w g Re(z x^H) (3 x 3, any units);
 /// effective_cells = N_eff. Fills coherence, canonical_coherence and strength.

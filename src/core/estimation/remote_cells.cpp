@@ -3,9 +3,12 @@
 // weights against the remote's.
 #include "robust_sections.hpp"
 
+#include "magnetometer_insitu_calibration/estimation/estimate_comparison.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <sstream>
 #include <vector>
 
 namespace magnetometer_insitu_calibration::detail::robust {
@@ -129,6 +132,57 @@ void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cel
   const Matrix9d covariance =
       combine_covariances(sandwich, difference_jackknife(cells, fit.weight, k_sections, pair, iv));
   assess_pair_difference(remote, ls.n, fit.n, covariance, covariance_cells);
+}
+
+BandSplitCheck band_split_check(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
+                                std::size_t bins, const ReferenceNoiseModel* noise, const Regression& regression) {
+  BandSplitCheck out;
+  std::vector<double> frequencies;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    if (fit.weight[i] > 0.0) frequencies.push_back(cells[i].frequency_hz);
+  }
+  if (frequencies.size() < 32) {
+    out.text = "band split not assessed: too few cells";
+    return out;
+  }
+  std::nth_element(frequencies.begin(), frequencies.begin() + static_cast<std::ptrdiff_t>(frequencies.size() / 2),
+                   frequencies.end());
+  const double split_hz = frequencies[frequencies.size() / 2];
+  WindowEstimate half[2];
+  for (int h = 0; h < 2; ++h) {
+    IrlsResult part = fit;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      if ((cells[i].frequency_hz < split_hz) != (h == 0)) part.weight[i] = 0.0;
+    }
+    const WeightedSolution solved = solve_frozen(cells, part.weight, regression, -1);
+    if (!solved.ok) {
+      out.text = "band split not assessed: a half has no signal in some direction";
+      return out;
+    }
+    static_cast<WeightedSolution&>(part) = solved;
+    const CellCovariance cov = cell_covariance(cells, part, k_sections, bins, solved.eiv_applied ? noise : nullptr, regression);
+    half[h].n = solved.n;
+    half[h].n_covariance = cov.covariance;
+    half[h].covariance_dof = cov.cells;
+    half[h].parameters = decompose(solved.n, cov.covariance, cov.cells);
+  }
+  const EstimateComparison c = compare_estimates({&half[0], &half[1]});
+  std::ostringstream text;
+  text.precision(2);
+  if (!c.assessed) {
+    out.text = "band split not assessed: " + c.unusable;
+    return out;
+  }
+  out.assessed = true;
+  const double parameter_p = std::min(1.0, 9.0 * c.smallest_parameter_p());
+  out.p_value = c.joint_tested && std::isfinite(c.joint_p_value) ? std::min(parameter_p, c.joint_p_value) : parameter_p;
+  out.differs = c.significant(kPairBiasAlpha);
+  text << "below and above " << split_hz << " Hz n "
+       << (out.differs ? "differs (" : "agrees (") << kParameters[static_cast<std::size_t>(c.least_likely)].name
+       << " p " << c.smallest_parameter_p() << ", joint p " << c.joint_p_value << ")"
+       << (out.differs ? ": a disturbance both sensors see, or a response the model misses; not vouched for" : "");
+  out.text = text.str();
+  return out;
 }
 
 }  // namespace magnetometer_insitu_calibration::detail::robust

@@ -410,7 +410,12 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   // The condition of the reference's own weighted sums (the IV sums are not symmetric).
   apply_quality_rules(result, weighted_normal_equations(cells, fit.weight, Regression{}, -1).a,
                       static_cast<long>(cells.size()), "section harmonics", settings_);
-  if (regression_.remote) compare_with_pair(cells, fit, cov.cells, result);
+  if (regression_.remote) {
+    compare_with_pair(cells, fit, cov.cells, result);
+  } else {
+    result.band_split = band_split_check(cells, fit, sections_.count, bins, fit.eiv_applied ? eiv_.noise : nullptr,
+                                         as_solved);
+  }
 }
 
 /// With a remote: the instrumental-variable regression when the remote predicts every direction

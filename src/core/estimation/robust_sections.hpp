@@ -156,6 +156,9 @@ void assess_cells_remote_strength(RemoteReference& remote, const std::vector<Cel
 /// The pair-only estimate (least squares with `pair`'s noise correction) with the remote fit's
 /// final weights, the covariance of its difference from the remote's n (per-cell influence
 /// difference, raised to the jackknife of the difference over the same groups) and the test.
+/// The band-split check (remote_reference.hpp) over the cells with the fit's final weights.
+BandSplitCheck band_split_check(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
+                                std::size_t bins, const ReferenceNoiseModel* noise, const Regression& regression);
 void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cell>& cells, const IrlsResult& fit,
                                   std::size_t k_sections, const Regression& pair, const Regression& iv,
                                   double covariance_cells);
