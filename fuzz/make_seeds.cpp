@@ -1,27 +1,23 @@
 // Writes the seed corpus of the fuzz targets, fuzz/corpus/<target>/, from real samples: the head
 // of the WIC IAGA-2002 file shipped in data/ (header and first seconds of LEMI-036 data), CSV
-// lines made from the same data, small CDF files (ImagCDF and MagPy CDF layouts, both encodings,
-// GZIP per variable and per file, CDF 3.9 and 2.7) made from the first seconds of the WIC LEMI-036 MagPy CDF in
-// test/data/cdf and the first 16 KiB of that file (compressed and inflated), LEMI-025 packets, LemiBin files and compact-flash blocks made
-// with the library's own encoders from those readings, and a calibration YAML written by
-// calibration_to_yaml. The outputs are small and committed; re-run after a format change:
+// lines made from the same data, LEMI-025 packets, LemiBin files and compact-flash blocks made
+// with the library's own encoders from those readings; and (make_seeds_cdf_yaml.cpp) small CDF
+// files made from the first seconds of the WIC LEMI-036 MagPy CDF in test/data/cdf, and a
+// calibration YAML written by calibration_to_yaml. The outputs are small and committed; re-run
+// after a format change:
 //   build_fuzz/make_seeds <package root> <package root>/fuzz/corpus
+#include "make_seeds.hpp"
+
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "magnetometer_insitu_calibration/formats/cdf_epoch.hpp"
-#include "magnetometer_insitu_calibration/formats/cdf_records.hpp"
-#include "magnetometer_insitu_calibration/formats/cdf_writer.hpp"
-#include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
-#ifdef MIC_FUZZ_WITH_YAML
-#include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
-#endif
 
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -34,11 +30,9 @@
 #include <vector>
 
 using namespace magnetometer_insitu_calibration;
-using Bytes = std::vector<std::uint8_t>;
+using namespace make_seeds;
 
 namespace {
-
-std::string g_out;
 
 void make_dir(const std::string& path) {
   if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST) {
@@ -46,6 +40,12 @@ void make_dir(const std::string& path) {
     std::exit(1);
   }
 }
+
+}  // namespace
+
+namespace make_seeds {
+
+std::string g_out;
 
 void write(const std::string& target, const std::string& name, const Bytes& bytes) {
   make_dir(g_out + "/" + target);
@@ -71,6 +71,10 @@ Bytes read_bytes(const std::string& path) {
   return Bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
+}  // namespace make_seeds
+
+namespace {
+
 Bytes gzip(const std::string& text) {
   Bytes out(compressBound(static_cast<uLong>(text.size())) + 64);
   z_stream z{};
@@ -86,10 +90,6 @@ Bytes gzip(const std::string& text) {
 }
 
 void append(Bytes& to, const Bytes& from) { to.insert(to.end(), from.begin(), from.end()); }
-template <std::size_t N>
-void append(Bytes& to, const std::array<std::uint8_t, N>& from) {
-  to.insert(to.end(), from.begin(), from.end());
-}
 
 /// Pads with 0x00 so that size % 3 == mod (the LEMI file targets take the checksum mode from it).
 Bytes pad_to_mod3(Bytes b, std::size_t mod) {
@@ -199,6 +199,152 @@ std::string lemi_bin_file(const std::vector<Lemi025Packet>& packets, ChecksumMod
   return std::string(b.begin(), b.end());
 }
 
+// ---- The seeds of each target --------------------------------------------------------------
+
+/// iaga2002: the WIC head (CRLF line ends; and gzipped), with LF line ends, a missing value and
+/// a blank line, and the test files. Returns the head's text.
+std::string write_iaga2002_seeds(const std::string& root, const Wic& w) {
+  std::vector<std::string> head = w.header_lines;
+  for (std::size_t i = 0; i < 12; ++i) head.push_back(w.data_lines[i]);
+  const std::string iaga = crlf_join(head);
+  write("iaga2002", "wic_head.sec", iaga);
+  write("iaga2002", "wic_head.sec.gz", gzip(iaga));
+  std::vector<std::string> lf = head;  // LF line ends, a missing (99999) and a blank line
+  lf[w.header_lines.size() + 3].replace(30, 10, "  99999.00");
+  lf.insert(lf.begin() + static_cast<std::ptrdiff_t>(w.header_lines.size() + 5), "");
+  std::string text;
+  for (const auto& l : lf) text += l + "\n";
+  write("iaga2002", "wic_lf_missing.sec", text);
+  for (const char* name : {"iaga_small.sec", "iaga_short_line.sec", "iaga_bad_date.sec",
+                           "iaga_duplicate.sec"})
+    write("iaga2002", name, read_bytes(root + "/test/data/formats/" + name));
+  return iaga;
+}
+
+/// csv_record: UNIX times with comments (and gzipped), ISO times with ';', CRLF and a NaN, tabs
+/// with a quoted header and a 99999, no header with a BOM, and the test files. Returns the first.
+std::string write_csv_seeds(const std::string& root, const Wic& w) {
+  std::ostringstream unix_csv, iso_csv, tab_csv;
+  unix_csv.precision(15);
+  unix_csv << "# WIC LEMI036, 2025-05-14\n# first seconds\ntime,H,E,Z\n";
+  iso_csv << "time;X;Y;Z\n";
+  tab_csv << "\"time\"\t\"H\"\t\"E\"\t\"Z\"\n";
+  for (std::size_t i = 0; i < 12; ++i) {
+    unix_csv << w.time_s[i] << "," << w.hez[i][0] << "," << w.hez[i][1] << "," << w.hez[i][2] << "\n";
+    iso_csv << format_iso8601(w.time_s[i], 3) << ";" << w.hez[i][0] << ";" << (i == 4 ? "nan" : "")
+            << (i == 4 ? "" : std::to_string(w.hez[i][1])) << ";" << w.hez[i][2] << "\r\n";
+    tab_csv << format_iso8601(w.time_s[i], 0) << "\t" << w.hez[i][0] << "\t" << w.hez[i][1] << "\t"
+            << (i == 7 ? "99999" : std::to_string(w.hez[i][2])) << "\n";
+  }
+  write("csv_record", "wic_unix.csv", unix_csv.str());
+  write("csv_record", "wic_unix.csv.gz", gzip(unix_csv.str()));
+  write("csv_record", "wic_iso_semicolon.csv", iso_csv.str());
+  write("csv_record", "wic_tab_quoted.tsv", tab_csv.str());
+  write("csv_record", "no_header_bom.csv",
+        "\xEF\xBB\xBF" "1747180800.5,341.93,545.24,376.19\n1747180801.5,+341.96,5.4524e2,NaN\n");
+  for (const char* name : {"csv_iso_semicolon.csv", "csv_unix.csv"})
+    write("csv_record", name, read_bytes(root + "/test/data/formats/" + name));
+  return unix_csv.str();
+}
+
+/// lemi025_packet: a LEMI-025 packet without checksum, LEMI-036 ones with sum8 and xor8, and one
+/// with a time byte not BCD.
+void write_packet_seeds(const Wic& w) {
+  write("lemi025_packet", "l025_none.bin", packet_bytes(wic_packet(w, 0), ChecksumMode::kNone));
+  Lemi025Packet p = wic_packet(w, 1, LemiModel::kLemi036);
+  p.gps_status = 'P';
+  write("lemi025_packet", "l036_sum8.bin", packet_bytes(p, ChecksumMode::kSum8));
+  p.gps_status = 'O';
+  p.mode = 1;
+  write("lemi025_packet", "l036_xor8.bin", packet_bytes(p, ChecksumMode::kXor8));
+  Bytes bad = packet_bytes(p, ChecksumMode::kNone);
+  bad[9] = 0x7a;  // minute byte not BCD
+  write("lemi025_packet", "bad_bcd_time.bin", bad);
+}
+
+/// lemi025_stream_parser (byte 0 options, byte 1 chunk seed, then the stream): clean, noisy, jumps.
+void write_stream_parser_seeds(const std::vector<Lemi025Packet>& packets) {
+  Bytes clean = {0x00, 0x11};
+  for (const auto& p : packets) append(clean, packet_bytes(p, ChecksumMode::kNone));
+  write("lemi025_stream_parser", "clean_none.bin", clean);
+
+  Bytes noisy = {0x01, 0x37};  // sum8: garbage, a packet short of 5 bytes, a bad checksum
+  append(noisy, Bytes{'x', 'L', '0', '2', 0x00, 'L', '0'});
+  for (std::size_t i = 0; i < packets.size(); ++i) {
+    Bytes b = packet_bytes(packets[i], ChecksumMode::kSum8);
+    if (i == 2) b.erase(b.begin() + 60, b.begin() + 65);
+    if (i == 4) b[70] ^= 0x10;
+    append(noisy, b);
+  }
+  noisy.resize(noisy.size() - 40);  // cut in the last packet
+  write("lemi025_stream_parser", "noisy_sum8.bin", noisy);
+
+  Bytes jumps = {0x0e, 0xa5};  // xor8, no status check, 2 warnings kept; a time jump
+  for (std::size_t i : {0, 1, 5, 6, 3}) append(jumps, packet_bytes(packets[i], ChecksumMode::kXor8));
+  write("lemi025_stream_parser", "jumps_xor8.bin", jumps);
+}
+
+/// lemi025_stream (raw capture file; checksum from size % 3): clean, and damaged with garbage.
+void write_stream_seeds(const std::vector<Lemi025Packet>& packets) {
+  Bytes clean;
+  for (const auto& p : packets) append(clean, packet_bytes(p, ChecksumMode::kNone));
+  write("lemi025_stream", "capture_none.bin", pad_to_mod3(clean, 0));
+  Bytes noisy = {0xff, 0x00, 'L', '0', '3'};
+  for (std::size_t i = 0; i < 5; ++i) {
+    Bytes b = packet_bytes(packets[i], ChecksumMode::kSum8);
+    if (i == 1) b.resize(100);  // serial line dropped the rest
+    append(noisy, b);
+  }
+  write("lemi025_stream", "capture_sum8_damaged.bin", pad_to_mod3(noisy, 1));
+}
+
+/// lemi_bin (checksum from size % 3): 4 records, 4 with a damaged reading, 3 without header.
+void write_lemi_bin_seeds(const std::vector<Lemi025Packet>& packets) {
+  const std::string none = lemi_bin_file({packets.begin(), packets.begin() + 4}, ChecksumMode::kNone);
+  write("lemi_bin", "wic_none.bin", pad_to_mod3(Bytes(none.begin(), none.end()), 0));
+  const std::string sum8 = lemi_bin_file({packets.begin(), packets.begin() + 4}, ChecksumMode::kSum8);
+  Bytes damaged(sum8.begin(), sum8.end());
+  damaged[sum8.find('\n') + 1 + 169 + 40] ^= 0xff;  // second record's reading damaged
+  write("lemi_bin", "wic_sum8_damaged.bin", pad_to_mod3(damaged, 1));
+  const std::string xor8 = lemi_bin_file({packets.begin(), packets.begin() + 3}, ChecksumMode::kXor8);
+  const Bytes headerless(xor8.begin() + static_cast<std::ptrdiff_t>(xor8.find('\n') + 1), xor8.end());
+  write("lemi_bin", "headerless_xor8.bin", pad_to_mod3(headerless, 2));
+}
+
+/// lemi_compact_flash: 3 blocks (one erased); misaligned, a block without a position fix, a
+/// truncated tail.
+void write_compact_flash_seeds(const Wic& w) {
+  Bytes card;
+  append(card, block_bytes(wic_block(w, 0)));
+  append(card, Bytes(kLemiFlashBlockSize, 0xff));  // erased
+  append(card, block_bytes(wic_block(w, 3)));
+  write("lemi_compact_flash", "card_3_blocks.bin", card);
+  Bytes shifted(37, 0x00);  // misaligned, a block with no position fix, a truncated tail
+  LemiFlashBlock nofix = wic_block(w, 6);
+  nofix.latitude_deg = std::nan("");
+  nofix.longitude_deg = std::nan("");
+  nofix.gps_status = 'S';
+  append(shifted, block_bytes(nofix));
+  append(shifted, block_bytes(wic_block(w, 9)));
+  const Bytes tail = block_bytes(wic_block(w, 12));
+  shifted.insert(shifted.end(), tail.begin(), tail.begin() + 100);
+  write("lemi_compact_flash", "card_misaligned.bin", shifted);
+}
+
+/// record_file: one of each format (the IAGA-2002 and CSV texts of their own targets).
+void write_record_file_seeds(const Wic& w, const std::vector<Lemi025Packet>& packets, const std::string& iaga,
+                             const std::string& unix_csv) {
+  write("record_file", "iaga.sec", iaga);
+  write("record_file", "unix.csv", unix_csv);
+  const std::string bin = lemi_bin_file({packets.begin(), packets.begin() + 2}, ChecksumMode::kNone);
+  write("record_file", "lemibin.bin", bin);
+  Bytes stream;
+  for (std::size_t i = 0; i < 2; ++i) append(stream, packet_bytes(packets[i], ChecksumMode::kNone));
+  write("record_file", "stream.bin", stream);
+  write("record_file", "flash.bin", block_bytes(wic_block(w, 0)));
+  write("record_file", "iaga.sec.gz", gzip(iaga));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -211,268 +357,20 @@ int main(int argc, char** argv) {
   make_dir(g_out);
   try {
     const Wic w = read_wic(root + "/data/wic20250514_lemi036.sec.gz", 40);
-
-    // ---- iaga2002 ----------------------------------------------------------------------------
-    std::vector<std::string> head = w.header_lines;
-    for (std::size_t i = 0; i < 12; ++i) head.push_back(w.data_lines[i]);
-    const std::string iaga = crlf_join(head);
-    write("iaga2002", "wic_head.sec", iaga);
-    write("iaga2002", "wic_head.sec.gz", gzip(iaga));
-    {
-      std::vector<std::string> lf = head;  // LF line ends, a missing (99999) and a blank line
-      lf[w.header_lines.size() + 3].replace(30, 10, "  99999.00");
-      lf.insert(lf.begin() + static_cast<std::ptrdiff_t>(w.header_lines.size() + 5), "");
-      std::string text;
-      for (const auto& l : lf) text += l + "\n";
-      write("iaga2002", "wic_lf_missing.sec", text);
-    }
-    for (const char* name : {"iaga_small.sec", "iaga_short_line.sec", "iaga_bad_date.sec",
-                             "iaga_duplicate.sec"})
-      write("iaga2002", name, read_bytes(root + "/test/data/formats/" + name));
-
-    // ---- csv_record --------------------------------------------------------------------------
-    std::ostringstream unix_csv, iso_csv, tab_csv;
-    unix_csv.precision(15);
-    unix_csv << "# WIC LEMI036, 2025-05-14\n# first seconds\ntime,H,E,Z\n";
-    iso_csv << "time;X;Y;Z\n";
-    tab_csv << "\"time\"\t\"H\"\t\"E\"\t\"Z\"\n";
-    for (std::size_t i = 0; i < 12; ++i) {
-      unix_csv << w.time_s[i] << "," << w.hez[i][0] << "," << w.hez[i][1] << "," << w.hez[i][2] << "\n";
-      iso_csv << format_iso8601(w.time_s[i], 3) << ";" << w.hez[i][0] << ";" << (i == 4 ? "nan" : "")
-              << (i == 4 ? "" : std::to_string(w.hez[i][1])) << ";" << w.hez[i][2] << "\r\n";
-      tab_csv << format_iso8601(w.time_s[i], 0) << "\t" << w.hez[i][0] << "\t" << w.hez[i][1] << "\t"
-              << (i == 7 ? "99999" : std::to_string(w.hez[i][2])) << "\n";
-    }
-    write("csv_record", "wic_unix.csv", unix_csv.str());
-    write("csv_record", "wic_unix.csv.gz", gzip(unix_csv.str()));
-    write("csv_record", "wic_iso_semicolon.csv", iso_csv.str());
-    write("csv_record", "wic_tab_quoted.tsv", tab_csv.str());
-    write("csv_record", "no_header_bom.csv",
-          "\xEF\xBB\xBF" "1747180800.5,341.93,545.24,376.19\n1747180801.5,+341.96,5.4524e2,NaN\n");
-    for (const char* name : {"csv_iso_semicolon.csv", "csv_unix.csv"})
-      write("csv_record", name, read_bytes(root + "/test/data/formats/" + name));
-
-    // ---- lemi025_packet ----------------------------------------------------------------------
-    write("lemi025_packet", "l025_none.bin", packet_bytes(wic_packet(w, 0), ChecksumMode::kNone));
-    {
-      Lemi025Packet p = wic_packet(w, 1, LemiModel::kLemi036);
-      p.gps_status = 'P';
-      write("lemi025_packet", "l036_sum8.bin", packet_bytes(p, ChecksumMode::kSum8));
-      p.gps_status = 'O';
-      p.mode = 1;
-      write("lemi025_packet", "l036_xor8.bin", packet_bytes(p, ChecksumMode::kXor8));
-      Bytes bad = packet_bytes(p, ChecksumMode::kNone);
-      bad[9] = 0x7a;  // minute byte not BCD
-      write("lemi025_packet", "bad_bcd_time.bin", bad);
-    }
-
+    const std::string iaga = write_iaga2002_seeds(root, w);
+    const std::string unix_csv = write_csv_seeds(root, w);
+    write_packet_seeds(w);
     // Packets of consecutive seconds for the streams and files.
     std::vector<Lemi025Packet> packets;
     for (std::size_t s = 0; s < 8; ++s) packets.push_back(wic_packet(w, s));
-
-    // ---- lemi025_stream_parser (byte 0 options, byte 1 chunk seed, then the stream) ----------
-    {
-      Bytes clean = {0x00, 0x11};
-      for (const auto& p : packets) append(clean, packet_bytes(p, ChecksumMode::kNone));
-      write("lemi025_stream_parser", "clean_none.bin", clean);
-
-      Bytes noisy = {0x01, 0x37};  // sum8: garbage, a packet short of 5 bytes, a bad checksum
-      append(noisy, Bytes{'x', 'L', '0', '2', 0x00, 'L', '0'});
-      for (std::size_t i = 0; i < packets.size(); ++i) {
-        Bytes b = packet_bytes(packets[i], ChecksumMode::kSum8);
-        if (i == 2) b.erase(b.begin() + 60, b.begin() + 65);
-        if (i == 4) b[70] ^= 0x10;
-        append(noisy, b);
-      }
-      noisy.resize(noisy.size() - 40);  // cut in the last packet
-      write("lemi025_stream_parser", "noisy_sum8.bin", noisy);
-
-      Bytes jumps = {0x0e, 0xa5};  // xor8, no status check, 2 warnings kept; a time jump
-      for (std::size_t i : {0, 1, 5, 6, 3}) append(jumps, packet_bytes(packets[i], ChecksumMode::kXor8));
-      write("lemi025_stream_parser", "jumps_xor8.bin", jumps);
-    }
-
-    // ---- lemi025_stream (raw capture file; checksum from size % 3) ---------------------------
-    {
-      Bytes clean;
-      for (const auto& p : packets) append(clean, packet_bytes(p, ChecksumMode::kNone));
-      write("lemi025_stream", "capture_none.bin", pad_to_mod3(clean, 0));
-      Bytes noisy = {0xff, 0x00, 'L', '0', '3'};
-      for (std::size_t i = 0; i < 5; ++i) {
-        Bytes b = packet_bytes(packets[i], ChecksumMode::kSum8);
-        if (i == 1) b.resize(100);  // serial line dropped the rest
-        append(noisy, b);
-      }
-      write("lemi025_stream", "capture_sum8_damaged.bin", pad_to_mod3(noisy, 1));
-    }
-
-    // ---- lemi_bin (checksum from size % 3) ---------------------------------------------------
-    {
-      const std::string none = lemi_bin_file({packets.begin(), packets.begin() + 4}, ChecksumMode::kNone);
-      write("lemi_bin", "wic_none.bin", pad_to_mod3(Bytes(none.begin(), none.end()), 0));
-      const std::string sum8 = lemi_bin_file({packets.begin(), packets.begin() + 4}, ChecksumMode::kSum8);
-      Bytes damaged(sum8.begin(), sum8.end());
-      damaged[sum8.find('\n') + 1 + 169 + 40] ^= 0xff;  // second record's reading damaged
-      write("lemi_bin", "wic_sum8_damaged.bin", pad_to_mod3(damaged, 1));
-      const std::string xor8 = lemi_bin_file({packets.begin(), packets.begin() + 3}, ChecksumMode::kXor8);
-      const Bytes headerless(xor8.begin() + static_cast<std::ptrdiff_t>(xor8.find('\n') + 1), xor8.end());
-      write("lemi_bin", "headerless_xor8.bin", pad_to_mod3(headerless, 2));
-    }
-
-    // ---- lemi_compact_flash ------------------------------------------------------------------
-    {
-      Bytes card;
-      append(card, block_bytes(wic_block(w, 0)));
-      append(card, Bytes(kLemiFlashBlockSize, 0xff));  // erased
-      append(card, block_bytes(wic_block(w, 3)));
-      write("lemi_compact_flash", "card_3_blocks.bin", card);
-      Bytes shifted(37, 0x00);  // misaligned, a block with no position fix, a truncated tail
-      LemiFlashBlock nofix = wic_block(w, 6);
-      nofix.latitude_deg = std::nan("");
-      nofix.longitude_deg = std::nan("");
-      nofix.gps_status = 'S';
-      append(shifted, block_bytes(nofix));
-      append(shifted, block_bytes(wic_block(w, 9)));
-      const Bytes tail = block_bytes(wic_block(w, 12));
-      shifted.insert(shifted.end(), tail.begin(), tail.begin() + 100);
-      write("lemi_compact_flash", "card_misaligned.bin", shifted);
-    }
-
-    // ---- record_file (one of each format) ----------------------------------------------------
-    {
-      write("record_file", "iaga.sec", iaga);
-      write("record_file", "unix.csv", unix_csv.str());
-      const std::string bin = lemi_bin_file({packets.begin(), packets.begin() + 2}, ChecksumMode::kNone);
-      write("record_file", "lemibin.bin", bin);
-      Bytes stream;
-      for (std::size_t i = 0; i < 2; ++i) append(stream, packet_bytes(packets[i], ChecksumMode::kNone));
-      write("record_file", "stream.bin", stream);
-      write("record_file", "flash.bin", block_bytes(wic_block(w, 0)));
-      write("record_file", "iaga.sec.gz", gzip(iaga));
-    }
-
-    // ---- cdf (and one for record_file) --------------------------------------------------------
-    {
-      const std::string real = root + "/test/data/cdf/LEMI036_1_0002_0002_2025-05-14.cdf";
-      VectorRecord r = read_cdf_record(real);
-      const std::size_t n = 12;  // seeds under the 16 KiB -max_len of run_fuzz_short.sh
-      r.header.clear();
-      r.time_s.resize(n);
-      r.values_nT.conservativeResize(static_cast<Eigen::Index>(n), 3);
-      r.values_nT(3, 1) = std::nan("");
-      for (AuxiliaryChannel& a : r.auxiliary) a.values.resize(n);
-      const std::string tmp = g_out + "/cdf_seed.tmp";
-      auto imagcdf = [&](bool big, bool gzip_values) {
-        ImagCdfWriteOptions o;
-        o.big_endian = big;
-        o.gzip = gzip_values;
-        o.comments = {"seed"};
-        o.publication_date_s = 1747267200.0;
-        write_imagcdf(tmp, r, o);
-        const Bytes b = read_bytes(tmp);
-        std::remove(tmp.c_str());
-        return b;
-      };
-      write("cdf", "imagcdf_little.cdf", imagcdf(false, false));
-      write("cdf", "imagcdf_big.cdf", imagcdf(true, false));
-      write("cdf", "imagcdf_gzip_variables.cdf", imagcdf(false, true));
-      CdfWriteContent magpy;
-      magpy.gzip_file = magpy.gzip_variables = true;
-      magpy.global = {{"DataFormat", {CdfWriteEntry::of_text("MagPyCDF1.2")}},
-                      {"DataComponents", {CdfWriteEntry::of_text("HEZ")}},
-                      {"ColumnContents", {CdfWriteEntry::of_text("X,Y,Z,,T_sensor,T_elec")}}};
-      CdfWriteVariable epoch;
-      epoch.name = "Epoch";
-      epoch.data_type = kCdfTimeTt2000;
-      for (double t : r.time_s) epoch.times.push_back(unix_to_tt2000(t));
-      magpy.variables.push_back(epoch);
-      for (int c = 0; c < 3; ++c) {
-        CdfWriteVariable v;
-        v.name = std::string(1, "xyz"[c]);
-        for (std::size_t i = 0; i < n; ++i) v.values.push_back(r.values_nT(static_cast<Eigen::Index>(i), c));
-        v.attributes = {{"FILLVAL", CdfWriteEntry::of_number(99999.0)}, {"DEPEND_0", CdfWriteEntry::of_text("Epoch")}};
-        magpy.variables.push_back(v);
-      }
-      CdfWriteVariable t1;
-      t1.name = "t1";
-      t1.values = r.auxiliary[0].values;
-      magpy.variables.push_back(t1);
-      const Bytes magpy_bytes = encode_cdf(magpy);
-      write("cdf", "magpy_gzip.cdf", magpy_bytes);
-      magpy.gzip_file = magpy.gzip_variables = false;
-      magpy.big_endian = true;
-      write("cdf", "magpy_big_plain.cdf", encode_cdf(magpy));
-      write("record_file", "magpy.cdf", magpy_bytes);
-      // CDF 2.7 (4-byte offsets, 64-character names) with CDF_EPOCH times, compressed and plain.
-      magpy.version = 2;
-      magpy.variables[0].data_type = kCdfEpoch;
-      for (double t : r.time_s) magpy.variables[0].values.push_back((t + kCdfEpochUnixOffset_s) * 1000.0);
-      write("cdf", "magpy_cdf27_big_plain.cdf", encode_cdf(magpy));
-      magpy.gzip_file = magpy.gzip_variables = true;
-      magpy.big_endian = false;
-      write("cdf", "magpy_cdf27_gzip.cdf", encode_cdf(magpy));
-      // The real file cut at 16 KiB, compressed and inflated (its CCR: gzip stream at byte 40).
-      const Bytes whole = read_bytes(real);
-      write("cdf", "wic_lemi_cut.cdf", Bytes(whole.begin(), whole.begin() + 16384));
-      Bytes inflated(8 + (1 << 16));
-      z_stream z{};
-      inflateInit2(&z, 15 + 16);
-      z.next_in = const_cast<Bytef*>(whole.data() + 40);
-      z.avail_in = static_cast<uInt>(whole.size() - 40);
-      z.next_out = inflated.data() + 8;
-      z.avail_out = 1 << 16;
-      inflate(&z, Z_SYNC_FLUSH);
-      inflateEnd(&z);
-      std::copy(whole.begin(), whole.begin() + 4, inflated.begin());
-      inflated[4] = inflated[5] = 0x00, inflated[6] = inflated[7] = 0xFF;
-      inflated.resize(16384);
-      write("cdf", "wic_lemi_inflated_cut.cdf", inflated);
-    }
-
+    write_stream_parser_seeds(packets);
+    write_stream_seeds(packets);
+    write_lemi_bin_seeds(packets);
+    write_compact_flash_seeds(w);
+    write_record_file_seeds(w, packets, iaga, unix_csv);
+    write_cdf_seeds(root);
 #ifdef MIC_FUZZ_WITH_YAML
-    // ---- calibration_yaml --------------------------------------------------------------------
-    {
-      MagnetometerCalibration c;
-      c.test_name = "lemi036";
-      c.header.stamp = ros::Time(1747192217, 250000000);
-      c.header.frame_id = "reference_frame";
-      c.reference_frame_id = "reference_frame";
-      c.test_frame_id = "lemi036_frame";
-      c.window_start = ros::Time(1747181400, 0);
-      c.window_end = ros::Time(1747192199, 0);
-      c.sample_period = 1.0;
-      c.samples = 10800;
-      c.filled_samples = 3;
-      c.band_low_hz = 2e-4;
-      c.band_high_hz = 0.01;
-      c.harmonic_first = 3;
-      c.harmonic_last = 108;
-      c.gamma = 1.0;
-      c.trend_column = true;
-      c.matrix = {{0.9995, 0.0046, 0.0017, -0.0051, 0.9992, 2.5e-05, -0.0010, -0.0003, 0.99996}};
-      for (std::size_t i = 0; i < 81; ++i) c.matrix_covariance[i] = i % 10 == 0 ? 5e-7 : 1e-9;
-      c.trend_nT_per_day = {{0.1, -0.2, 0.05}};
-      c.trend_ci95_nT_per_day = {{0.01, 0.02, 0.01}};
-      c.scale_ratio = {{1.0004, 0.9992, 1.00004}};
-      c.scale_ratio_ci95 = {{1e-4, 1e-4, 1e-4}};
-      c.nonorthogonality_deg = {{0.05, -0.02, 0.01}};
-      c.nonorthogonality_ci95_deg = {{0.01, 0.01, 0.01}};
-      c.misalignment_deg = {{0.2, -0.1, 0.3}};
-      c.misalignment_ci95_deg = {{0.02, 0.02, 0.02}};
-      c.axis_deviation_deg = {{0.26, 0.3, 0.1}};
-      c.axis_deviation_ci95_deg = {{0.02, 0.02, 0.02}};
-      c.condition_number = 1.02;
-      c.coherence = {{0.999, 0.998, std::nan("")}};
-      c.residual_rms_nT = {{0.05, 0.04, std::numeric_limits<double>::infinity()}};
-      c.quality = 1;
-      c.quality_text = "good: \"quoted\" and \\ back-slashed\nsecond line";
-      c.accepted = true;
-      const std::string yaml = calibration_to_yaml(c, "/calibration_node");
-      write("calibration_yaml", "calibration.yaml", yaml);
-      write("calibration_yaml", "half_written.yaml", yaml.substr(0, yaml.size() / 2));
-      for (const char* name : {"half_written_calibration.yaml", "malformed_calibration.yaml"})
-        write("calibration_yaml", name, read_bytes(root + "/test/ros/data/" + name));
-    }
+    write_calibration_yaml_seeds(root);
 #endif
   } catch (const std::exception& e) {
     std::cerr << "make_seeds: " << e.what() << "\n";

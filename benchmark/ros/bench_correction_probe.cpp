@@ -53,82 +53,82 @@ double quantile(std::vector<double> v, double q) {
   return i + 1 < v.size() ? v[i] * (1.0 - f) + v[i + 1] * f : v[i];
 }
 
-}  // namespace
 
-int main(int argc, char** argv) {
-  ros::init(argc, argv, "bench_correction_probe", ros::init_options::AnonymousName);
+/// The command line: rate (Hz), timed duration and warm-up (s), topics, frame, outputs.
+struct Options {
   double rate = 10.0, duration = 120.0, warmup = 5.0;
   std::string test_topic = "/probe/test", corrected_topic = "/probe/corrected",
               calibration_topic = "/probe/calibration", frame = "probe_test", csv_path, nodelet_name;
+};
+
+/// Reads "--option value" pairs; false (after a message on stderr) for an unknown option or an
+/// impossible value.
+bool parse_options(int argc, char** argv, Options& o) {
   for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string o = argv[i];
+    const std::string option = argv[i];
     const char* v = argv[i + 1];
-    if (o == "--rate") rate = std::atof(v);
-    else if (o == "--duration") duration = std::atof(v);
-    else if (o == "--warmup") warmup = std::atof(v);
-    else if (o == "--test-topic") test_topic = v;
-    else if (o == "--corrected-topic") corrected_topic = v;
-    else if (o == "--calibration-topic") calibration_topic = v;
-    else if (o == "--frame") frame = v;
-    else if (o == "--csv") csv_path = v;
-    else if (o == "--load-nodelet") nodelet_name = v;
+    if (option == "--rate") o.rate = std::atof(v);
+    else if (option == "--duration") o.duration = std::atof(v);
+    else if (option == "--warmup") o.warmup = std::atof(v);
+    else if (option == "--test-topic") o.test_topic = v;
+    else if (option == "--corrected-topic") o.corrected_topic = v;
+    else if (option == "--calibration-topic") o.calibration_topic = v;
+    else if (option == "--frame") o.frame = v;
+    else if (option == "--csv") o.csv_path = v;
+    else if (option == "--load-nodelet") o.nodelet_name = v;
     else {
-      std::fprintf(stderr, "bench_correction_probe: unknown option %s\n", o.c_str());
-      return 2;
+      std::fprintf(stderr, "bench_correction_probe: unknown option %s\n", option.c_str());
+      return false;
     }
   }
-  if (!(rate > 0) || !(duration > 0) || !(warmup >= 0)) {
+  if (!(o.rate > 0) || !(o.duration > 0) || !(o.warmup >= 0)) {
     std::fprintf(stderr, "bench_correction_probe: impossible option\n");
-    return 2;
+    return false;
   }
-  const double period = 1.0 / rate;
-  const auto warm_ticks = static_cast<std::size_t>(std::llround(warmup * rate));
-  const auto timed_ticks = static_cast<std::size_t>(std::llround(duration * rate));
-  const std::size_t total = warm_ticks + timed_ticks;
-  // Index k of a sample: stamp = start + k period. The start is a whole second of wall time.
-  const ros::Time start(std::floor(ros::WallTime::now().toSec()) + 10.0);
+  return true;
+}
 
-  std::vector<Clock::time_point> published(total);
-  std::unique_ptr<std::atomic<std::int64_t>[]> arrived(new std::atomic<std::int64_t>[total]);
-  for (std::size_t k = 0; k < total; ++k) arrived[k].store(-1);
-  std::atomic<std::size_t> corrected_count{0}, foreign{0}, priming_seen{0};
-  const Clock::time_point t_ref = Clock::now();
+/// The probe's samples: sample k is stamped start + k period (s); published[k] is the steady
+/// time just before its publish(), arrived[k] the arrival of its corrected sample in ns after
+/// t_ref (-1: none). Priming samples (stamped before start) and foreign stamps are counted.
+struct Samples {
+  Samples(ros::Time start_, double period_, std::size_t total_)
+      : start(start_), period(period_), total(total_), published(total_),
+        arrived(new std::atomic<std::int64_t>[total_]) {
+    for (std::size_t k = 0; k < total; ++k) arrived[k].store(-1);
+    t_ref = Clock::now();
+  }
+  ros::Time stamp(std::size_t k) const { return start + ros::Duration(static_cast<double>(k) * period); }
 
-  ros::NodeHandle nh;
-  // In-process correction: this process is its nodelet manager (no ROS services: a plain loader).
-  std::unique_ptr<nodelet::Loader> manager;
-  if (!nodelet_name.empty()) {
-    manager = std::make_unique<nodelet::Loader>(false);
-    if (!manager->load(nodelet_name, "magnetometer_insitu_calibration/correction_node", nodelet::M_string(),
-                       nodelet::V_string())) {
-      std::fprintf(stderr, "bench_correction_probe: cannot load the correction_node nodelet as %s\n", nodelet_name.c_str());
-      return 1;
+  /// The corrected-topic callback (the spinner's thread).
+  void on_corrected(const sensor_msgs::MagneticField::ConstPtr& m) {
+    const auto now = Clock::now();
+    ++corrected_count;
+    const double k_real = (m->header.stamp - start).toSec() / period;
+    const long long k = std::llround(k_real);
+    if (k < 0) {  // priming samples are stamped before start
+      ++priming_seen;
+      return;
     }
+    if (static_cast<std::size_t>(k) >= total || std::abs(k_real - static_cast<double>(k)) > 1e-3) {
+      ++foreign;
+      return;
+    }
+    arrived[static_cast<std::size_t>(k)].store(std::chrono::duration_cast<std::chrono::nanoseconds>(now - t_ref).count());
   }
-  ros::Subscriber sub = nh.subscribe<sensor_msgs::MagneticField>(
-      corrected_topic, 100000,
-      [&](const sensor_msgs::MagneticField::ConstPtr& m) {
-        const auto now = Clock::now();
-        ++corrected_count;
-        const double k_real = (m->header.stamp - start).toSec() / period;
-        const long long k = std::llround(k_real);
-        if (k < 0) {  // priming samples are stamped before start
-          ++priming_seen;
-          return;
-        }
-        if (static_cast<std::size_t>(k) >= total || std::abs(k_real - static_cast<double>(k)) > 1e-3) {
-          ++foreign;
-          return;
-        }
-        arrived[static_cast<std::size_t>(k)].store(std::chrono::duration_cast<std::chrono::nanoseconds>(now - t_ref).count());
-      },
-      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
-  ros::Publisher test = nh.advertise<sensor_msgs::MagneticField>(test_topic, 1000);
-  ros::Publisher cal = nh.advertise<magnetometer_insitu_calibration::MagnetometerCalibration>(calibration_topic, 1, true);
-  ros::AsyncSpinner spinner(1);  // the corrected samples are taken on their own thread
-  spinner.start();
 
-  // A valid accepted calibration: small scale/orientation differences, tiny covariance.
+  const ros::Time start;
+  const double period;
+  const std::size_t total;
+  std::vector<Clock::time_point> published;
+  std::unique_ptr<std::atomic<std::int64_t>[]> arrived;
+  std::atomic<std::size_t> corrected_count{0}, foreign{0}, priming_seen{0};
+  Clock::time_point t_ref;
+};
+
+/// A valid accepted calibration of a one-day window ending just before start: small
+/// scale/orientation differences, offsets of a few nT, tiny covariance.
+magnetometer_insitu_calibration::MagnetometerCalibration probe_calibration(const std::string& frame, ros::Time start) {
   magnetometer_insitu_calibration::MagnetometerCalibration c;
   c.header.stamp = ros::Time::now();
   c.header.frame_id = "probe_reference";
@@ -161,74 +161,129 @@ int main(int argc, char** argv) {
   c.quality = magnetometer_insitu_calibration::MagnetometerCalibration::QUALITY_OK;
   c.quality_text = "ok";
   c.accepted = true;
-  cal.publish(c);
+  return c;
+}
 
-  sensor_msgs::MagneticField msg;
-  msg.header.frame_id = frame;
-  msg.magnetic_field_covariance[0] = msg.magnetic_field_covariance[4] = msg.magnetic_field_covariance[8] = 4e-22;
-  auto fill = [&](std::size_t k, ros::Time stamp) {
-    msg.header.stamp = stamp;
-    const double t = static_cast<double>(k) * period;
-    msg.magnetic_field.x = 2.1e-5 + 2e-9 * std::sin(0.01 * t);
-    msg.magnetic_field.y = 1.5e-6 + 1e-9 * std::cos(0.013 * t);
-    msg.magnetic_field.z = 4.4e-5 - 1e-9 * std::sin(0.007 * t);
-  };
+/// The field of sample k (tesla: about 21, 1.5, 44 uT with nT-sized variations), stamped `stamp`.
+void fill_sample(sensor_msgs::MagneticField& msg, std::size_t k, double period, ros::Time stamp) {
+  msg.header.stamp = stamp;
+  const double t = static_cast<double>(k) * period;
+  msg.magnetic_field.x = 2.1e-5 + 2e-9 * std::sin(0.01 * t);
+  msg.magnetic_field.y = 1.5e-6 + 1e-9 * std::cos(0.013 * t);
+  msg.magnetic_field.z = 4.4e-5 - 1e-9 * std::sin(0.007 * t);
+}
 
-  // Connections, then priming samples (stamped before start) until one comes back corrected.
+/// Waits (60 s at most) for the connections, then publishes priming samples (stamped before
+/// start) every 100 ms until one comes back corrected; false when none did.
+bool wait_until_correcting(const ros::Publisher& test, const ros::Subscriber& sub, const ros::Publisher& cal,
+                           sensor_msgs::MagneticField& msg, const Samples& samples) {
   const auto deadline = Clock::now() + std::chrono::seconds(60);
   while (ros::ok() && Clock::now() < deadline &&
          (test.getNumSubscribers() == 0 || sub.getNumPublishers() == 0 || cal.getNumSubscribers() == 0)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  for (int p = 0; ros::ok() && priming_seen.load() == 0 && Clock::now() < deadline; ++p) {
-    fill(0, start - ros::Duration(5.0) + ros::Duration(0.001 * p));
+  for (int p = 0; ros::ok() && samples.priming_seen.load() == 0 && Clock::now() < deadline; ++p) {
+    fill_sample(msg, 0, samples.period, samples.start - ros::Duration(5.0) + ros::Duration(0.001 * p));
     test.publish(msg);
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  if (priming_seen.load() == 0) {
-    std::fprintf(stderr, "bench_correction_probe: no corrected sample within 60 s (is correction_node on %s -> %s?)\n",
-                 test_topic.c_str(), corrected_topic.c_str());
-    return 1;
-  }
+  return samples.priming_seen.load() != 0;
+}
 
-  std::size_t late_ticks = 0;
+/// Publishes the samples on their schedule (one per period, steady clock, from 200 ms on);
+/// counts the timed ones published more than 10 ms late. Returns how many were published.
+std::size_t publish_samples(const ros::Publisher& test, sensor_msgs::MagneticField& msg, Samples& samples,
+                            std::size_t warm_ticks, std::size_t& late_ticks) {
   const Clock::time_point t0 = Clock::now() + std::chrono::milliseconds(200);
   std::size_t k = 0;
-  for (; k < total && ros::ok(); ++k) {
-    const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(static_cast<double>(k) * period));
+  for (; k < samples.total && ros::ok(); ++k) {
+    const auto due = t0 + std::chrono::duration_cast<Clock::duration>(
+                              std::chrono::duration<double>(static_cast<double>(k) * samples.period));
     std::this_thread::sleep_until(due);
-    fill(k, start + ros::Duration(static_cast<double>(k) * period));
+    fill_sample(msg, k, samples.period, samples.stamp(k));
     const auto now = Clock::now();
     if (now - due > std::chrono::milliseconds(10) && k >= warm_ticks) ++late_ticks;
-    published[k] = now;
+    samples.published[k] = now;
     test.publish(msg);
   }
-  std::this_thread::sleep_for(std::chrono::seconds(2));  // stragglers
-  spinner.stop();
+  return k;
+}
 
+/// The latencies (ms) of the timed samples warm_ticks .. published - 1: the CSV (when asked for)
+/// and the summary line on stdout. Returns whether every timed sample came back.
+bool report(const Samples& samples, std::size_t warm_ticks, std::size_t published, std::size_t late_ticks,
+            const std::string& csv_path) {
   std::vector<double> lat;
   std::size_t received = 0;
   FILE* csv = csv_path.empty() ? nullptr : std::fopen(csv_path.c_str(), "w");
   if (csv) std::fprintf(csv, "k,stamp,latency_ms\n");
-  for (std::size_t i = warm_ticks; i < k; ++i) {
-    const std::int64_t a = arrived[i].load();
+  for (std::size_t i = warm_ticks; i < published; ++i) {
+    const std::int64_t a = samples.arrived[i].load();
     double ms = std::numeric_limits<double>::quiet_NaN();
     if (a >= 0) {
-      ms = 1e-6 * static_cast<double>(a - std::chrono::duration_cast<std::chrono::nanoseconds>(published[i] - t_ref).count());
+      ms = 1e-6 * static_cast<double>(a - std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                              samples.published[i] - samples.t_ref).count());
       lat.push_back(ms);
       ++received;
     }
-    if (csv) std::fprintf(csv, "%zu,%.3f,%.4f\n", i, (start + ros::Duration(static_cast<double>(i) * period)).toSec(), ms);
+    if (csv) std::fprintf(csv, "%zu,%.3f,%.4f\n", i, samples.stamp(i).toSec(), ms);
   }
   if (csv) std::fclose(csv);
   double mean = 0;
   for (double v : lat) mean += v;
   mean = lat.empty() ? std::numeric_limits<double>::quiet_NaN() : mean / static_cast<double>(lat.size());
-  const std::size_t timed = k > warm_ticks ? k - warm_ticks : 0;
+  const std::size_t timed = published > warm_ticks ? published - warm_ticks : 0;
   std::printf("latency_ms samples=%zu received=%zu lost=%zu median=%.3f p90=%.3f p99=%.3f max=%.3f mean=%.3f late_ticks=%zu foreign=%zu\n",
               timed, received, timed - received, quantile(lat, 0.5), quantile(lat, 0.9), quantile(lat, 0.99),
               lat.empty() ? std::numeric_limits<double>::quiet_NaN() : *std::max_element(lat.begin(), lat.end()), mean,
-              late_ticks, foreign.load());
+              late_ticks, samples.foreign.load());
   std::fflush(stdout);
-  return received == timed ? 0 : 1;
+  return received == timed;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "bench_correction_probe", ros::init_options::AnonymousName);
+  Options o;
+  if (!parse_options(argc, argv, o)) return 2;
+  const double period = 1.0 / o.rate;
+  const auto warm_ticks = static_cast<std::size_t>(std::llround(o.warmup * o.rate));
+  const auto timed_ticks = static_cast<std::size_t>(std::llround(o.duration * o.rate));
+  // Index k of a sample: stamp = start + k period. The start is a whole second of wall time.
+  Samples samples(ros::Time(std::floor(ros::WallTime::now().toSec()) + 10.0), period, warm_ticks + timed_ticks);
+
+  ros::NodeHandle nh;
+  // In-process correction: this process is its nodelet manager (no ROS services: a plain loader).
+  std::unique_ptr<nodelet::Loader> manager;
+  if (!o.nodelet_name.empty()) {
+    manager = std::make_unique<nodelet::Loader>(false);
+    if (!manager->load(o.nodelet_name, "magnetometer_insitu_calibration/correction_node", nodelet::M_string(),
+                       nodelet::V_string())) {
+      std::fprintf(stderr, "bench_correction_probe: cannot load the correction_node nodelet as %s\n", o.nodelet_name.c_str());
+      return 1;
+    }
+  }
+  ros::Subscriber sub = nh.subscribe<sensor_msgs::MagneticField>(
+      o.corrected_topic, 100000, [&samples](const sensor_msgs::MagneticField::ConstPtr& m) { samples.on_corrected(m); },
+      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  ros::Publisher test = nh.advertise<sensor_msgs::MagneticField>(o.test_topic, 1000);
+  ros::Publisher cal = nh.advertise<magnetometer_insitu_calibration::MagnetometerCalibration>(o.calibration_topic, 1, true);
+  ros::AsyncSpinner spinner(1);  // the corrected samples are taken on their own thread
+  spinner.start();
+  cal.publish(probe_calibration(o.frame, samples.start));
+
+  sensor_msgs::MagneticField msg;  // covariance (T^2) as a LEMI-025 driver sets it
+  msg.header.frame_id = o.frame;
+  msg.magnetic_field_covariance[0] = msg.magnetic_field_covariance[4] = msg.magnetic_field_covariance[8] = 4e-22;
+  if (!wait_until_correcting(test, sub, cal, msg, samples)) {
+    std::fprintf(stderr, "bench_correction_probe: no corrected sample within 60 s (is correction_node on %s -> %s?)\n",
+                 o.test_topic.c_str(), o.corrected_topic.c_str());
+    return 1;
+  }
+  std::size_t late_ticks = 0;
+  const std::size_t published = publish_samples(test, msg, samples, warm_ticks, late_ticks);
+  std::this_thread::sleep_for(std::chrono::seconds(2));  // stragglers
+  spinner.stop();
+  return report(samples, warm_ticks, published, late_ticks, o.csv_path) ? 0 : 1;
 }

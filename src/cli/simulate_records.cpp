@@ -98,47 +98,66 @@ std::string option_for_field(const std::string& field) {
   return it == options.end() ? field : it->second;
 }
 
-}  // namespace
+/// The command line: the simulation's settings (filled by CLI11 where an option maps to one
+/// field) and the texts parsed after it.
+struct Options {
+  Options() {
+    s.keep_clean_field = false;
+    hut.daily_amplitude_C = hut.heater_amplitude_C = 0.0;  // no hut unless asked for
+  }
+  bool with_hut() const { return hut.daily_amplitude_C > 0.0 || hut.heater_amplitude_C > 0.0; }
 
-int main(int argc, char** argv) {
-  CLI::App app{
-      "Simulates a reference and a test magnetometer recording the same field, with known truth "
-      "(T = B(t - delay) n(t) + drift + noise, R = B + noise), and writes both records and "
-      "truth.json."};
   std::string out_dir, format = "iaga", start, scale, nonorth, misalign, noise = "0.01,0.01",
                        pink = "0.005,0.005", drift = "0,0,0", tilt_axis = "0,1,0",
                        spike_instrument = "either", gap_instrument = "either", daily;
   double days = 1.0, rate_hz = 1.0;
   int decimals = 4;
   mic::SimulationSettings s;
-  s.keep_clean_field = false;
-  app.add_option("--out-dir", out_dir, "output directory (created if missing)")->required();
-  app.add_option("--format", format, "record format: iaga (IAGA-2002) or csv")->capture_default_str();
-  app.add_option("--days", days, "record length, days")->capture_default_str();
-  app.add_option("--rate", rate_hz, "sample rate, Hz (1 or 10 typically)")->capture_default_str();
+  // Disturbances of a disturbed station (station_disturbances.hpp), none by default.
+  mic::StationDisturbanceSettings station;
+  // What reaches the test instrument only and the estimators do not model (unmodelled_disturbances.hpp).
+  mic::UnmodelledDisturbanceSettings unmodelled;
+  std::string heater = "0,0,0";
+  // A field hut: the test sensor's temperature and its coefficients (hut_temperature.hpp).
+  mic::HutTemperatureSettings hut;
+  std::string temperature_offset = "0.2,-0.15,0.3", temperature_scale = "15,-10,25";
+};
+
+/// Options of the record, the instruments' transfer and noise, and the field's variations.
+void add_record_options(CLI::App& app, Options& o) {
+  mic::SimulationSettings& s = o.s;
+  app.add_option("--out-dir", o.out_dir, "output directory (created if missing)")->required();
+  app.add_option("--format", o.format, "record format: iaga (IAGA-2002) or csv")->capture_default_str();
+  app.add_option("--days", o.days, "record length, days")->capture_default_str();
+  app.add_option("--rate", o.rate_hz, "sample rate, Hz (1 or 10 typically)")->capture_default_str();
   app.add_option("--seed", s.seed, "random seed")->capture_default_str();
-  app.add_option("--start", start, "UTC start, ISO 8601 (default 2025-05-14T00:00:00Z)");
-  app.add_option("--scale", scale, "scale-factor ratios K_test/K_ref x,y,z (default 0.9996,1.0004,1.0004)");
-  app.add_option("--nonorthogonality-deg", nonorth, "xy,xz,yz: 90 deg minus angle between test axes (default 0.01,0,0.02)");
-  app.add_option("--misalignment-deg", misalign, "rotation vector of reference->test rotation, deg (default 0.05,-0.1,0.3)");
-  app.add_option("--noise-nT", noise, "white noise rms per sample, nT: reference,test")->capture_default_str();
-  app.add_option("--pink-nT", pink, "1/f noise ASD at 1 Hz, nT/sqrt(Hz): reference,test")->capture_default_str();
-  app.add_option("--drift-nT-per-day", drift, "linear drift of the test, nT/day, x,y,z")->capture_default_str();
+  app.add_option("--start", o.start, "UTC start, ISO 8601 (default 2025-05-14T00:00:00Z)");
+  app.add_option("--scale", o.scale, "scale-factor ratios K_test/K_ref x,y,z (default 0.9996,1.0004,1.0004)");
+  app.add_option("--nonorthogonality-deg", o.nonorth, "xy,xz,yz: 90 deg minus angle between test axes (default 0.01,0,0.02)");
+  app.add_option("--misalignment-deg", o.misalign, "rotation vector of reference->test rotation, deg (default 0.05,-0.1,0.3)");
+  app.add_option("--noise-nT", o.noise, "white noise rms per sample, nT: reference,test")->capture_default_str();
+  app.add_option("--pink-nT", o.pink, "1/f noise ASD at 1 Hz, nT/sqrt(Hz): reference,test")->capture_default_str();
+  app.add_option("--drift-nT-per-day", o.drift, "linear drift of the test, nT/day, x,y,z")->capture_default_str();
   app.add_option("--tilt-deg-per-day", s.tilt_rate_deg_per_day, "tilt drift rate of the test axes, deg/day")->capture_default_str();
-  app.add_option("--tilt-axis", tilt_axis, "tilt rotation axis, reference frame x,y,z")->capture_default_str();
+  app.add_option("--tilt-axis", o.tilt_axis, "tilt rotation axis, reference frame x,y,z")->capture_default_str();
   app.add_option("--spikes-per-day", s.spikes_per_day, "spikes per day (count rounded)")->capture_default_str();
   app.add_option("--spike-nT", s.spike_amplitude_nT, "spike size, nT")->capture_default_str();
-  app.add_option("--spike-instrument", spike_instrument, "reference|test|either|both")->capture_default_str();
+  app.add_option("--spike-instrument", o.spike_instrument, "reference|test|either|both")->capture_default_str();
   app.add_option("--gaps", s.gap_count, "number of gaps (NaN runs)")->capture_default_str();
   app.add_option("--gap-seconds", s.gap_length_s, "length of each gap, s")->capture_default_str();
-  app.add_option("--gap-instrument", gap_instrument, "reference|test|either|both")->capture_default_str();
+  app.add_option("--gap-instrument", o.gap_instrument, "reference|test|either|both")->capture_default_str();
   app.add_option("--delay-s", s.delay_s, "delay of the test instrument, s (fractional allowed)")->capture_default_str();
   app.add_option("--variation-rms-nT", s.variation_rms_nT, "rms of x,y power-law variations, nT")->capture_default_str();
   app.add_option("--spectral-index", s.spectral_index, "variations' PSD ~ f^-index")->capture_default_str();
-  app.add_option("--daily-nT", daily, "24 h harmonic amplitude x,y,z, nT (default 20,10,10)");
+  app.add_option("--daily-nT", o.daily, "24 h harmonic amplitude x,y,z, nT (default 20,10,10)");
   app.add_option("--z-ratio", s.variation_z_ratio, "rms of z variations / rms of x,y (weak Z: 0.2)")->capture_default_str();
-  // Disturbances of a disturbed station (station_disturbances.hpp), none by default.
-  mic::StationDisturbanceSettings station;
+}
+
+/// Options of the station's disturbances (traffic) and of what reaches the test alone (pier
+/// tilt, heater, filter mismatch).
+void add_disturbance_options(CLI::App& app, Options& o) {
+  mic::StationDisturbanceSettings& station = o.station;
+  mic::UnmodelledDisturbanceSettings& unmodelled = o.unmodelled;
   app.add_option("--vehicles-per-day", station.vehicles_per_day,
                  "traffic: vehicles (magnetic dipoles) per day on a road, seen by the two sensors with "
                  "different gains and directions")->capture_default_str();
@@ -146,13 +165,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--parking-probability", station.parking_probability, "traffic: share of vehicles that park by the road")
       ->capture_default_str();
-  // What reaches the test instrument only and the estimators do not model (unmodelled_disturbances.hpp).
-  mic::UnmodelledDisturbanceSettings unmodelled;
-  std::string heater = "0,0,0";
   app.add_option("--pier-tilt-walk-nT", unmodelled.tilt_walk_nT_per_sqrt_day,
                  "random-walk tilt of the test pier: field change |B| theta after one day, nT/sqrt(day), "
                  "1 sigma per horizontal axis (0.27: about 0.6 nT over 5 days)")->capture_default_str();
-  app.add_option("--heater-nT", heater, "heater cycling in the test sensor: field while on, test frame x,y,z, nT")
+  app.add_option("--heater-nT", o.heater, "heater cycling in the test sensor: field while on, test frame x,y,z, nT")
       ->capture_default_str();
   app.add_option("--heater-period-s", unmodelled.heater_period_s, "heater: mean on/off cycle, s (+-20 %, on 40 %)")
       ->capture_default_str();
@@ -160,152 +176,207 @@ int main(int argc, char** argv) {
                  "filter mismatch: one-pole low-pass of the test instrument, corner Hz (0: none)")->capture_default_str();
   app.add_option("--test-delay-s", unmodelled.test_delay_s,
                  "filter mismatch: extra delay of the test instrument after the low-pass, s")->capture_default_str();
-  // A field hut: the test sensor's temperature and its coefficients (hut_temperature.hpp).
-  mic::HutTemperatureSettings hut;
-  hut.daily_amplitude_C = hut.heater_amplitude_C = 0.0;  // no hut unless asked for
-  std::string temperature_offset = "0.2,-0.15,0.3", temperature_scale = "15,-10,25";
+}
+
+/// Options of the field hut (the test's temperature and its coefficients) and the CSV's decimals.
+void add_hut_and_format_options(CLI::App& app, Options& o) {
+  mic::HutTemperatureSettings& hut = o.hut;
   app.add_option("--hut-daily-C", hut.daily_amplitude_C, "hut: amplitude of the daily temperature cycle, degC (0: no hut)")
       ->capture_default_str();
   app.add_option("--hut-heater-C", hut.heater_amplitude_C, "hut: heater cycling, half peak-to-peak, degC (0: none)")
       ->capture_default_str();
   app.add_option("--hut-heater-period-s", hut.heater_period_s, "hut: mean heater cycle, s (+-20 %)")->capture_default_str();
-  app.add_option("--temperature-offset-nT-per-C", temperature_offset, "hut: test offset coefficients x,y,z, nT/degC")
+  app.add_option("--temperature-offset-nT-per-C", o.temperature_offset, "hut: test offset coefficients x,y,z, nT/degC")
       ->capture_default_str();
-  app.add_option("--temperature-scale-ppm-per-C", temperature_scale, "hut: test scale coefficients x,y,z, ppm/degC")
+  app.add_option("--temperature-scale-ppm-per-C", o.temperature_scale, "hut: test scale coefficients x,y,z, ppm/degC")
       ->capture_default_str();
-  app.add_option("--decimals", decimals, "CSV value decimals (IAGA-2002 always has 2)")->capture_default_str();
+  app.add_option("--decimals", o.decimals, "CSV value decimals (IAGA-2002 always has 2)")->capture_default_str();
+}
+
+/// Checks the record's options and parses the texts into the settings; throws InputError
+/// naming the option.
+void read_texts(Options& o) {
+  mic::SimulationSettings& s = o.s;
+  if (o.format != "iaga" && o.format != "csv") {
+    throw mic::InputError("--format", "expected iaga or csv, got '" + o.format + "'");
+  }
+  if (!(o.days > 0.0) || !std::isfinite(o.days)) throw mic::InputError("--days", "must be positive");
+  if (!(o.rate_hz > 0.0) || !std::isfinite(o.rate_hz)) throw mic::InputError("--rate", "must be positive");
+  if (o.decimals < 0 || o.decimals > 17) throw mic::InputError("--decimals", "must be 0..17");
+  s.duration_s = o.days * 86400.0;
+  s.sample_period_s = 1.0 / o.rate_hz;
+  if (!o.start.empty()) {
+    try {
+      s.start_time_s = mic::parse_iso8601(o.start);
+    } catch (const std::exception& e) {
+      throw mic::InputError("--start", e.what());
+    }
+  }
+  if (!o.scale.empty()) s.scale_ratio = parse_vector(o.scale, "--scale");
+  if (!o.nonorth.empty()) s.nonorthogonality_deg = parse_vector(o.nonorth, "--nonorthogonality-deg");
+  if (!o.misalign.empty()) s.misalignment_deg = parse_vector(o.misalign, "--misalignment-deg");
+  if (!o.daily.empty()) s.daily_amplitude_nT = parse_vector(o.daily, "--daily-nT");
+  const std::vector<double> white = parse_list(o.noise, 2, "--noise-nT");
+  s.reference_white_nT = white[0];
+  s.test_white_nT = white[1];
+  const std::vector<double> pink_levels = parse_list(o.pink, 2, "--pink-nT");
+  s.reference_pink_nT_per_sqrt_hz = pink_levels[0];
+  s.test_pink_nT_per_sqrt_hz = pink_levels[1];
+  s.drift_nT_per_day = parse_vector(o.drift, "--drift-nT-per-day");
+  s.tilt_axis = parse_vector(o.tilt_axis, "--tilt-axis");
+  s.spike_instrument = mic::parse_simulated_instrument(o.spike_instrument, "--spike-instrument");
+  s.gap_instrument = mic::parse_simulated_instrument(o.gap_instrument, "--gap-instrument");
+  o.unmodelled.heater_nT = parse_vector(o.heater, "--heater-nT");
+  o.station.seed = o.unmodelled.seed = o.hut.seed = s.seed;
+  o.hut.offset_nT_per_C = parse_vector(o.temperature_offset, "--temperature-offset-nT-per-C");
+  o.hut.scale_ppm_per_C = parse_vector(o.temperature_scale, "--temperature-scale-ppm-per-C");
+}
+
+/// Validates the settings; the InputError names the option of the field at fault.
+void validate(const Options& o) {
+  if (o.with_hut() && o.format != "csv") {
+    throw mic::InputError("--format", "a hut (--hut-daily-C, --hut-heater-C) needs csv: IAGA-2002 has no temperature column");
+  }
+  try {
+    o.s.validate();
+    o.station.validate();
+    o.unmodelled.validate();
+  } catch (const mic::InputError& e) {
+    throw mic::InputError(option_for_field(e.where()), e.problem());
+  }
+  try {
+    o.hut.validate();
+  } catch (const mic::InputError& e) {  // the hut's fields have their own options
+    static const std::map<std::string, std::string> hut_options = {
+        {"daily_amplitude_C", "--hut-daily-C"}, {"heater_amplitude_C", "--hut-heater-C"},
+        {"heater_period_s", "--hut-heater-period-s"}, {"offset_nT_per_C", "--temperature-offset-nT-per-C"},
+        {"scale_ppm_per_C", "--temperature-scale-ppm-per-C"}};
+    const auto it = hut_options.find(e.where());
+    throw mic::InputError(it == hut_options.end() ? e.where() : it->second, e.problem());
+  }
+}
+
+std::filesystem::path make_out_dir(const std::string& out_dir) {
+  std::error_code error;
+  std::filesystem::create_directories(out_dir, error);
+  if (error || !std::filesystem::is_directory(out_dir)) {
+    throw mic::InputError("--out-dir", "cannot create directory '" + out_dir + "': " + error.message());
+  }
+  return std::filesystem::path(out_dir);
+}
+
+/// The pair with every asked-for disturbance; with a hut, test.csv gets a sensor_temperature column.
+mic::SimulatedPair simulate(const Options& o) {
+  mic::SimulatedPair pair = mic::simulate_pair(o.s);
+  if (o.station.vehicles_per_day > 0.0) mic::add_station_disturbances(pair, o.station);
+  mic::add_unmodelled_disturbances(pair, o.unmodelled);
+  if (o.with_hut()) mic::add_hut_temperature(pair, o.hut);
+  pair.reference.station = "SIM";
+  pair.test.station = "SIM";
+  return pair;
+}
+
+struct RecordPaths {
+  std::string reference, test;
+};
+
+/// Writes reference.<iaga|csv> and test.<iaga|csv> into dir, with the provenance in their comments.
+RecordPaths write_records(mic::SimulatedPair& pair, const Options& o, const std::filesystem::path& dir) {
+  const std::string extension = o.format == "iaga" ? ".iaga" : ".csv";
+  const RecordPaths paths{(dir / ("reference" + extension)).string(), (dir / ("test" + extension)).string()};
+  const std::string provenance = "Simulated by magnetometer_insitu_calibration simulate_records, seed " +
+                                 std::to_string(o.s.seed) + "; truth in truth.json.";
+  if (o.format == "iaga") {
+    mic::Iaga2002WriteOptions options;
+    options.source_of_data = "magnetometer_insitu_calibration simulator";
+    options.iaga_code = "SIM";
+    options.data_type = "variation";
+    std::ostringstream sampling;
+    sampling << o.s.sample_period_s << " second";
+    options.digital_sampling = sampling.str();
+    options.station_name = "Simulated reference";
+    options.comments = {provenance, "Reference instrument: R = B + noise (reference frame)."};
+    mic::write_iaga2002(paths.reference, pair.reference, options);
+    options.station_name = "Simulated test";
+    options.comments = {provenance,
+                        "Test instrument: T = B(t - delay) n(t) + drift + noise (test frame)."};
+    mic::write_iaga2002(paths.test, pair.test, options);
+  } else {
+    pair.reference.header["comments"] = provenance + "\nReference instrument: R = B + noise (reference frame), nT.";
+    pair.test.header["comments"] =
+        provenance + "\nTest instrument: T = B(t - delay) n(t) + drift + noise (test frame), nT.";
+    mic::write_csv_record(paths.reference, pair.reference, true, o.decimals);
+    mic::write_csv_record(paths.test, pair.test, true, o.decimals);
+  }
+  return paths;
+}
+
+/// truth.json: the simulation's truth, the files, the disturbances' settings and the command line.
+nlohmann::json truth_json(const Options& o, const mic::SimulatedPair& pair, const RecordPaths& paths, int argc,
+                          char** argv) {
+  nlohmann::json truth = nlohmann::json::parse(mic::simulation_truth_json(o.s, pair));
+  truth["files"] = {{"format", o.format == "iaga" ? "IAGA-2002" : "CSV"},
+                    {"reference", paths.reference},
+                    {"test", paths.test}};
+  truth["start"] = mic::format_iso8601(o.s.start_time_s, 3);
+  truth["traffic"] = {{"vehicles_per_day", o.station.vehicles_per_day},
+                      {"road_distance_m", o.station.road_distance_m},
+                      {"parking_probability", o.station.parking_probability}};
+  const mic::UnmodelledDisturbanceSettings& u = o.unmodelled;
+  truth["test_only"] = {{"pier_tilt_walk_nT_per_sqrt_day", u.tilt_walk_nT_per_sqrt_day},
+                        {"heater_nT", {u.heater_nT(0), u.heater_nT(1), u.heater_nT(2)}},
+                        {"heater_period_s", u.heater_period_s},
+                        {"test_corner_hz", u.test_corner_hz},
+                        {"test_delay_s", u.test_delay_s}};
+  if (o.with_hut()) {
+    const mic::HutTemperatureSettings& hut = o.hut;
+    auto v3 = [](const Eigen::Vector3d& v) { return nlohmann::json::array({v(0), v(1), v(2)}); };
+    truth["hut"] = {{"mean_C", hut.mean_C},
+                    {"reference_C", hut.reference_C},
+                    {"daily_amplitude_C", hut.daily_amplitude_C},
+                    {"heater_amplitude_C", hut.heater_amplitude_C},
+                    {"heater_period_s", hut.heater_period_s},
+                    {"offset_nT_per_C", v3(hut.offset_nT_per_C)},
+                    {"scale_ppm_per_C", v3(hut.scale_ppm_per_C)},
+                    {"model", "T_l <- T_l (1 + 1e-6 scale_l (theta - reference_C)) + offset_l (theta - reference_C)"}};
+  }
+  std::string command_line;
+  for (int i = 0; i < argc; ++i) command_line += (i ? " " : "") + std::string(argv[i]);
+  truth["command_line"] = command_line;
+  return truth;
+}
+
+/// Writes dir/truth.json (2-space indent); returns its path.
+std::string write_truth(const nlohmann::json& truth, const std::filesystem::path& dir) {
+  const std::string truth_path = (dir / "truth.json").string();
+  std::ofstream out(truth_path);
+  out << truth.dump(2) << "\n";
+  out.close();
+  if (!out) throw mic::InputError(truth_path, "write failed");
+  return truth_path;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Simulates a reference and a test magnetometer recording the same field, with known truth "
+      "(T = B(t - delay) n(t) + drift + noise, R = B + noise), and writes both records and "
+      "truth.json."};
+  Options o;
+  add_record_options(app, o);
+  add_disturbance_options(app, o);
+  add_hut_and_format_options(app, o);
   CLI11_PARSE(app, argc, argv);
 
   try {
-    if (format != "iaga" && format != "csv") {
-      throw mic::InputError("--format", "expected iaga or csv, got '" + format + "'");
-    }
-    if (!(days > 0.0) || !std::isfinite(days)) throw mic::InputError("--days", "must be positive");
-    if (!(rate_hz > 0.0) || !std::isfinite(rate_hz)) throw mic::InputError("--rate", "must be positive");
-    if (decimals < 0 || decimals > 17) throw mic::InputError("--decimals", "must be 0..17");
-    s.duration_s = days * 86400.0;
-    s.sample_period_s = 1.0 / rate_hz;
-    if (!start.empty()) {
-      try {
-        s.start_time_s = mic::parse_iso8601(start);
-      } catch (const std::exception& e) {
-        throw mic::InputError("--start", e.what());
-      }
-    }
-    if (!scale.empty()) s.scale_ratio = parse_vector(scale, "--scale");
-    if (!nonorth.empty()) s.nonorthogonality_deg = parse_vector(nonorth, "--nonorthogonality-deg");
-    if (!misalign.empty()) s.misalignment_deg = parse_vector(misalign, "--misalignment-deg");
-    if (!daily.empty()) s.daily_amplitude_nT = parse_vector(daily, "--daily-nT");
-    const std::vector<double> white = parse_list(noise, 2, "--noise-nT");
-    s.reference_white_nT = white[0];
-    s.test_white_nT = white[1];
-    const std::vector<double> pink_levels = parse_list(pink, 2, "--pink-nT");
-    s.reference_pink_nT_per_sqrt_hz = pink_levels[0];
-    s.test_pink_nT_per_sqrt_hz = pink_levels[1];
-    s.drift_nT_per_day = parse_vector(drift, "--drift-nT-per-day");
-    s.tilt_axis = parse_vector(tilt_axis, "--tilt-axis");
-    s.spike_instrument = mic::parse_simulated_instrument(spike_instrument, "--spike-instrument");
-    s.gap_instrument = mic::parse_simulated_instrument(gap_instrument, "--gap-instrument");
-    unmodelled.heater_nT = parse_vector(heater, "--heater-nT");
-    station.seed = unmodelled.seed = hut.seed = s.seed;
-    hut.offset_nT_per_C = parse_vector(temperature_offset, "--temperature-offset-nT-per-C");
-    hut.scale_ppm_per_C = parse_vector(temperature_scale, "--temperature-scale-ppm-per-C");
-    const bool with_hut = hut.daily_amplitude_C > 0.0 || hut.heater_amplitude_C > 0.0;
-    if (with_hut && format != "csv") {
-      throw mic::InputError("--format", "a hut (--hut-daily-C, --hut-heater-C) needs csv: IAGA-2002 has no temperature column");
-    }
-    try {
-      s.validate();
-      station.validate();
-      unmodelled.validate();
-    } catch (const mic::InputError& e) {
-      throw mic::InputError(option_for_field(e.where()), e.problem());
-    }
-    try {
-      hut.validate();
-    } catch (const mic::InputError& e) {  // the hut's fields have their own options
-      static const std::map<std::string, std::string> hut_options = {
-          {"daily_amplitude_C", "--hut-daily-C"}, {"heater_amplitude_C", "--hut-heater-C"},
-          {"heater_period_s", "--hut-heater-period-s"}, {"offset_nT_per_C", "--temperature-offset-nT-per-C"},
-          {"scale_ppm_per_C", "--temperature-scale-ppm-per-C"}};
-      const auto it = hut_options.find(e.where());
-      throw mic::InputError(it == hut_options.end() ? e.where() : it->second, e.problem());
-    }
-
-    std::error_code error;
-    std::filesystem::create_directories(out_dir, error);
-    if (error || !std::filesystem::is_directory(out_dir)) {
-      throw mic::InputError("--out-dir", "cannot create directory '" + out_dir + "': " + error.message());
-    }
-
-    mic::SimulatedPair pair = mic::simulate_pair(s);
-    if (station.vehicles_per_day > 0.0) mic::add_station_disturbances(pair, station);
-    mic::add_unmodelled_disturbances(pair, unmodelled);
-    if (with_hut) mic::add_hut_temperature(pair, hut);  // test.csv gets a sensor_temperature column
-    pair.reference.station = "SIM";
-    pair.test.station = "SIM";
-    const std::filesystem::path dir(out_dir);
-    const std::string extension = format == "iaga" ? ".iaga" : ".csv";
-    const std::string reference_path = (dir / ("reference" + extension)).string();
-    const std::string test_path = (dir / ("test" + extension)).string();
-    const std::string provenance = "Simulated by magnetometer_insitu_calibration simulate_records, seed " +
-                                   std::to_string(s.seed) + "; truth in truth.json.";
-    if (format == "iaga") {
-      mic::Iaga2002WriteOptions options;
-      options.source_of_data = "magnetometer_insitu_calibration simulator";
-      options.iaga_code = "SIM";
-      options.data_type = "variation";
-      std::ostringstream sampling;
-      sampling << s.sample_period_s << " second";
-      options.digital_sampling = sampling.str();
-      options.station_name = "Simulated reference";
-      options.comments = {provenance, "Reference instrument: R = B + noise (reference frame)."};
-      mic::write_iaga2002(reference_path, pair.reference, options);
-      options.station_name = "Simulated test";
-      options.comments = {provenance,
-                          "Test instrument: T = B(t - delay) n(t) + drift + noise (test frame)."};
-      mic::write_iaga2002(test_path, pair.test, options);
-    } else {
-      pair.reference.header["comments"] = provenance + "\nReference instrument: R = B + noise (reference frame), nT.";
-      pair.test.header["comments"] =
-          provenance + "\nTest instrument: T = B(t - delay) n(t) + drift + noise (test frame), nT.";
-      mic::write_csv_record(reference_path, pair.reference, true, decimals);
-      mic::write_csv_record(test_path, pair.test, true, decimals);
-    }
-
-    nlohmann::json truth = nlohmann::json::parse(mic::simulation_truth_json(s, pair));
-    truth["files"] = {{"format", format == "iaga" ? "IAGA-2002" : "CSV"},
-                      {"reference", reference_path},
-                      {"test", test_path}};
-    truth["start"] = mic::format_iso8601(s.start_time_s, 3);
-    truth["traffic"] = {{"vehicles_per_day", station.vehicles_per_day},
-                        {"road_distance_m", station.road_distance_m},
-                        {"parking_probability", station.parking_probability}};
-    truth["test_only"] = {{"pier_tilt_walk_nT_per_sqrt_day", unmodelled.tilt_walk_nT_per_sqrt_day},
-                          {"heater_nT", {unmodelled.heater_nT(0), unmodelled.heater_nT(1), unmodelled.heater_nT(2)}},
-                          {"heater_period_s", unmodelled.heater_period_s},
-                          {"test_corner_hz", unmodelled.test_corner_hz},
-                          {"test_delay_s", unmodelled.test_delay_s}};
-    if (with_hut) {
-      auto v3 = [](const Eigen::Vector3d& v) { return nlohmann::json::array({v(0), v(1), v(2)}); };
-      truth["hut"] = {{"mean_C", hut.mean_C},
-                      {"reference_C", hut.reference_C},
-                      {"daily_amplitude_C", hut.daily_amplitude_C},
-                      {"heater_amplitude_C", hut.heater_amplitude_C},
-                      {"heater_period_s", hut.heater_period_s},
-                      {"offset_nT_per_C", v3(hut.offset_nT_per_C)},
-                      {"scale_ppm_per_C", v3(hut.scale_ppm_per_C)},
-                      {"model", "T_l <- T_l (1 + 1e-6 scale_l (theta - reference_C)) + offset_l (theta - reference_C)"}};
-    }
-    std::string command_line;
-    for (int i = 0; i < argc; ++i) command_line += (i ? " " : "") + std::string(argv[i]);
-    truth["command_line"] = command_line;
-    const std::string truth_path = (dir / "truth.json").string();
-    std::ofstream out(truth_path);
-    out << truth.dump(2) << "\n";
-    out.close();
-    if (!out) throw mic::InputError(truth_path, "write failed");
-    std::cout << "wrote " << reference_path << ", " << test_path << " (" << pair.reference.size()
+    read_texts(o);
+    validate(o);
+    const std::filesystem::path dir = make_out_dir(o.out_dir);
+    mic::SimulatedPair pair = simulate(o);
+    const RecordPaths paths = write_records(pair, o, dir);
+    const std::string truth_path = write_truth(truth_json(o, pair, paths, argc, argv), dir);
+    std::cout << "wrote " << paths.reference << ", " << paths.test << " (" << pair.reference.size()
               << " samples each) and " << truth_path << "\n";
   } catch (const mic::InputError& e) {
     std::cerr << "simulate_records: " << e.what() << "\n";

@@ -18,6 +18,28 @@ using diagnostic_updater::DiagnosticStatusWrapper;
 
 namespace {
 
+/// A field stream's keys after its topic, each name after `prefix` ("" for the reference,
+/// "test " for a test): frame, messages, newest stamp, stamp jumps, stray stamps, and the ROS
+/// time since its last message (s), which it returns.
+double add_stream_keys(const StreamMonitor& m, const std::string& prefix, double now_s, double started_s,
+                       DiagnosticStatusWrapper& status) {
+  status.add(prefix + "frame_id", m.frame_id);
+  status.add(prefix + "messages", m.messages);
+  status.add(prefix + "newest stamp", m.messages > 0 ? time_for_message(m.newest_stamp_s) : std::string("none"));
+  status.add(prefix + "stamp jumps forward", m.jumps_forward);
+  status.add(prefix + "stamp jumps backward", m.jumps_backward);
+  status.add(prefix + "stray stamps", m.stray);
+  const double silence = m.silence_s(now_s, started_s);
+  status.add(prefix + "silent for (s)", silence);
+  return silence;
+}
+
+/// The warning of a silent stream (`silence` s of ROS time; `name` "reference" or "test").
+std::string silence_problem(const StreamMonitor& m, const std::string& name, double silence) {
+  return m.messages > 0 ? name + " topic silent for " + number_text(std::round(silence)) + " s"
+                        : "no " + name + " message yet";
+}
+
 /// The last window's estimate in words: method, noise model, weights, band, delay, offset,
 /// response, response model and temperature terms.
 void describe_window(const CalibrationWindow& w, DiagnosticStatusWrapper& status) {
@@ -58,6 +80,22 @@ void describe_window(const CalibrationWindow& w, DiagnosticStatusWrapper& status
   }
 }
 
+/// The last change check (check_calibration_change) of window `window` against the accepted
+/// calibration: status, chi2 and p-values, largest z per parameter kind, the text.
+void describe_change(const std::string& window, const CalibrationChange& change, DiagnosticStatusWrapper& status) {
+  status.add("change check window", window);
+  status.add("change status", calibration_change_status_name(change.status));
+  status.add("change chi2 (9 dof)", change.chi2);
+  status.add("change p-value", change.p_value);
+  status.add("change decided by", change.joint_tested ? "joint test (9 entries of n)"
+                                                      : "parameters one by one (covariances from few cells)");
+  status.add("change smallest parameter p-value", change.parameter_p_value);
+  status.add("change max z (scale)", change.scale_z.maxCoeff());
+  status.add("change max z (nonorthogonality)", change.nonorthogonality_z.maxCoeff());
+  status.add("change max z (misalignment)", change.misalignment_z.maxCoeff());
+  status.add("change text", change.text);
+}
+
 }  // namespace
 
 void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
@@ -65,18 +103,9 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   if (started_s_ == 0.0 && now > 0.0) started_s_ = now;
   status.summary(DiagnosticStatus::OK, "receiving");
   status.add("topic", nh_.resolveName(reference_.topic));
-  status.add("frame_id", reference_.frame_id);
-  status.add("messages", reference_.messages);
-  status.add("newest stamp", reference_.messages > 0 ? time_for_message(reference_.newest_stamp_s) : std::string("none"));
-  status.add("stamp jumps forward", reference_.jumps_forward);
-  status.add("stamp jumps backward", reference_.jumps_backward);
-  status.add("stray stamps", reference_.stray);
-  const double silence = reference_.silence_s(now, started_s_);
-  status.add("silent for (s)", silence);
+  const double silence = add_stream_keys(reference_, "", now, started_s_, status);
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
-    status.mergeSummary(DiagnosticStatus::WARN, reference_.messages > 0
-                                                    ? "reference topic silent for " + number_text(std::round(silence)) + " s"
-                                                    : "no reference message yet");
+    status.mergeSummary(DiagnosticStatus::WARN, silence_problem(reference_, "reference", silence));
   }
 }
 
@@ -85,25 +114,21 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   const double now = ros::Time::now().toSec();
   if (started_s_ == 0.0 && now > 0.0) started_s_ = now;
   status.summary(DiagnosticStatus::OK, "ok");
-  std::vector<std::pair<unsigned char, std::string>> problems;
-
+  Problems problems;
   status.add("test topic", nh_.resolveName(ch.test.topic));
   status.add("calibration topic", nh_.resolveName(ch.settings.calibration_topic));
   status.add("calibration file", ch.settings.calibration_file);
-  status.add("test frame_id", ch.test.frame_id);
-  status.add("test messages", ch.test.messages);
-  status.add("test newest stamp", ch.test.messages > 0 ? time_for_message(ch.test.newest_stamp_s) : std::string("none"));
-  status.add("test stamp jumps forward", ch.test.jumps_forward);
-  status.add("test stamp jumps backward", ch.test.jumps_backward);
-  status.add("test stray stamps", ch.test.stray);
-  const double silence = ch.test.silence_s(now, started_s_);
-  status.add("test silent for (s)", silence);
+  const double silence = add_stream_keys(ch.test, "test ", now, started_s_, status);
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
-    problems.emplace_back(DiagnosticStatus::WARN, ch.test.messages > 0
-                                                      ? "test topic silent for " + number_text(std::round(silence)) + " s"
-                                                      : "no test message yet");
+    problems.emplace_back(DiagnosticStatus::WARN, silence_problem(ch.test, "test", silence));
   }
+  diagnose_stream(index, status, problems);
+  diagnose_results(ch, status, problems);
+  for (const auto& problem : problems) status.mergeSummary(problem.first, problem.second);
+}
 
+void CalibrationNode::diagnose_stream(std::size_t index, DiagnosticStatusWrapper& status, Problems& problems) {
+  Channel& ch = *channels_[index];
   const LiveTestStream& stream = streams_->test(index);
   const PairingCounters c = stream.counters();
   status.add("paired", c.paired);
@@ -148,66 +173,53 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
                                                       " windows dropped: estimator busy");
   }
   ch.reported_dropped = dropped;
+  std::size_t pending = 0;
   {
-    std::size_t pending = 0;
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      for (const Job& job : queue_) pending += job.channel == index;
-    }
-    status.add("windows pending", pending);
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    for (const Job& job : queue_) pending += job.channel == index;
   }
-  {
-    std::lock_guard<std::mutex> lock(ch.results_mutex);
-    status.add("windows estimated", ch.estimated);
-    status.add("windows accepted", ch.accepted);
-    status.add("windows flagged", ch.flagged);
-    status.add("windows failed", ch.failed);
-    status.add("last window", ch.last_window.empty() ? std::string("none") : ch.last_window);
-    status.add("last window quality", ch.last_quality);
-    status.add("last window accepted", ch.last_accepted);
-    status.add("last estimate duration (s)", ch.last_duration_s);
-    status.add("last accepted window", ch.last_accepted_window.empty() ? std::string("none") : ch.last_accepted_window);
-    status.add("last accepted stamp", ch.last_accepted_stamp);
-    status.add("calibration files written", ch.files_written);
-    status.add("reference noise model", settings_.noise_model_state());
-    status.add("windows corrected with the hat's reference noise", ch.hat_windows);
-    status.add("windows corrected with the pair's reference noise", ch.pair_windows);
-    status.add("windows estimated through a modelled filter", ch.model_applied_windows);
-    status.add("windows with temperature terms", ch.temperature_fitted_windows);
-    if (ch.last) describe_window(*ch.last, status);
-    status.add("resume at start", ch.resume_state);
-    status.add("loaded from file", ch.resume_state == "resumed from file");
-    status.add("accepted calibration (change check)", ch.baseline ? ch.baseline_window : std::string("none"));
-    status.add("accepted calibration source", ch.baseline_source);
-    status.add("calibration changes detected", ch.changes_detected);
-    if (ch.change_checked) {
-      status.add("change check window", ch.last_change_window);
-      status.add("change status", calibration_change_status_name(ch.last_change.status));
-      status.add("change chi2 (9 dof)", ch.last_change.chi2);
-      status.add("change p-value", ch.last_change.p_value);
-      status.add("change decided by", ch.last_change.joint_tested
-                                          ? "joint test (9 entries of n)"
-                                          : "parameters one by one (covariances from few cells)");
-      status.add("change smallest parameter p-value", ch.last_change.parameter_p_value);
-      status.add("change max z (scale)", ch.last_change.scale_z.maxCoeff());
-      status.add("change max z (nonorthogonality)", ch.last_change.nonorthogonality_z.maxCoeff());
-      status.add("change max z (misalignment)", ch.last_change.misalignment_z.maxCoeff());
-      status.add("change text", ch.last_change.text);
-      if (ch.last_change.status == CalibrationChangeStatus::kChanged) {
-        problems.emplace_back(DiagnosticStatus::WARN, "calibration changed: " + ch.last_change.text);
-      }
-    }
-    status.add("tf state", ch.tf_state);
-    status.add("tf transforms published", ch.tf_published);
-    status.add("tf rotation angle (deg)", ch.tf_angle_deg);
-    status.add("calibration file error", ch.file_error);
-    if (ch.last_failed) problems.emplace_back(DiagnosticStatus::ERROR, "window failed: " + ch.last_failure);
-    if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
-    if (ch.estimated > 0 && !ch.last_accepted && !ch.last_failed) {
-      problems.emplace_back(DiagnosticStatus::WARN, "last window rejected (" + ch.last_quality + ")");
+  status.add("windows pending", pending);
+}
+
+void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& status, Problems& problems) {
+  std::lock_guard<std::mutex> lock(ch.results_mutex);
+  status.add("windows estimated", ch.estimated);
+  status.add("windows accepted", ch.accepted);
+  status.add("windows flagged", ch.flagged);
+  status.add("windows failed", ch.failed);
+  status.add("last window", ch.last_window.empty() ? std::string("none") : ch.last_window);
+  status.add("last window quality", ch.last_quality);
+  status.add("last window accepted", ch.last_accepted);
+  status.add("last estimate duration (s)", ch.last_duration_s);
+  status.add("last accepted window", ch.last_accepted_window.empty() ? std::string("none") : ch.last_accepted_window);
+  status.add("last accepted stamp", ch.last_accepted_stamp);
+  status.add("calibration files written", ch.files_written);
+  status.add("reference noise model", settings_.noise_model_state());
+  status.add("windows corrected with the hat's reference noise", ch.hat_windows);
+  status.add("windows corrected with the pair's reference noise", ch.pair_windows);
+  status.add("windows estimated through a modelled filter", ch.model_applied_windows);
+  status.add("windows with temperature terms", ch.temperature_fitted_windows);
+  if (ch.last) describe_window(*ch.last, status);
+  status.add("resume at start", ch.resume_state);
+  status.add("loaded from file", ch.resume_state == "resumed from file");
+  status.add("accepted calibration (change check)", ch.baseline ? ch.baseline_window : std::string("none"));
+  status.add("accepted calibration source", ch.baseline_source);
+  status.add("calibration changes detected", ch.changes_detected);
+  if (ch.change_checked) {
+    describe_change(ch.last_change_window, ch.last_change, status);
+    if (ch.last_change.status == CalibrationChangeStatus::kChanged) {
+      problems.emplace_back(DiagnosticStatus::WARN, "calibration changed: " + ch.last_change.text);
     }
   }
-  for (const auto& problem : problems) status.mergeSummary(problem.first, problem.second);
+  status.add("tf state", ch.tf_state);
+  status.add("tf transforms published", ch.tf_published);
+  status.add("tf rotation angle (deg)", ch.tf_angle_deg);
+  status.add("calibration file error", ch.file_error);
+  if (ch.last_failed) problems.emplace_back(DiagnosticStatus::ERROR, "window failed: " + ch.last_failure);
+  if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
+  if (ch.estimated > 0 && !ch.last_accepted && !ch.last_failed) {
+    problems.emplace_back(DiagnosticStatus::WARN, "last window rejected (" + ch.last_quality + ")");
+  }
 }
 
 }  // namespace magnetometer_insitu_calibration

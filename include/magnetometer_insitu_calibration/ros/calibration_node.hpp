@@ -53,6 +53,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
@@ -140,9 +141,16 @@ class CalibrationNode {
   void resume_from_file(Channel& channel);
   // TF (calibration_node_tf.cpp): the rotation part of an accepted n on /tf_static.
   void publish_rotation(Channel& channel, const MagnetometerCalibration& message);
-  // Diagnostics (calibration_node_diagnostics.cpp).
+  // Diagnostics (calibration_node_diagnostics.cpp). A test's status is built in parts, each
+  // adding its keys and the problems it sees (level, message), merged into the summary in order.
+  using Problems = std::vector<std::pair<unsigned char, std::string>>;
   void diagnose_reference(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnose_channel(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// The live stream: pairing, despiking, decimation, thermometer, windows queued and pending.
+  void diagnose_stream(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status, Problems& problems);
+  /// The worker's results (under the channel's results_mutex): windows, last estimate, resume,
+  /// change check, TF, file.
+  void diagnose_results(Channel& channel, diagnostic_updater::DiagnosticStatusWrapper& status, Problems& problems);
 
   ros::NodeHandle nh_, private_nh_;
   CalibrationNodeSettings settings_;
