@@ -7,6 +7,7 @@
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
+#include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -121,6 +122,9 @@ struct Options {
   // A field hut: the test sensor's temperature and its coefficients (hut_temperature.hpp).
   mic::HutTemperatureSettings hut;
   std::string temperature_offset = "0.2,-0.15,0.3", temperature_scale = "15,-10,25";
+  // A remote observatory beside the pair (remote_observatory.hpp): remote.<ext>.
+  bool remote = false;
+  mic::RemoteObservatorySettings remote_settings;
 };
 
 /// Options of the record, the instruments' transfer and noise, and the field's variations.
@@ -179,6 +183,17 @@ void add_disturbance_options(CLI::App& app, Options& o) {
 }
 
 /// Options of the field hut (the test's temperature and its coefficients) and the CSV's decimals.
+/// Options of a remote observatory's record (remote.<iaga|csv>, station RMT).
+void add_remote_options(CLI::App& app, Options& o) {
+  app.add_flag("--remote", o.remote, "also write remote.<ext>: a remote observatory that sees the field but none of "
+                                     "the local disturbances (its own axes, Z response and noise)");
+  app.add_option("--remote-incoherent", o.remote_settings.incoherent_fraction,
+                 "remote: share of its variations' variance that is its own, [0, 1)")->capture_default_str();
+  app.add_option("--remote-gaps", o.remote_settings.gap_count, "remote: number of its own gaps")->capture_default_str();
+  app.add_option("--remote-time-offset-s", o.remote_settings.time_offset_s,
+                 "remote: its stamps minus the true times, s (a wrong time base)")->capture_default_str();
+}
+
 void add_hut_and_format_options(CLI::App& app, Options& o) {
   mic::HutTemperatureSettings& hut = o.hut;
   app.add_option("--hut-daily-C", hut.daily_amplitude_C, "hut: amplitude of the daily temperature cycle, degC (0: no hut)")
@@ -266,8 +281,15 @@ std::filesystem::path make_out_dir(const std::string& out_dir) {
 }
 
 /// The pair with every asked-for disturbance; with a hut, test.csv gets a sensor_temperature column.
-mic::SimulatedPair simulate(const Options& o) {
-  mic::SimulatedPair pair = mic::simulate_pair(o.s);
+mic::SimulatedPair simulate(const Options& o, mic::VectorRecord* remote) {
+  mic::SimulationSettings s = o.s;
+  s.keep_clean_field = o.remote;  // the remote records the clean field
+  mic::SimulatedPair pair = mic::simulate_pair(s);
+  if (o.remote) {
+    mic::RemoteObservatorySettings r = o.remote_settings;
+    r.seed = o.s.seed + 7000;
+    *remote = mic::simulate_remote_observatory(s, pair, r);
+  }
   if (o.station.vehicles_per_day > 0.0) mic::add_station_disturbances(pair, o.station);
   mic::add_unmodelled_disturbances(pair, o.unmodelled);
   if (o.with_hut()) mic::add_hut_temperature(pair, o.hut);
@@ -309,6 +331,33 @@ RecordPaths write_records(mic::SimulatedPair& pair, const Options& o, const std:
     mic::write_csv_record(paths.test, pair.test, true, o.decimals);
   }
   return paths;
+}
+
+/// Writes remote.<iaga|csv>; returns its part of truth.json (file, settings, mixing Q).
+nlohmann::json write_remote(mic::VectorRecord& remote, const Options& o, const std::filesystem::path& dir) {
+  const std::string path = (dir / (o.format == "iaga" ? "remote.iaga" : "remote.csv")).string();
+  const std::string provenance = "Simulated remote observatory (simulate_records --remote, seed " +
+                                 std::to_string(o.s.seed) + "): the field, none of the local disturbances.";
+  if (o.format == "iaga") {
+    mic::Iaga2002WriteOptions options;
+    options.source_of_data = "magnetometer_insitu_calibration simulator";
+    options.iaga_code = "RMT";
+    options.data_type = "variation";
+    options.digital_sampling = std::to_string(o.s.sample_period_s) + " second";
+    options.station_name = "Simulated remote observatory";
+    options.comments = {provenance};
+    mic::write_iaga2002(path, remote, options);
+  } else {
+    remote.header["comments"] = provenance;
+    mic::write_csv_record(path, remote, true, o.decimals);
+  }
+  const mic::RemoteObservatorySettings& r = o.remote_settings;
+  const Eigen::Matrix3d q = mic::remote_mixing(r);
+  return {{"file", path},
+          {"incoherent_fraction", r.incoherent_fraction},
+          {"gap_count", r.gap_count},
+          {"time_offset_s", r.time_offset_s},
+          {"mixing_rows_are_samples", {{q(0, 0), q(0, 1), q(0, 2)}, {q(1, 0), q(1, 1), q(1, 2)}, {q(2, 0), q(2, 1), q(2, 2)}}}};
 }
 
 /// truth.json: the simulation's truth, the files, the disturbances' settings and the command line.
@@ -367,15 +416,19 @@ int main(int argc, char** argv) {
   add_record_options(app, o);
   add_disturbance_options(app, o);
   add_hut_and_format_options(app, o);
+  add_remote_options(app, o);
   CLI11_PARSE(app, argc, argv);
 
   try {
     read_texts(o);
     validate(o);
     const std::filesystem::path dir = make_out_dir(o.out_dir);
-    mic::SimulatedPair pair = simulate(o);
+    mic::VectorRecord remote;
+    mic::SimulatedPair pair = simulate(o, &remote);
     const RecordPaths paths = write_records(pair, o, dir);
-    const std::string truth_path = write_truth(truth_json(o, pair, paths, argc, argv), dir);
+    nlohmann::json truth = truth_json(o, pair, paths, argc, argv);
+    if (o.remote) truth["remote"] = write_remote(remote, o, dir);
+    const std::string truth_path = write_truth(truth, dir);
     std::cout << "wrote " << paths.reference << ", " << paths.test << " (" << pair.reference.size()
               << " samples each) and " << truth_path << "\n";
   } catch (const mic::InputError& e) {

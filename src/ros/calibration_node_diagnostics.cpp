@@ -71,6 +71,8 @@ void describe_window(const CalibrationWindow& w, DiagnosticStatusWrapper& status
   }
   status.add("temperature apparent coefficients (nT/degC)", apparent.str());
   status.add("response model (last window)", w.response_model.text);
+  status.add("remote reference (last window)", e.remote.given ? e.remote.text : std::string("none"));
+  status.add("band split (last window)", e.remote.used ? std::string("not needed (remote)") : e.band_split.text);
   // Relative frequency response of the test against R n over the band used (relative_response.hpp).
   if (w.response.bands > 0) {
     status.add("response bands in the band used", w.response.bands);
@@ -106,6 +108,12 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   const double silence = add_stream_keys(reference_, "", now, started_s_, status);
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
     status.mergeSummary(DiagnosticStatus::WARN, silence_problem(reference_, "reference", silence));
+  }
+  if (remote_.topic.empty()) return;  // the remote observatory's stream beside the reference's
+  status.add("remote topic", nh_.resolveName(remote_.topic));
+  const double remote_silence = add_stream_keys(remote_, "remote ", now, started_s_, status);
+  if (started_s_ > 0.0 && remote_silence > settings_.silent_timeout_s) {
+    status.mergeSummary(DiagnosticStatus::WARN, silence_problem(remote_, "remote", remote_silence));
   }
 }
 
@@ -216,6 +224,11 @@ void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& sta
   status.add("tf rotation angle (deg)", ch.tf_angle_deg);
   status.add("calibration file error", ch.file_error);
   if (ch.last_failed) problems.emplace_back(DiagnosticStatus::ERROR, "window failed: " + ch.last_failure);
+  if (ch.last && (ch.last->estimate.remote.pair_biased || ch.last->estimate.band_split.differs)) {
+    problems.emplace_back(DiagnosticStatus::WARN, ch.last->estimate.remote.pair_biased
+                                                      ? "the pair alone is biased (a remote sees it)"
+                                                      : "the band's halves disagree: not vouched for");
+  }
   if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
   if (ch.estimated > 0 && !ch.last_accepted && !ch.last_failed) {
     problems.emplace_back(DiagnosticStatus::WARN, "last window rejected (" + ch.last_quality + ")");

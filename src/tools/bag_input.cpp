@@ -70,6 +70,7 @@ bool BagInputOptions::remote(VectorRecord& out) const {
   if (remote_topic_.empty()) return false;
   std::vector<std::string> warnings;
   out = std::move(read_bag_records(bag_, {remote_topic_}, &warnings).front());
+  out.station = bag_topic_name(remote_topic_);  // names it in the windows' texts
   for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
   return true;
 }

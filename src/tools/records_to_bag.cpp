@@ -168,9 +168,10 @@ mic::ArchiveRecord read_one(const std::string& role, const std::string& path, co
 
 int main(int argc, char** argv) {
   CLI::App app{"Reference and test magnetometer records -> one rosbag of sensor_msgs/MagneticField (tesla)."};
-  std::vector<std::string> reference_paths, test_paths;  // several files per instrument: joined in time order
+  std::vector<std::string> reference_paths, test_paths, remote_paths;  // several files: joined in time order
   std::string output;
-  std::string reference_topic = "/reference/magnetic_field", test_topic = "/test/magnetic_field";
+  std::string reference_topic = "/reference/magnetic_field", test_topic = "/test/magnetic_field",
+              remote_topic = "/remote/magnetic_field";
   std::string reference_frame = "reference", test_frame = "test", compression = "none", checksum = "none";
   bool no_temperatures = false, variation = false, quiet = false;
   double time_shift_s = mic::kLemi025TimeShift_s;
@@ -181,6 +182,8 @@ int main(int argc, char** argv) {
                  "MagPy CDF, ImagCDF; several files (daily files) are joined in time order")
       ->required();
   app.add_option("--test", test_paths, "test record, same formats, one or several files")->required();
+  app.add_option("--remote", remote_paths, "a remote observatory's record (same formats), on --remote-topic, frame 'remote'");
+  app.add_option("--remote-topic", remote_topic, "sensor_msgs/MagneticField topic of the remote")->capture_default_str();
   app.add_option("-o,--output", output, "bag to write (replaced if it exists)")->required();
   app.add_option("--reference-topic", reference_topic, "sensor_msgs/MagneticField topic of the reference")
       ->capture_default_str();
@@ -232,8 +235,10 @@ int main(int argc, char** argv) {
     const mic::ArchiveRecord reference = read_all("reference", reference_paths);
     const mic::ArchiveRecord test = read_all("test", test_paths);
 
+    const mic::ArchiveRecord remote = remote_paths.empty() ? mic::ArchiveRecord{} : read_all("remote", remote_paths);
     std::vector<mic::BagFieldStream> fields = {{reference_topic, reference_frame, &reference.record},
                                                {test_topic, test_frame, &test.record}};
+    if (!remote_paths.empty()) fields.push_back({remote_topic, "remote", &remote.record});
     std::vector<mic::BagTemperatureStream> temperatures;
     if (!no_temperatures) {
       const std::pair<const mic::ArchiveRecord*, const mic::BagFieldStream*> inputs[] = {{&reference, &fields[0]},

@@ -4,7 +4,8 @@
 // for the same bag and the same windows (--window/--step; both despiking, or neither): the node
 // and the program share the per-window stage. Agreement to numerical noise: every number of the
 // message within 1e-7 relative (plus 1e-12 absolute) of the JSON; counts, harmonics and quality
-// equal.
+// equal. With a remote observatory in the bag (param remote), both estimate every window on the
+// remote's instruments (~remote_topic, --remote-topic) and agree on it too.
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -55,8 +56,9 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
   std::string json_path, calibration_topic, corrected_topic;
   double timeout_s = 150.0;
   ASSERT_TRUE(p.getParam("offline_json", json_path));
-  bool despike = false;
+  bool despike = false, remote = false;
   ASSERT_TRUE(p.getParam("despike", despike));
+  p.param("remote", remote, false);
   p.param<std::string>("calibration_topic", calibration_topic, "/replay/calibration");
   p.param<std::string>("corrected_topic", corrected_topic, "/replay/corrected");
   p.param("timeout", timeout_s, timeout_s);
@@ -126,6 +128,7 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
   }
 
   std::lock_guard<std::mutex> lock(mutex);
+  std::size_t remote_windows = 0;
   for (const auto& [start_ms, w] : expected) {
     const std::string label = (*w)["label"].get<std::string>() + " (" + (*w)["window_start"].get<std::string>() + ")";
     const auto it = live.find(start_ms);
@@ -159,6 +162,18 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
     expect_vector(m.coherence, o["coherence"], "coherence");
     expect_vector(m.residual_rms_nT, o["residual_rms_nT"], "residual_rms_nT");
     EXPECT_TRUE(agrees(m.condition_number, o["condition_number"].get<double>())) << "condition_number";
+    // The remote reference: used (or refused) in both, as strong in both, the same verdict on
+    // the pair alone. Hourly windows of a quiet simulated day: the remote's first-stage F is
+    // 7-56, so a few windows refuse it.
+    EXPECT_EQ(static_cast<bool>(m.remote_used), o["remote_used"].get<bool>());
+    remote_windows += m.remote_used;
+    EXPECT_EQ(static_cast<bool>(m.pair_biased), o["pair_biased"].get<bool>());
+    if (remote) EXPECT_TRUE(agrees(m.remote_strength, o["remote_strength"].get<double>())) << "remote_strength";
+  }
+  if (remote) {
+    EXPECT_GE(2 * remote_windows, expected.size()) << "most windows rest on the remote";
+  } else {
+    EXPECT_EQ(remote_windows, 0u);
   }
   // The replay also drives correction_node: the test stream comes out in the reference frame.
   EXPECT_GT(corrected, 0u);

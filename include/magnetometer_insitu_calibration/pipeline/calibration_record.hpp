@@ -103,7 +103,9 @@ using Matrix81 = std::array<double, 81>;      ///< 9 x 9 row-major (JSON: rows)
   F(Real, remote_strength, 6, "first-stage F of the remote's instruments (used from 10)")                          \
   F(Matrix9, pair_only_matrix, 6, "the pair-only estimate on the same cells (remote used)")                        \
   F(Real, pair_difference_p_value, 6, "joint p-value of the pair-only minus the remote estimate")                  \
-  F(Flag, pair_biased, 6, "the pair alone is biased beyond its uncertainty")
+  F(Flag, pair_biased, 6, "the pair alone is biased beyond its uncertainty")                                       \
+  F(Real, band_split_p_value, 6, "without a remote: n of the band's halves compared, p-value")                     \
+  F(Flag, band_split_differs, 6, "the halves differ: the pair-only window is not vouched for")
 
 /// The calibration file's format: the largest `since` of the table.
 constexpr int kCalibrationFileFormat = 6;

@@ -10,6 +10,8 @@
 // anywhere is refused as a whole.
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/atomic_file.hpp"
+
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 
 #include <stdexcept>
@@ -34,10 +36,6 @@ MagnetometerCalibration calibration_from_yaml(const std::string& text, const std
 /// read or parsed.
 MagnetometerCalibration load_calibration_file(const std::string& path);
 
-/// Writes `text` to `path` atomically: a temporary file in the same directory, flushed to disk
-/// (fsync), then renamed over `path`; readers see the old or the new file, never a part.
-/// Throws std::runtime_error naming the file and the system error.
-void write_file_atomically(const std::string& path, const std::string& text);
 
 /// True when every field of a and b is equal (header.seq ignored); `difference` names the
 /// first field that differs.

@@ -119,6 +119,8 @@ CalibrationRecord make_calibration_record(const CalibrationWindow& w, const Reco
   }
   r.accepted = r.quality == static_cast<std::uint8_t>(Quality::kOk);
   fill_remote(r, e.remote);
+  r.band_split_p_value = e.band_split.p_value;
+  r.band_split_differs = e.band_split.differs;
   return r;
 }
 

@@ -354,12 +354,37 @@ void write_quality_rows(const WindowColumns& table) {
   table.row("quality", [](const CalibrationWindow& w) { return std::string(quality_name(w.estimate.quality)); });
 }
 
+/// What the pair alone is worth: against the remote's estimate when one was used (remote
+/// reference), else its band's halves against each other (remote_reference.hpp).
+std::string pair_alone(const WindowEstimate& e) {
+  if (e.remote.used) return e.remote.pair_biased ? "biased (remote)" : "agrees (remote)";
+  if (!e.band_split.assessed) return "-";
+  return e.band_split.differs ? "halves differ" : "halves agree";
+}
+
+/// Rows of the remote reference (when any window has a remote) and of the pair-only checks.
+void write_remote_rows(const WindowColumns& table, const std::vector<CalibrationWindow>& windows) {
+  const bool remote = std::any_of(windows.begin(), windows.end(), [](const CalibrationWindow& w) {
+    return w.estimate.remote.given;
+  });
+  if (remote) {
+    table.row("remote F (used from 10)", [](const CalibrationWindow& w) {
+      char b[48];
+      std::snprintf(b, sizeof b, "%.0f%s", w.estimate.remote.strength, w.estimate.remote.used ? "" : " refused");
+      return w.estimate.remote.given ? std::string(b) : std::string("-");
+    });
+  }
+  table.row("pair alone", [](const CalibrationWindow& w) { return pair_alone(w.estimate); });
+}
+
 /// Under the table, one line per window and note: response model and reference noise, then
 /// the temperature terms (when the record has a temperature channel), then why a window is not ok.
 void write_window_notes(std::ostream& out, const PairCalibration& c) {
   for (const auto& w : c.windows) {
     if (w.response_model.fitted || !w.response_model.text.empty()) out << w.label << ": " << w.response_model.text << "\n";
     if (!w.reference_noise.text.empty()) out << w.label << ": " << w.reference_noise.text << "\n";
+    if (w.estimate.remote.given) out << w.label << ": " << w.estimate.remote.text << "\n";
+    if (w.estimate.band_split.differs) out << w.label << ": band split: " << w.estimate.band_split.text << "\n";
   }
   for (const auto& w : c.windows) {
     if (!c.report.temperature_channel.empty()) out << w.label << ": " << w.temperature.text << "\n";
@@ -397,6 +422,7 @@ std::string format_calibration_table(const PairCalibration& c, const ReportInput
     write_fit_rows(table);
     write_temperature_rows(table);
     write_quality_rows(table);
+    write_remote_rows(table, c.windows);
     write_window_notes(out, c);
   } else {
     write_window_lines(out, c.windows);

@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <utility>
 
 namespace magnetometer_insitu_calibration {
@@ -102,7 +103,13 @@ void LiveCalibrationStreams::push_remote(double time_s, const Eigen::Vector3d& v
 /// older than every test's next window (less a period) are no longer needed.
 void LiveCalibrationStreams::drain_remote() {
   LiveRemoteStream& r = *remote_;
-  for (const PairedSample& pair : r.pairer.take_pairs()) {
+  for (PairedSample pair : r.pairer.take_pairs()) {
+    // An epoch missing in either (a spike set NaN) is missing in all six values, as the offline
+    // preparation of --remote against the reference has it.
+    if (!pair.reference_nT.allFinite() || !pair.test_nT.allFinite()) {
+      pair.reference_nT.setConstant(std::numeric_limits<double>::quiet_NaN());
+      pair.test_nT.setConstant(std::numeric_limits<double>::quiet_NaN());
+    }
     if (!r.reference_decimator) {
       r.samples.emplace_back(pair.time_s, pair.test_nT);
     } else {

@@ -7,6 +7,7 @@
 #include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/streaming_despike.hpp"
+#include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <gtest/gtest.h>
@@ -287,4 +288,48 @@ TEST(LiveCalibrationStreams, WindowsHoldTheOfflineWindowsOfTheSameSamples) {
   EXPECT_EQ(l.estimate.n, o.estimate.n);
   EXPECT_EQ(l.estimate.n_covariance, o.estimate.n_covariance);
   EXPECT_EQ(l.missing(), o.missing());
+}
+
+TEST(LiveCalibrationStreams, ARemoteStreamGivesTheWindowsTheOfflineRemote) {
+  // The pair and a remote observatory (with spikes of its own) pushed sample by sample: every
+  // completed window carries the remote's samples of its epochs as calibrate_records prepares
+  // --remote against the reference (despiked, paired, on the grid), and the per-window stage
+  // gives both the same remote-reference calibration.
+  mic::SimulationSettings s;
+  s.seed = 23;
+  s.duration_s = 3.0 * 3600.0;
+  s.start_time_s = 1747180800.0;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::VectorRecord remote = mic::simulate_remote_observatory(s, pair, mic::RemoteObservatorySettings{});
+  for (std::size_t i = 300; i < remote.size(); i += 613) remote.values_nT(static_cast<Eigen::Index>(i), 1) += 40.0;
+  mic::LiveStreamSettings live;
+  live.window_s = 3600.0;
+  live.step_s = 1800.0;
+  mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
+  streams.add_remote("/remote/magnetic_field");
+  std::vector<mic::WindowRecords> windows;
+  for (std::size_t i = 0; i < pair.reference.size(); ++i) {
+    const auto row = [i](const mic::VectorRecord& r) { return Eigen::Vector3d(r.values_nT.row(static_cast<Eigen::Index>(i)).transpose()); };
+    for (auto& c : streams.push_reference(pair.reference.time_s[i], row(pair.reference))) windows.push_back(std::move(c.window));
+    streams.push_remote(remote.time_s[i], row(remote));
+    for (auto& c : streams.push_test(0, pair.test.time_s[i], row(pair.test))) windows.push_back(std::move(c.window));
+  }
+  ASSERT_EQ(windows.size(), 4u);
+  EXPECT_GT(streams.remote()->despiker.spikes(), 10u);
+  mic::CalibrationSettings settings;
+  const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
+  const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);
+  mic::WindowCalibrator calibrator{settings.window};
+  for (const mic::WindowRecords& w : windows) {
+    ASSERT_TRUE(w.remote) << w.start_s;
+    const std::size_t first = static_cast<std::size_t>(std::llround(w.start_s - prepared.paired.time_s[0]));
+    const mic::WindowRecords offline = mic::window_records(prepared, first, w.expected_samples, 60.0, &sides);
+    ASSERT_TRUE(offline.remote);
+    EXPECT_EQ(w.remote->time_s, offline.remote->time_s) << w.start_s;
+    EXPECT_TRUE(same_values(w.remote->values_nT, offline.remote->values_nT)) << w.start_s;
+    const mic::CalibrationWindow l = calibrator.calibrate(w);
+    const mic::CalibrationWindow o = calibrator.calibrate(offline);
+    EXPECT_TRUE(l.estimate.remote.used) << l.estimate.remote.text;
+    EXPECT_EQ(l.estimate.n, o.estimate.n) << w.start_s;
+  }
 }
