@@ -5,6 +5,10 @@
 //
 //   monte_carlo_remote disturbed [seeds=50] [days=5] [first_seed=40000]
 //   monte_carlo_remote quiet [seeds=100] [days=2] [first_seed=42000]
+//   monte_carlo_remote filter [seeds=100] [days=2] [first_seed=44000]
+//                       quiet, the test behind a 1-pole low-pass at 0.03 Hz and a 2 s delay
+//                       (MC_CORNER, MC_DELAY): the relative response's gain and phase against
+//                       the true filter, per band up to 0.05 Hz
 //
 // The stations are monte_carlo_unmodelled's (unmodelled_scenario.hpp) with, on the disturbed
 // one, a busy road: 600 vehicles a day (25 an hour) 60 m from the sensors, one in ten parking
@@ -23,6 +27,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <complex>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -40,6 +45,12 @@ const char* const kMethodNames[kMethods] = {"plain Eq. 2 (pair)", "default, pair
 struct Tally {
   std::vector<double> max_scale_pct, max_angle_deg;
   int covered = 0, checked = 0, flagged = 0, used = 0;
+  // Without a remote: windows whose band halves differ (not vouched for), and the coverage of
+  // the others.
+  int split_flagged = 0, unflagged_covered = 0, unflagged_checked = 0, missed_unflagged = 0;
+  // The relative response against the true filter (kind "filter"): gain and phase values inside
+  // their intervals, bands up to the estimation band's top and up to 0.05 Hz.
+  int response_inside[2] = {0, 0}, response_checked[2] = {0, 0};
   double seconds = 0.0;
 };
 
@@ -50,6 +61,26 @@ double percentile(std::vector<double> v, double p) {
   const auto i = static_cast<std::size_t>(pos);
   const double f = pos - static_cast<double>(i);
   return i + 1 < v.size() ? v[i] * (1.0 - f) + v[i + 1] * f : v[i];
+}
+
+/// The relative response's bands against the test's true filter H(f) = e^{-2 pi i f delay} /
+/// (1 + i f / corner): gain and phase inside their 95 % intervals, for bands up to 0.01 Hz and up
+/// to 0.05 Hz.
+void score_response(const std::vector<mic::ResponseBand>& bands, Tally& tally) {
+  const double corner = knob("MC_CORNER", 0.03), delay = knob("MC_DELAY", 2.0);
+  for (const mic::ResponseBand& b : bands) {
+    if (b.frequency_hz > 0.05) continue;
+    const std::complex<double> h = std::polar(1.0, -2.0 * M_PI * b.frequency_hz * delay) /
+                                   std::complex<double>(1.0, b.frequency_hz / corner);
+    const double gain = std::abs(h), phase = std::arg(h) * 180.0 / M_PI;
+    for (int k = 0; k < 3; ++k) {
+      const int inside = (std::abs(b.gain(k) - gain) <= b.gain_ci95(k)) + (std::abs(b.phase_deg(k) - phase) <= b.phase_ci95_deg(k));
+      for (int r = b.frequency_hz <= 0.01 ? 0 : 1; r < 2; ++r) {
+        tally.response_inside[r] += inside;
+        tally.response_checked[r] += 2;
+      }
+    }
+  }
 }
 
 /// Largest |error| of the scale ratios (%) and of the angles (deg), and how many of the nine
@@ -79,7 +110,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
               static_cast<unsigned long long>(first_seed), days);
   std::printf("# remote: %.0f %% of its variations' variance its own, %.0f gaps of 10 min per day\n",
               100.0 * knob("MC_REMOTE_INCOHERENT", 0.2), knob("MC_REMOTE_GAPS", 1.0));
-  std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased\n");
+  std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased  band_halves_differ\n");
   Tally tally[kMethods];
   for (int k = 0; k < seeds; ++k) {
     const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
@@ -105,12 +136,22 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
       double scale = 0.0, angle = 0.0;
       int covered = 0;
       score(w.estimate, pair.n_true, tally[m], scale, angle, covered);
+      if (kind == "filter") score_response(w.relative_response, tally[m]);
       const mic::RemoteReference& rr = w.estimate.remote;
       tally[m].flagged += rr.pair_biased;
       tally[m].used += rr.used;
-      std::printf("seed %5llu %d %9.4f %9.4f %d %7.0f %d%s%s\n", static_cast<unsigned long long>(seed), m, scale, angle,
-                  covered, rr.strength, rr.pair_biased ? 1 : 0, m == 2 && !rr.used ? " " : "",
-                  m == 2 && !rr.used ? rr.text.c_str() : "");
+      if (!rr.used) {
+        const bool differs = w.estimate.band_split.differs;
+        tally[m].split_flagged += differs;
+        if (!differs) {
+          tally[m].unflagged_covered += covered;
+          tally[m].unflagged_checked += 9;
+          tally[m].missed_unflagged += covered < 9;
+        }
+      }
+      std::printf("seed %5llu %d %9.4f %9.4f %d %7.0f %d %d%s%s\n", static_cast<unsigned long long>(seed), m, scale,
+                  angle, covered, rr.strength, rr.pair_biased ? 1 : 0, w.estimate.band_split.differs ? 1 : 0,
+                  m == 2 && !rr.used ? " " : "", m == 2 && !rr.used ? rr.text.c_str() : "");
       if (knob("MC_DEBUG", 0) > 0) {
         const mic::CalibrationParameters t = mic::decompose(pair.n_true);
         const mic::CalibrationParameters& q = w.estimate.parameters;
@@ -131,6 +172,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
   }
   std::printf("\n| estimator | median / 95th pct max scale-ratio error | median / 95th pct max angle error | "
               "coverage (9 parameters x seeds) | pair flagged biased | CPU s per record |\n|---|---|---|---|---|---|\n");
+  std::string split_lines;
   for (int m = 0; m < kMethods; ++m) {
     const Tally& t = tally[m];
     std::printf("| %s | %.3f / %.3f %% | %.4f / %.4f deg | %.1f %% | %s | %.2f |\n", kMethodNames[m],
@@ -138,7 +180,24 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
                 percentile(t.max_angle_deg, 0.95), 100.0 * t.covered / std::max(1, t.checked),
                 m == 2 ? (std::to_string(t.flagged) + " of " + std::to_string(t.used) + " used").c_str() : "",
                 t.seconds / std::max(1, seeds));
+    if (kind == "filter") {
+      char line[256];
+      std::snprintf(line, sizeof line, "# %s: relative response inside its 95 %% intervals: %.1f %% to 0.01 Hz, %.1f %% to 0.05 Hz\n",
+                    kMethodNames[m], 100.0 * t.response_inside[0] / std::max(1, t.response_checked[0]),
+                    100.0 * t.response_inside[1] / std::max(1, t.response_checked[1]));
+      split_lines += line;
+    }
+    if (m == 1) {
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "# %s: band halves differ in %d of %d records; coverage of the others %.1f %%, %d of them miss "
+                    "a parameter\n",
+                    kMethodNames[m], t.split_flagged, seeds, 100.0 * t.unflagged_covered / std::max(1, t.unflagged_checked),
+                    t.missed_unflagged);
+      split_lines += line;
+    }
   }
+  std::printf("%s", split_lines.c_str());
   return 0;
 }
 
@@ -146,8 +205,8 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
 
 int main(int argc, char** argv) {
   const std::string kind = argc > 1 ? argv[1] : "disturbed";
-  if (kind != "disturbed" && kind != "quiet") {
-    std::fprintf(stderr, "usage: monte_carlo_remote disturbed|quiet [seeds] [days] [first_seed]\n");
+  if (kind != "disturbed" && kind != "quiet" && kind != "filter") {
+    std::fprintf(stderr, "usage: monte_carlo_remote disturbed|quiet|filter [seeds] [days] [first_seed]\n");
     return 2;
   }
   const bool disturbed = kind == "disturbed";
@@ -157,6 +216,7 @@ int main(int argc, char** argv) {
   setenv("MC_PARKING", "0.1", 0);
   const int seeds = argc > 2 ? std::atoi(argv[2]) : (disturbed ? 50 : 100);
   const double days = argc > 3 ? std::atof(argv[3]) : (disturbed ? 5.0 : 2.0);
-  const std::uint64_t first = argc > 4 ? std::strtoull(argv[4], nullptr, 10) : (disturbed ? 40000 : 42000);
+  const std::uint64_t first =
+      argc > 4 ? std::strtoull(argv[4], nullptr, 10) : (disturbed ? 40000 : (kind == "quiet" ? 42000 : 44000));
   return run(kind, seeds, days, first);
 }
