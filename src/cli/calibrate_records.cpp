@@ -7,6 +7,7 @@
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
+#include "magnetometer_insitu_calibration/formats/scalar_record.hpp"
 
 #include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
 
@@ -70,7 +71,8 @@ void add_robust_options(CLI::App& app, mic::RobustSettings& robust) {
 
 /// The command line's values that are not settings themselves.
 struct Options {
-  std::vector<std::string> reference_paths, test_paths, third_paths, remote_paths;  // several: joined in time order
+  std::vector<std::string> reference_paths, test_paths, third_paths, remote_paths, scalar_paths;  // joined in time order
+  std::string field_direction;  // "D,I" or "D,I,hdz", degrees
   std::string json_path, band = "0.0002:0.01", method = "robust", eiv = "given";
   bool no_trend = false, no_despike = false;
   double reference_noise_pT = 0.0;
@@ -92,6 +94,12 @@ void add_input_options(CLI::App& app, Options& o, mic::CalibrationSettings& sett
       "a remote observatory's record (same formats, one or several files; any orientation and calibration): n "
       "from it as the instruments (remote reference), which local disturbances both sensors see do not bias");
   bag->add_remote_topic(app, remote_option);
+  app.add_option("--scalar", o.scalar_paths,
+                 "an absolute scalar magnetometer's F (MagPy CDF f, ImagCDF GeomagneticFieldF, IAGA-2002 F column, CSV "
+                 "time,F; one or several files): the reference's scale along the main field, per window");
+  app.add_option("--field-direction", o.field_direction,
+                 "the main field's declination and inclination at the station, degrees, D,I (reference x north) or "
+                 "D,I,hdz (reference x along H): the scalar check's per-axis scales");
   auto* intervals = app.add_option("--intervals", settings.windows.intervals,
                                    "K equal intervals, then the whole record (the paper's layout)");
   auto* window = app.add_option("--window", settings.windows.window_s, "sliding window length, s");
@@ -173,6 +181,25 @@ void apply_options(const Options& o, mic::CalibrationSettings& settings) {
   if (o.reference_noise_pT > 0.0 && !estimator.robust.errors_in_variables) {
     throw mic::InputError("--reference-noise-pT", "is used by --eiv given only (got --eiv " + o.eiv + ")");
   }
+  if (!o.field_direction.empty()) {
+    const auto comma = o.field_direction.find(',');
+    try {
+      if (comma == std::string::npos) throw std::invalid_argument("no comma");
+      mic::FieldDirection d;
+      std::size_t used = 0;
+      d.declination_deg = std::stod(o.field_direction.substr(0, comma), &used);
+      std::string rest = o.field_direction.substr(comma + 1);
+      const auto second = rest.find(',');
+      d.hdz = second != std::string::npos && rest.substr(second + 1) == "hdz";
+      if (second != std::string::npos && !d.hdz) throw std::invalid_argument("third field");
+      d.inclination_deg = std::stod(rest.substr(0, second));
+      if (!(std::abs(d.inclination_deg) <= 90.0)) throw std::invalid_argument("inclination");
+      window_settings.field_direction = d;
+    } catch (const std::exception&) {
+      throw mic::InputError("--field-direction", "expected D,I or D,I,hdz in degrees (|I| <= 90), got '" +
+                                                     o.field_direction + "'");
+    }
+  }
   if (!o.third_paths.empty() && !estimator.robust.errors_in_variables) {
     throw mic::InputError("--third", "identifies the noise for --eiv given only (got --eiv " + o.eiv + ")");
   }
@@ -209,6 +236,11 @@ int main(int argc, char** argv) {
     }
     if (!o.remote_paths.empty()) remote = read_side(o.remote_paths);
     if (!o.remote_paths.empty() || bag->remote(remote)) sides.remote = &remote;
+    mic::ScalarRecord scalar;
+    if (!o.scalar_paths.empty()) {
+      scalar = mic::read_scalar_records(o.scalar_paths);
+      sides.scalar = &scalar;
+    }
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings, sides);
     mic::ReportInputs inputs = bag->inputs(o.reference_paths, o.test_paths);
     inputs.remote = bag->from_bag() ? bag->remote_input() : joined(o.remote_paths);

@@ -195,6 +195,11 @@ void fill_older_format(MagnetometerCalibration& c, long long version) {
     c.remote_text = "";
     c.remote_strength = c.pair_difference_p_value = c.band_split_p_value = nan;
     c.band_split_differs = false;
+    c.scalar_text = "";
+    c.reference_scale_along_field = c.reference_scale_along_field_ci95 = nan;
+    c.test_scale_along_field = c.test_scale_along_field_ci95 = nan;
+    c.direction_cosines = c.direction_cosines_ci95 = {nan, nan, nan};
+    c.reference_needs_calibration = false;
     c.remote_coherence = {nan, nan, nan};
     c.pair_only_matrix.fill(nan);
   }

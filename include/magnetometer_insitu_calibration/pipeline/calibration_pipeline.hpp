@@ -99,12 +99,14 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
 struct SideRecords {
   const VectorRecord* third = nullptr;   ///< a third co-located instrument, any frame (three-cornered hat)
   const VectorRecord* remote = nullptr;  ///< a remote observatory, any frame and units (remote reference)
+  const ScalarRecord* scalar = nullptr;  ///< an absolute scalar magnetometer (the reference's scale along the field)
 };
 
 /// The side records prepared against the reference like the test (prepare_pair: despiked,
 /// paired, on the estimation grid): each one's `test_nT` is the side record; null: none.
 struct PreparedSides {
   std::unique_ptr<PreparedPair> third, remote;
+  std::shared_ptr<const ScalarRecord> scalar;  ///< as recorded: each window takes its own span
   std::string third_name = "--third", remote_name = "--remote";  ///< name them in texts
 };
 

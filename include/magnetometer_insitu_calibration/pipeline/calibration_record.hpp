@@ -105,7 +105,15 @@ using Matrix81 = std::array<double, 81>;      ///< 9 x 9 row-major (JSON: rows)
   F(Real, pair_difference_p_value, 6, "joint p-value of the pair-only minus the remote estimate")                  \
   F(Flag, pair_biased, 6, "the pair alone is biased beyond its uncertainty")                                       \
   F(Real, band_split_p_value, 6, "without a remote: n of the band's halves compared, p-value")                     \
-  F(Flag, band_split_differs, 6, "the halves differ: the pair-only window is not vouched for")
+  F(Flag, band_split_differs, 6, "the halves differ: the pair-only window is not vouched for")                     \
+  F(Text, scalar_text, 6, "the scalar check: what was found, or why not; empty: no scalar")                        \
+  F(Real, reference_scale_along_field, 6, "1 / |c|, F = R c: the reference's absolute scale along the main field") \
+  F(Real, reference_scale_along_field_ci95, 6, "")                                                                 \
+  F(Vector3, direction_cosines, 6, "the main field's direction in the reference's frame, c / |c|")                 \
+  F(Vector3, direction_cosines_ci95, 6, "")                                                                        \
+  F(Real, test_scale_along_field, 6, "the test's scale along the field through n")                                 \
+  F(Real, test_scale_along_field_ci95, 6, "")                                                                      \
+  F(Flag, reference_needs_calibration, 6, "the reference's scale departs from 1 beyond its interval")
 
 /// The calibration file's format: the largest `since` of the table.
 constexpr int kCalibrationFileFormat = 6;

@@ -20,6 +20,7 @@
 //     (n through a modelled filter of the test), the temperature terms (when the window has a
 //     varying sensor temperature) and the relative response;
 //  4. the offset of the test against the reference at the window's end;
+//  4b. with a scalar magnetometer, the reference's scale along the field (scalar_window.hpp);
 //  5. the gap rule: a window with more than max_filled_fraction of its epochs interpolated or
 //     missing at its edges, or with a gap longer than max_fill_s, is flagged Quality::kGaps
 //     (the cause reported even when the shortened window also failed an estimator's rule).
@@ -31,6 +32,7 @@
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
+#include "magnetometer_insitu_calibration/pipeline/scalar_window.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
@@ -39,6 +41,7 @@
 #include <cstddef>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -71,6 +74,9 @@ struct WindowCalibrationSettings {
   /// Longest gap of the thermometer's samples bridged by interpolation, and how far its first
   /// and last sample hold at the window's edges, s.
   double temperature_max_gap_s = 60.0;
+  /// The main field's direction at the station (the observatory's D and I), for the scalar
+  /// check's per-axis scales; none: not known.
+  std::optional<FieldDirection> field_direction;
   GapSettings gaps;                   ///< max_fill_s: longest gap filled without flagging, s
   double max_filled_fraction = 0.05;  ///< of the window's expected epochs, [0, 1]
 
@@ -107,6 +113,9 @@ struct WindowRecords {
   /// (estimation/remote_reference.hpp); null: none.
   std::shared_ptr<const VectorRecord> remote;
   std::string remote_name;           ///< names the remote in texts ("--remote", a station, a topic)
+  /// An absolute scalar magnetometer's samples around the window (F, nT, its own times): the
+  /// check of the reference's scale along the field (pipeline/scalar_window.hpp); null: none.
+  std::shared_ptr<const ScalarRecord> scalar;
 
   /// Nominal last epoch, UNIX s.
   double end_s() const { return start_s + (static_cast<double>(expected_samples) - 1.0) * period_s; }
@@ -132,6 +141,9 @@ struct CalibrationWindow {
   ResponseSummary response;
   /// The response model: fitted and applied, or why not (text).
   ResponseModel response_model;
+  /// The reference against the scalar magnetometer (when the window has one): its scale along
+  /// the main field, the field's direction, the test's scale through n.
+  ScalarCheck scalar;
   /// Why the window's remote was not used before any estimate (its samples do not cover the
   /// window); "" otherwise (estimate.remote says the rest).
   std::string remote_refused;
@@ -187,6 +199,7 @@ class WindowCalibrator {
 
   WindowCalibrationSettings settings_;
   WindowEstimator estimator_;
+  WindowEstimator scalar_estimator_;  ///< F's fit (its own window length: its own plans)
 };
 
 }  // namespace magnetometer_insitu_calibration

@@ -125,7 +125,8 @@ std::string component_from_column(const std::string& column, const std::string& 
 /// Parses one data record, appending its time and values; throws naming the field.
 void parse_data_line(const std::string& path, std::size_t line_number, const std::string& line,
                      const ColumnLayout& layout, std::vector<double>& times,
-                     std::vector<std::array<double, 3>>& rows, std::size_t& previous_line) {
+                     std::vector<std::array<double, 3>>& rows, std::vector<double>& fourth,
+                     std::size_t& previous_line) {
   const std::vector<std::string> tokens = split_blanks(line);
   const std::size_t expected = 3 + layout.names.size();
   if (tokens.size() != expected) {
@@ -176,6 +177,7 @@ void parse_data_line(const std::string& path, std::size_t line_number, const std
       value = std::numeric_limits<double>::quiet_NaN();
     }
     if (i < 3) row[i] = value;  // the 4th (F or G) column is not part of the vector
+    if (i == 3) fourth.push_back(value);
   }
 
   if (!times.empty() && !(time_s > times.back())) {
@@ -201,6 +203,7 @@ VectorRecord read_iaga2002(const std::string& path) {
   bool have_columns = false;
   std::vector<double> times;
   std::vector<std::array<double, 3>> rows;
+  std::vector<double> fourth;  // the F (or G) column
   std::size_t previous_line = 0;
 
   std::string line;
@@ -208,7 +211,7 @@ VectorRecord read_iaga2002(const std::string& path) {
     const std::size_t n = reader.line_number();
     if (line.find_first_not_of(" \t") == std::string::npos) continue;  // blank line
     if (have_columns) {
-      parse_data_line(path, n, line, layout, times, rows, previous_line);
+      parse_data_line(path, n, line, layout, times, rows, fourth, previous_line);
       continue;
     }
     if (line.compare(0, 4, "DATE") == 0) {
@@ -254,6 +257,13 @@ VectorRecord read_iaga2002(const std::string& path) {
   record.values_nT.resize(static_cast<Eigen::Index>(rows.size()), 3);
   for (std::size_t r = 0; r < rows.size(); ++r) {
     for (int c = 0; c < 3; ++c) record.values_nT(static_cast<Eigen::Index>(r), c) = rows[r][c];
+  }
+  // A recorded F (a scalar magnetometer's, not the vector's own norm is guaranteed): an
+  // auxiliary channel, for the scalar check (scalar_record.hpp).
+  const std::string& fourth_name = layout.names.size() > 3 ? layout.names[3] : std::string();
+  if (!fourth_name.empty() && fourth_name.back() == 'F' && fourth.size() == record.time_s.size() &&
+      std::any_of(fourth.begin(), fourth.end(), [](double v) { return std::isfinite(v); })) {
+    record.auxiliary.push_back({"F", "scalar field", "nT", std::move(fourth)});
   }
   return record;
 }

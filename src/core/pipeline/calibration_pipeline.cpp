@@ -218,6 +218,7 @@ WindowRecords window_records(const PreparedPair& prepared, std::size_t first, st
   w.temperature.time_s.assign(from, to);
   w.temperature.value_C.assign(t.value_C.begin() + (from - t.time_s.begin()), t.value_C.begin() + (to - t.time_s.begin()));
   if (sides == nullptr) return w;
+  w.scalar = sides->scalar;
   const double from_s = w.start_s - 0.5 * period, to_s = w.end_s() + 0.5 * period;
   if (sides->third) {
     w.third = std::make_shared<PairedRecord>(slice(sides->third->paired, from_s, to_s));
@@ -270,6 +271,7 @@ PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& p
                             const CalibrationSettings& settings) {
   PreparedSides out;
   if (sides.third != nullptr) out.third = prepare_side(reference, *sides.third, prepared, settings, "--third");
+  if (sides.scalar != nullptr) out.scalar = std::make_shared<ScalarRecord>(*sides.scalar);
   if (sides.remote != nullptr) {
     out.remote = prepare_side(reference, *sides.remote, prepared, settings, "--remote");
     if (!sides.remote->station.empty()) out.remote_name = sides.remote->station;

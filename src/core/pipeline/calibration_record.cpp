@@ -121,6 +121,15 @@ CalibrationRecord make_calibration_record(const CalibrationWindow& w, const Reco
   fill_remote(r, e.remote);
   r.band_split_p_value = e.band_split.p_value;
   r.band_split_differs = e.band_split.differs;
+  const ScalarCheck& s = w.scalar;
+  r.scalar_text = s.text;
+  r.reference_scale_along_field = s.reference_scale;
+  r.reference_scale_along_field_ci95 = s.reference_scale_ci95;
+  r.direction_cosines = array3(s.direction_cosines);
+  r.direction_cosines_ci95 = array3(s.direction_cosines_ci95);
+  r.test_scale_along_field = s.test_scale;
+  r.test_scale_along_field_ci95 = s.test_scale_ci95;
+  r.reference_needs_calibration = s.reference_off;
   return r;
 }
 

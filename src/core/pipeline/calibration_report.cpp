@@ -62,6 +62,27 @@ json model_to_json(const ResponseModel& m) {
               {"fit_max_hz", number(m.fit_max_hz)}, {"chi2_per_dof", number(m.chi2_per_dof)}, {"text", m.text}};
 }
 
+/// The scalar check (scalar_check.hpp); null when the window had no scalar record.
+json scalar_to_json(const ScalarCheck& s) {
+  if (s.text.empty()) return nullptr;
+  return json{{"assessed", s.assessed},
+              {"text", s.text},
+              {"coefficients", vec3(s.coefficients)},
+              {"coefficients_cells", number(s.cells)},
+              {"reference_scale_along_field", number(s.reference_scale)},
+              {"reference_scale_along_field_ci95", number(s.reference_scale_ci95)},
+              {"direction_cosines", vec3(s.direction_cosines)},
+              {"direction_cosines_ci95", vec3(s.direction_cosines_ci95)},
+              {"axis_scale", vec3(s.axis_scale)},
+              {"axis_scale_ci95", vec3(s.axis_scale_ci95)},
+              {"direction_offset_deg", number(s.direction_offset_deg)},
+              {"direction_offset_ci95_deg", number(s.direction_offset_ci95_deg)},
+              {"test_scale_along_field", number(s.test_scale)},
+              {"test_scale_along_field_ci95", number(s.test_scale_ci95)},
+              {"delay_s", number(s.delay_s)},
+              {"reference_needs_calibration", s.reference_off}};
+}
+
 json window_to_json(const CalibrationWindow& w, const CalibrationSettings& settings) {
   const WindowEstimate& e = w.estimate;
   // The record's names and frames are the node's; the inputs are the document's settings.
@@ -82,6 +103,7 @@ json window_to_json(const CalibrationWindow& w, const CalibrationSettings& setti
   out["intervals"] = e.intervals;
   out["relative_response"] = response_to_json(w.relative_response);
   out["response_model"] = model_to_json(w.response_model);
+  out["scalar"] = scalar_to_json(w.scalar);
   return out;
 }
 
@@ -375,6 +397,14 @@ void write_remote_rows(const WindowColumns& table, const std::vector<Calibration
     });
   }
   table.row("pair alone", [](const CalibrationWindow& w) { return pair_alone(w.estimate); });
+  if (std::any_of(windows.begin(), windows.end(), [](const CalibrationWindow& w) { return !w.scalar.text.empty(); })) {
+    table.row("ref. scale along F", [](const CalibrationWindow& w) {
+      return w.scalar.assessed ? with_ci(w.scalar.reference_scale, w.scalar.reference_scale_ci95, 5) : std::string("-");
+    });
+    table.row("test scale along F", [](const CalibrationWindow& w) {
+      return w.scalar.assessed ? with_ci(w.scalar.test_scale, w.scalar.test_scale_ci95, 5) : std::string("-");
+    });
+  }
 }
 
 /// Under the table, one line per window and note: response model and reference noise, then
@@ -385,6 +415,7 @@ void write_window_notes(std::ostream& out, const PairCalibration& c) {
     if (!w.reference_noise.text.empty()) out << w.label << ": " << w.reference_noise.text << "\n";
     if (w.estimate.remote.given) out << w.label << ": " << w.estimate.remote.text << "\n";
     if (w.estimate.band_split.differs) out << w.label << ": band split: " << w.estimate.band_split.text << "\n";
+    if (!w.scalar.text.empty()) out << w.label << ": scalar: " << w.scalar.text << "\n";
   }
   for (const auto& w : c.windows) {
     if (!c.report.temperature_channel.empty()) out << w.label << ": " << w.temperature.text << "\n";

@@ -146,7 +146,7 @@ Eigen::VectorXd temperature_on_grid(const TemperatureSamples& samples, const std
 }
 
 WindowCalibrator::WindowCalibrator(const WindowCalibrationSettings& settings)
-    : settings_((settings.validate(), settings)), estimator_(settings.estimator) {}
+    : settings_((settings.validate(), settings)), estimator_(settings.estimator), scalar_estimator_(settings.estimator) {}
 
 WindowCalibrator::~WindowCalibrator() = default;
 
@@ -280,8 +280,12 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
     w.estimate.remote.given = true;
     w.estimate.remote.text = w.remote_refused;
   }
-  // Steps 4 and 5.
+  // Steps 4, 4b and 5.
   estimate_offset(w, window.paired);
+  if (window.scalar) {
+    w.scalar = check_scalar(*window.scalar, window.paired, period, w.estimate, scalar_estimator_, inputs,
+                            settings_.gaps, settings_.field_direction);
+  }
   apply_gap_rule(w, settings_);
   return w;
 }

@@ -1,0 +1,32 @@
+// The scalar check of one window (estimation/scalar_check.hpp): F of an absolute scalar
+// magnetometer regressed on the window's reference, with the estimator the window's n has.
+//
+// The grid: the window's own epochs when the scalar samples at least as often as 1.5 times the
+// window's period (its F put on them by linear interpolation: a 1 s scalar off whole seconds, as
+// the GP20S3, loses at most 0.05 % of its amplitude at 0.01 Hz that way); else the scalar's own
+// times (a scalar every 30 s: the reference interpolated to them, both then sampled alike, so
+// that what aliases does so in both). Epochs without F are filled by straight lines in F and the
+// reference alike (which keeps F = R c). Then the estimator of the window (default: robust,
+// with its screen, weights, jackknife, and a delay fitted between the scalar and the reference)
+// with F as each of the three test columns (so that n's three columns are c), and the window's
+// reference noise model for the errors-in-variables correction.
+#pragma once
+
+#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/scalar_check.hpp"
+#include "magnetometer_insitu_calibration/formats/scalar_record.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
+
+#include <optional>
+
+namespace magnetometer_insitu_calibration {
+
+/// window: the pair on its grid, filled (reference frame and test frame, nT); period_s its
+/// period; estimate: the window's estimate of n (with its covariance). Never throws for data:
+/// a window the scalar cannot check says why in ScalarCheck::text.
+ScalarCheck check_scalar(const ScalarRecord& scalar, const PairedRecord& window, double period_s,
+                         const WindowEstimate& estimate, WindowEstimator& estimator, const WindowInputs& inputs,
+                         const GapSettings& gaps, const std::optional<FieldDirection>& given);
+
+}  // namespace magnetometer_insitu_calibration

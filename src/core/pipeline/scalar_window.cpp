@@ -1,0 +1,112 @@
+// The scalar check of one window: see scalar_window.hpp.
+#include "magnetometer_insitu_calibration/pipeline/scalar_window.hpp"
+
+#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
+#include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <sstream>
+#include <vector>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+/// The scalar's samples within [low_s, high_s] and their median step, s (0 with fewer than two).
+double scalar_period(const ScalarRecord& s, double low_s, double high_s, std::vector<double>& times,
+                     std::vector<double>& values) {
+  const auto lo = std::lower_bound(s.time_s.begin(), s.time_s.end(), low_s);
+  const auto hi = std::upper_bound(lo, s.time_s.end(), high_s);
+  times.assign(lo, hi);
+  values.assign(s.value_nT.begin() + (lo - s.time_s.begin()), s.value_nT.begin() + (hi - s.time_s.begin()));
+  if (times.size() < 2) return 0.0;
+  std::vector<double> steps(times.size() - 1);
+  for (std::size_t i = 0; i + 1 < times.size(); ++i) steps[i] = times[i + 1] - times[i];
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+  return steps[steps.size() / 2];
+}
+
+/// The reference at times `at` by linear interpolation on its regular grid (first epoch t0).
+Readings reference_at(const PairedRecord& w, double period_s, const std::vector<double>& at) {
+  Readings out(static_cast<Eigen::Index>(at.size()), 3);
+  const auto last = static_cast<double>(w.size() - 1);
+  for (std::size_t k = 0; k < at.size(); ++k) {
+    const double x = std::clamp((at[k] - w.time_s.front()) / period_s, 0.0, last);
+    const auto i = static_cast<Eigen::Index>(std::min(std::floor(x), std::max(0.0, last - 1.0)));
+    const double f = x - static_cast<double>(i);
+    out.row(static_cast<Eigen::Index>(k)) = (1.0 - f) * w.reference_nT.row(i) + f * w.reference_nT.row(std::min<Eigen::Index>(i + 1, w.reference_nT.rows() - 1));
+  }
+  return out;
+}
+
+}  // namespace
+
+ScalarCheck check_scalar(const ScalarRecord& scalar, const PairedRecord& window, double period_s,
+                         const WindowEstimate& estimate, WindowEstimator& estimator, const WindowInputs& inputs,
+                         const GapSettings& gaps, const std::optional<FieldDirection>& given) {
+  ScalarCheck none;
+  if (window.size() < 16 || !estimate.n.allFinite()) {
+    none.text = "scalar check not assessed: the window has no estimate";
+    return none;
+  }
+  std::vector<double> times, values;
+  const double step = scalar_period(scalar, window.time_s.front() - 60.0, window.time_s.back() + 60.0, times, values);
+  if (!(step > 0.0) || times.size() < 16) {
+    none.text = "scalar check not assessed: " + std::to_string(times.size()) + " scalar samples in the window";
+    return none;
+  }
+  const bool own_grid = step > 1.5 * period_s;
+  const double dt = own_grid ? step : period_s;
+  std::vector<double> grid;
+  if (own_grid) {
+    for (double t = std::max(times.front(), window.time_s.front()); t <= window.time_s.back(); t += dt) grid.push_back(t);
+  } else {
+    grid = window.time_s;
+  }
+  // F on the grid (NaN across its own gaps), the reference on the same times; F thrice as the
+  // "test", so that the estimator's three columns of n are each c.
+  const Eigen::VectorXd f = interpolate_channel(times, values, grid, 2.5 * step);
+  PairedRecord paired;
+  paired.time_s = grid;
+  paired.reference_nT = own_grid ? reference_at(window, period_s, grid) : window.reference_nT;
+  paired.test_nT = f.replicate(1, 3);
+  for (Eigen::Index i = 0; i < f.size(); ++i) {
+    if (!std::isfinite(f(i))) paired.reference_nT.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
+  WindowInputs scalar_inputs;
+  scalar_inputs.reference_noise = inputs.reference_noise;
+  if (!own_grid && estimate.remote.used) {  // the remote's instruments serve F's fit too
+    scalar_inputs.remote_nT = inputs.remote_nT;
+    scalar_inputs.remote_name = inputs.remote_name;
+  }
+  WindowEstimate e;
+  try {
+    const Readings remote_copy = scalar_inputs.remote_nT != nullptr ? *scalar_inputs.remote_nT : Readings();
+    regularize_and_fill(paired, dt, gaps);
+    if (scalar_inputs.remote_nT != nullptr && paired.size() != static_cast<std::size_t>(remote_copy.rows())) {
+      scalar_inputs.remote_nT = nullptr;  // trimmed at an edge: the epochs no longer match the remote's
+    }
+    e = estimator.estimate(paired.reference_nT, paired.test_nT, dt, scalar_inputs);
+  } catch (const std::exception& error) {
+    none.text = std::string("scalar check not assessed: ") + error.what();
+    return none;
+  }
+  if (e.quality != Quality::kOk && e.quality != Quality::kLowCoherence) {
+    none.text = "scalar check not assessed: the fit of F is " + std::string(quality_name(e.quality)) + " (" + e.quality_text + ")";
+    return none;
+  }
+  Eigen::Matrix3d covariance;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) covariance(a, b) = e.n_covariance(vec_index(a, 0), vec_index(b, 0));
+  ScalarCheck out = assess_scalar(e.n.col(0), covariance, e.covariance_dof, estimate.n, estimate.n_covariance, given);
+  out.delay_s = e.delay_s;
+  std::ostringstream where;
+  where << " (" << (own_grid ? "on the scalar's own " : "on the window's ") << dt << " s grid, " << scalar.station
+        << (e.remote.used ? ", remote's instruments" : "") << ")";
+  out.text += where.str();
+  return out;
+}
+
+}  // namespace magnetometer_insitu_calibration
