@@ -225,6 +225,9 @@ void CorrectionNode::load_file(bool at_start) {
 void CorrectionNode::on_calibration(const MagnetometerCalibration::ConstPtr& calibration) {
   ++calibration_messages_;
   adopt(*calibration, "topic " + nh_.resolveName(settings_.calibration_topic));
+  // calibration_node writes the file before it publishes: the file's state follows the topic
+  // (unchanged files are not read again).
+  if (!settings_.calibration_file.empty()) load_file(false);
 }
 
 void CorrectionNode::on_temperature(const sensor_msgs::Temperature::ConstPtr& message) {

@@ -113,6 +113,8 @@ catkin_run_tests_target(python plot_calibration python-plot_calibration.xml
 if(TARGET tests)
   add_dependencies(tests calibrate_records)
 endif()
+catkin_run_tests_target(python launch_files python-launch_files.xml
+  COMMAND "/usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/test/ros/test_launch_files.py --launch-dir ${CMAKE_CURRENT_SOURCE_DIR}/launch --xml ${CATKIN_TEST_RESULTS_DIR}/${PROJECT_NAME}/python-launch_files.xml")
 
 # Precompiled roscpp/message/Eigen headers (cmake/precompiled_headers.cmake).
 foreach(_mic_test test_bag_records rostest_replay)

@@ -270,6 +270,8 @@ void check_sample_accounting(Harness& h, std::size_t published) {
   EXPECT_EQ(value_of(d, "published"), published);
   EXPECT_EQ(value_of(d, "dropped, no calibration"), n - published);
   EXPECT_EQ(d->values.at("calibration source").rfind("topic", 0), 0u);
+  // The file calibration_node wrote is seen too (not "missing" from the start any longer).
+  EXPECT_EQ(d->values.at("calibration file state").rfind("loaded", 0), 0u) << d->values.at("calibration file state");
   EXPECT_NE(d->values.at("calibration window").find("T"), std::string::npos);
   const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
   ASSERT_NE(cal, nullptr);

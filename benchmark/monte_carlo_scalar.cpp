@@ -1,0 +1,95 @@
+// Monte Carlo of the scalar check (estimation/scalar_check.hpp, pipeline/scalar_window.hpp)
+// against known truth: a simulated quiet station whose reference reads its field with a scale
+// error (MC_REFERENCE_SCALE, 1.003: 0.3 % high along every axis), and an absolute scalar
+// magnetometer (scalar_magnetometer.hpp; 0.01 nT white) every `period` s, its stamps 0.37 s off
+// whole seconds. Per seed the default pipeline's whole-record window with the scalar: is the
+// reference's scale along the field inside its 95 % interval, and how far off.
+//
+//   monte_carlo_scalar [seeds=200] [days=1] [period_s=1] [first_seed=46000]
+//
+// A program, not a test; its figures are quoted in docs/accuracy.md.
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/simulation/scalar_magnetometer.hpp"
+
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+namespace mic = magnetometer_insitu_calibration;
+
+namespace {
+
+double knob(const char* name, double value) {
+  const char* text = std::getenv(name);
+  return text != nullptr ? std::atof(text) : value;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const double pos = p * static_cast<double>(v.size() - 1);
+  const auto i = static_cast<std::size_t>(pos);
+  return i + 1 < v.size() ? v[i] + (pos - static_cast<double>(i)) * (v[i + 1] - v[i]) : v[i];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int seeds = argc > 1 ? std::atoi(argv[1]) : 200;
+  const double days = argc > 2 ? std::atof(argv[2]) : 1.0;
+  const double period = argc > 3 ? std::atof(argv[3]) : 1.0;
+  const std::uint64_t first = argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 46000;
+  const double k = knob("MC_REFERENCE_SCALE", 1.003);
+  std::printf("# quiet station, %d seeds from %llu, %.1f days; reference scale %.4f; scalar every %g s\n", seeds,
+              static_cast<unsigned long long>(first), days, k, period);
+  std::printf("# seed  scale  ci95  (scale - truth) / se  test_scale  test_ci95\n");
+  int covered = 0, assessed = 0, flagged = 0, test_covered = 0;
+  std::vector<double> errors;
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < seeds; ++i) {
+    mic::SimulationSettings s;
+    s.seed = first + static_cast<std::uint64_t>(i);
+    s.duration_s = days * 86400.0;
+    s.keep_clean_field = true;
+    mic::SimulatedPair pair = mic::simulate_pair(s);
+    mic::ScalarMagnetometerSettings sm;
+    sm.seed = s.seed + 500;
+    sm.period_s = period;
+    const mic::ScalarRecord scalar = mic::simulate_scalar_magnetometer(pair, sm);
+    // The reference reads k B; the test still reads B n: against this reference its matrix is n / k.
+    pair.reference.values_nT *= k;
+    mic::CalibrationSettings settings;
+    const mic::PairCalibration c = mic::calibrate_records(pair.reference, pair.test, settings, {nullptr, nullptr, &scalar});
+    const mic::ScalarCheck& check = c.windows.back().scalar;
+    if (!check.assessed) {
+      std::printf("seed %llu not assessed: %s\n", static_cast<unsigned long long>(s.seed), check.text.c_str());
+      continue;
+    }
+    ++assessed;
+    const double se = check.reference_scale_ci95 / 1.96;
+    covered += std::abs(check.reference_scale - k) <= check.reference_scale_ci95;
+    flagged += check.reference_off;
+    // The test reads B n with n's columns of unit norm or nearly (the simulator's scale ratios
+    // ~1.0004): its scale along the field is 1 / |n^-1 b| for the field direction b.
+    const Eigen::Vector3d b = (pair.field_nT.colwise().mean()).transpose().normalized();
+    const double test_truth = 1.0 / (pair.n_true.inverse() * b).norm();
+    test_covered += std::abs(check.test_scale - test_truth) <= check.test_scale_ci95;
+    errors.push_back(100.0 * std::abs(check.reference_scale - k));
+    std::printf("seed %llu %.5f %.5f %+.2f %.5f %.5f\n", static_cast<unsigned long long>(s.seed), check.reference_scale,
+                check.reference_scale_ci95, (check.reference_scale - k) / se, check.test_scale, check.test_scale_ci95);
+    std::fflush(stdout);
+  }
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("\n| scalar every | seeds assessed | reference scale inside its 95 %% interval | flagged (departs from 1) | "
+              "median / 95th pct |error| | test scale inside |\n|---|---|---|---|---|---|\n");
+  std::printf("| %g s | %d of %d | %.1f %% | %.1f %% | %.3f / %.3f %% | %.1f %% |\n", period, assessed, seeds,
+              100.0 * covered / std::max(1, assessed), 100.0 * flagged / std::max(1, assessed), percentile(errors, 0.5),
+              percentile(errors, 0.95), 100.0 * test_covered / std::max(1, assessed));
+  std::printf("# %.0f s\n", elapsed);
+  return 0;
+}
