@@ -8,6 +8,7 @@
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
+#include "magnetometer_insitu_calibration/simulation/scalar_magnetometer.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -125,6 +126,10 @@ struct Options {
   // A remote observatory beside the pair (remote_observatory.hpp): remote.<ext>.
   bool remote = false;
   mic::RemoteObservatorySettings remote_settings;
+  // An absolute scalar magnetometer (scalar_magnetometer.hpp): scalar.csv; the reference's scale.
+  bool scalar = false;
+  mic::ScalarMagnetometerSettings scalar_settings;
+  double reference_scale = 1.0;
 };
 
 /// Options of the record, the instruments' transfer and noise, and the field's variations.
@@ -192,6 +197,12 @@ void add_remote_options(CLI::App& app, Options& o) {
   app.add_option("--remote-gaps", o.remote_settings.gap_count, "remote: number of its own gaps")->capture_default_str();
   app.add_option("--remote-time-offset-s", o.remote_settings.time_offset_s,
                  "remote: its stamps minus the true times, s (a wrong time base)")->capture_default_str();
+  app.add_flag("--scalar", o.scalar, "also write scalar.csv (time,F): an absolute scalar magnetometer, F = |B| + noise");
+  app.add_option("--scalar-period-s", o.scalar_settings.period_s, "scalar: between samples, s")->capture_default_str();
+  app.add_option("--scalar-offset-s", o.scalar_settings.offset_s, "scalar: first stamp after the start, s (off whole seconds)")
+      ->capture_default_str();
+  app.add_option("--reference-scale", o.reference_scale,
+                 "the reference reads this times the field (1.003: 0.3 % high), for the scalar check")->capture_default_str();
 }
 
 void add_hut_and_format_options(CLI::App& app, Options& o) {
@@ -281,15 +292,21 @@ std::filesystem::path make_out_dir(const std::string& out_dir) {
 }
 
 /// The pair with every asked-for disturbance; with a hut, test.csv gets a sensor_temperature column.
-mic::SimulatedPair simulate(const Options& o, mic::VectorRecord* remote) {
+mic::SimulatedPair simulate(const Options& o, mic::VectorRecord* remote, mic::ScalarRecord* scalar) {
   mic::SimulationSettings s = o.s;
-  s.keep_clean_field = o.remote;  // the remote records the clean field
+  s.keep_clean_field = o.remote || o.scalar;  // the remote and the scalar record the clean field
   mic::SimulatedPair pair = mic::simulate_pair(s);
   if (o.remote) {
     mic::RemoteObservatorySettings r = o.remote_settings;
     r.seed = o.s.seed + 7000;
     *remote = mic::simulate_remote_observatory(s, pair, r);
   }
+  if (o.scalar) {
+    mic::ScalarMagnetometerSettings sm = o.scalar_settings;
+    sm.seed = o.s.seed + 500;
+    *scalar = mic::simulate_scalar_magnetometer(pair, sm);
+  }
+  pair.reference.values_nT *= o.reference_scale;
   if (o.station.vehicles_per_day > 0.0) mic::add_station_disturbances(pair, o.station);
   mic::add_unmodelled_disturbances(pair, o.unmodelled);
   if (o.with_hut()) mic::add_hut_temperature(pair, o.hut);
@@ -360,6 +377,25 @@ nlohmann::json write_remote(mic::VectorRecord& remote, const Options& o, const s
           {"mixing_rows_are_samples", {{q(0, 0), q(0, 1), q(0, 2)}, {q(1, 0), q(1, 1), q(1, 2)}, {q(2, 0), q(2, 1), q(2, 2)}}}};
 }
 
+/// Writes scalar.csv (time as ISO 8601 with ms, F in nT with 4 decimals); its part of truth.json.
+nlohmann::json write_scalar(const mic::ScalarRecord& scalar, const Options& o, const std::filesystem::path& dir) {
+  const std::string path = (dir / "scalar.csv").string();
+  std::ofstream out(path);
+  out << "time,F\n";
+  char line[96];
+  for (std::size_t i = 0; i < scalar.size(); ++i) {
+    std::snprintf(line, sizeof line, "%s,%.4f\n", mic::format_iso8601(scalar.time_s[i], 3).c_str(), scalar.value_nT[i]);
+    out << line;
+  }
+  out.close();
+  if (!out) throw mic::InputError(path, "write failed");
+  return {{"file", path},
+          {"period_s", o.scalar_settings.period_s},
+          {"offset_s", o.scalar_settings.offset_s},
+          {"white_nT", o.scalar_settings.white_nT},
+          {"model", "F(t_k) = |B(t_k)| + noise; the reference reads reference_scale B"}};
+}
+
 /// truth.json: the simulation's truth, the files, the disturbances' settings and the command line.
 nlohmann::json truth_json(const Options& o, const mic::SimulatedPair& pair, const RecordPaths& paths, int argc,
                           char** argv) {
@@ -424,10 +460,13 @@ int main(int argc, char** argv) {
     validate(o);
     const std::filesystem::path dir = make_out_dir(o.out_dir);
     mic::VectorRecord remote;
-    mic::SimulatedPair pair = simulate(o, &remote);
+    mic::ScalarRecord scalar;
+    mic::SimulatedPair pair = simulate(o, &remote, &scalar);
     const RecordPaths paths = write_records(pair, o, dir);
     nlohmann::json truth = truth_json(o, pair, paths, argc, argv);
     if (o.remote) truth["remote"] = write_remote(remote, o, dir);
+    if (o.scalar) truth["scalar"] = write_scalar(scalar, o, dir);
+    truth["reference_scale"] = o.reference_scale;
     const std::string truth_path = write_truth(truth, dir);
     std::cout << "wrote " << paths.reference << ", " << paths.test << " (" << pair.reference.size()
               << " samples each) and " << truth_path << "\n";

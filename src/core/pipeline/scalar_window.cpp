@@ -103,8 +103,9 @@ ScalarCheck check_scalar(const ScalarRecord& scalar, const PairedRecord& window,
   ScalarCheck out = assess_scalar(e.n.col(0), covariance, e.covariance_dof, estimate.n, estimate.n_covariance, given);
   out.delay_s = e.delay_s;
   std::ostringstream where;
-  where << " (" << (own_grid ? "on the scalar's own " : "on the window's ") << dt << " s grid, " << scalar.station
-        << (e.remote.used ? ", remote's instruments" : "") << ")";
+  where << " (" << (scalar.station.empty() ? std::string() : scalar.station + ", ")
+        << (own_grid ? "on the scalar's own " : "on the window's ") << dt << " s grid"
+        << (e.remote.used ? ", the remote's instruments" : "") << ")";
   out.text += where.str();
   return out;
 }
