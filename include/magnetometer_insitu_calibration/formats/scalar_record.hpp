@@ -1,21 +1,13 @@
-// An absolute scalar magnetometer's record (proton, Overhauser or optically pumped: F = |B| in
-// nT, 1 nT absolute at an INTERMAGNET observatory), on its own times: what checks the reference's
-// scale along the main field (estimation/scalar_check.hpp).
+// Reading an absolute scalar magnetometer's record (common/scalar_record.hpp) from the formats
+// observatories keep it in.
 #pragma once
+
+#include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 
 #include <string>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
-
-struct ScalarRecord {
-  std::vector<double> time_s;  ///< UNIX s, UTC, strictly increasing (any rate, off whole seconds)
-  std::vector<double> value_nT;  ///< F, nT; NaN = missing
-  std::string source;            ///< file name, for messages
-  std::string station;           ///< IAGA code or instrument, if known
-
-  std::size_t size() const { return time_s.size(); }
-};
 
 /// Reads F from: a MagPy CDF (variable f on its DEPEND_0 time), an ImagCDF (GeomagneticFieldF
 /// on GeomagneticScalarTimes, else the vector times), an IAGA-2002 file (its fourth column when

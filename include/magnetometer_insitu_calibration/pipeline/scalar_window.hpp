@@ -14,7 +14,7 @@
 
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/scalar_check.hpp"
-#include "magnetometer_insitu_calibration/formats/scalar_record.hpp"
+#include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 

@@ -6,7 +6,7 @@
 // instruments take it.
 #pragma once
 
-#include "magnetometer_insitu_calibration/formats/scalar_record.hpp"
+#include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <cstdint>

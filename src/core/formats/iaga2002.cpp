@@ -258,8 +258,8 @@ VectorRecord read_iaga2002(const std::string& path) {
   for (std::size_t r = 0; r < rows.size(); ++r) {
     for (int c = 0; c < 3; ++c) record.values_nT(static_cast<Eigen::Index>(r), c) = rows[r][c];
   }
-  // A recorded F (a scalar magnetometer's, not the vector's own norm is guaranteed): an
-  // auxiliary channel, for the scalar check (scalar_record.hpp).
+  // A recorded F (the observatory's scalar magnetometer, when the fourth column is F): an
+  // auxiliary channel, read by the scalar check (formats/scalar_record.hpp).
   const std::string& fourth_name = layout.names.size() > 3 ? layout.names[3] : std::string();
   if (!fourth_name.empty() && fourth_name.back() == 'F' && fourth.size() == record.time_s.size() &&
       std::any_of(fourth.begin(), fourth.end(), [](double v) { return std::isfinite(v); })) {
