@@ -49,6 +49,56 @@ void expect_pairs(const Array& live, const nlohmann::json& offline, const std::s
   for (std::size_t i = 0; i < 3; ++i) EXPECT_TRUE(agrees(live[i], offline[keys[i]].get<double>())) << what << "." << keys[i];
 }
 
+/// Offline windows by start (ms): every window but the one that ends with the record, which the
+/// live node does not complete (no sample after its end).
+std::map<long long, const nlohmann::json*> expected_windows(const nlohmann::json& windows) {
+  double last_end = 0.0;
+  for (const auto& w : windows) last_end = std::max(last_end, mic::parse_iso8601(w["window_end"].get<std::string>()));
+  std::map<long long, const nlohmann::json*> expected;
+  for (const auto& w : windows) {
+    if (mic::parse_iso8601(w["window_end"].get<std::string>()) < last_end) {
+      expected[std::llround(1000.0 * mic::parse_iso8601(w["window_start"].get<std::string>()))] = &w;
+    }
+  }
+  return expected;
+}
+
+/// The live message of a window against the offline report's window: counts, harmonics and
+/// quality equal, every number within kRelative; with a remote, the remote's verdicts too.
+void expect_window(const mic::MagnetometerCalibration& m, const nlohmann::json& o, bool remote) {
+  EXPECT_NEAR(m.window_end.toSec(), mic::parse_iso8601(o["window_end"].get<std::string>()), 1e-3);
+  EXPECT_EQ(m.samples, o["samples"].get<std::uint32_t>());
+  EXPECT_EQ(m.filled_samples, o["filled_samples"].get<std::uint32_t>());
+  EXPECT_EQ(static_cast<int>(m.harmonic_first), o["harmonic_first"].get<int>());
+  EXPECT_EQ(static_cast<int>(m.harmonic_last), o["harmonic_last"].get<int>());
+  EXPECT_EQ(mic::quality_name(static_cast<mic::Quality>(m.quality)), o["quality"].get<std::string>());
+  EXPECT_TRUE(m.accepted);
+  for (int k = 0; k < 9; ++k) {
+    EXPECT_TRUE(agrees(m.matrix[k], o["matrix"][k / 3][k % 3].get<double>())) << "matrix " << k;
+  }
+  for (int k = 0; k < 81; ++k) {
+    EXPECT_TRUE(agrees(m.matrix_covariance[k], o["matrix_covariance"][k / 9][k % 9].get<double>()))
+        << "matrix_covariance " << k;
+  }
+  expect_vector(m.trend_nT_per_day, o["trend_nT_per_day"], "trend_nT_per_day");
+  expect_vector(m.scale_ratio, o["scale_ratio"], "scale_ratio");
+  expect_vector(m.scale_ratio_ci95, o["scale_ratio_ci95"], "scale_ratio_ci95");
+  expect_pairs(m.nonorthogonality_deg, o["nonorthogonality_deg"], "nonorthogonality_deg");
+  expect_pairs(m.nonorthogonality_ci95_deg, o["nonorthogonality_ci95_deg"], "nonorthogonality_ci95_deg");
+  expect_vector(m.misalignment_deg, o["misalignment_deg"], "misalignment_deg");
+  expect_vector(m.misalignment_ci95_deg, o["misalignment_ci95_deg"], "misalignment_ci95_deg");
+  expect_vector(m.axis_deviation_deg, o["axis_deviation_deg"], "axis_deviation_deg");
+  expect_vector(m.coherence, o["coherence"], "coherence");
+  expect_vector(m.residual_rms_nT, o["residual_rms_nT"], "residual_rms_nT");
+  EXPECT_TRUE(agrees(m.condition_number, o["condition_number"].get<double>())) << "condition_number";
+  // The remote reference: used (or refused) in both, as strong in both, the same verdict on
+  // the pair alone. Hourly windows of a quiet simulated day: the remote's first-stage F is
+  // 7-56, so a few windows refuse it.
+  EXPECT_EQ(static_cast<bool>(m.remote_used), o["remote_used"].get<bool>());
+  EXPECT_EQ(static_cast<bool>(m.pair_biased), o["pair_biased"].get<bool>());
+  if (remote) EXPECT_TRUE(agrees(m.remote_strength, o["remote_strength"].get<double>())) << "remote_strength";
+}
+
 }  // namespace
 
 TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
@@ -75,16 +125,7 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
     ASSERT_GT(spikes, 0);
   }
 
-  // Offline windows by start (ms); the live node completes every window but the one that ends
-  // with the record (no sample after its end).
-  double last_end = 0.0;
-  for (const auto& w : windows) last_end = std::max(last_end, mic::parse_iso8601(w["window_end"].get<std::string>()));
-  std::map<long long, const nlohmann::json*> expected;
-  for (const auto& w : windows) {
-    if (mic::parse_iso8601(w["window_end"].get<std::string>()) < last_end) {
-      expected[std::llround(1000.0 * mic::parse_iso8601(w["window_start"].get<std::string>()))] = &w;
-    }
-  }
+  const std::map<long long, const nlohmann::json*> expected = expected_windows(windows);
   ASSERT_GE(expected.size(), 2u);
 
   std::mutex mutex;
@@ -134,41 +175,9 @@ TEST(Replay, LiveCalibrationEqualsTheOfflineCalibrationOnTheSameWindows) {
     const auto it = live.find(start_ms);
     ASSERT_NE(it, live.end()) << "no live calibration for offline " << label << " within " << timeout_s
                               << " s; live windows received: " << live.size();
-    const mic::MagnetometerCalibration& m = it->second;
-    const nlohmann::json& o = *w;
     SCOPED_TRACE(label);
-    EXPECT_NEAR(m.window_end.toSec(), mic::parse_iso8601(o["window_end"].get<std::string>()), 1e-3);
-    EXPECT_EQ(m.samples, o["samples"].get<std::uint32_t>());
-    EXPECT_EQ(m.filled_samples, o["filled_samples"].get<std::uint32_t>());
-    EXPECT_EQ(static_cast<int>(m.harmonic_first), o["harmonic_first"].get<int>());
-    EXPECT_EQ(static_cast<int>(m.harmonic_last), o["harmonic_last"].get<int>());
-    EXPECT_EQ(mic::quality_name(static_cast<mic::Quality>(m.quality)), o["quality"].get<std::string>());
-    EXPECT_TRUE(m.accepted);
-    for (int k = 0; k < 9; ++k) {
-      EXPECT_TRUE(agrees(m.matrix[k], o["matrix"][k / 3][k % 3].get<double>())) << "matrix " << k;
-    }
-    for (int k = 0; k < 81; ++k) {
-      EXPECT_TRUE(agrees(m.matrix_covariance[k], o["matrix_covariance"][k / 9][k % 9].get<double>()))
-          << "matrix_covariance " << k;
-    }
-    expect_vector(m.trend_nT_per_day, o["trend_nT_per_day"], "trend_nT_per_day");
-    expect_vector(m.scale_ratio, o["scale_ratio"], "scale_ratio");
-    expect_vector(m.scale_ratio_ci95, o["scale_ratio_ci95"], "scale_ratio_ci95");
-    expect_pairs(m.nonorthogonality_deg, o["nonorthogonality_deg"], "nonorthogonality_deg");
-    expect_pairs(m.nonorthogonality_ci95_deg, o["nonorthogonality_ci95_deg"], "nonorthogonality_ci95_deg");
-    expect_vector(m.misalignment_deg, o["misalignment_deg"], "misalignment_deg");
-    expect_vector(m.misalignment_ci95_deg, o["misalignment_ci95_deg"], "misalignment_ci95_deg");
-    expect_vector(m.axis_deviation_deg, o["axis_deviation_deg"], "axis_deviation_deg");
-    expect_vector(m.coherence, o["coherence"], "coherence");
-    expect_vector(m.residual_rms_nT, o["residual_rms_nT"], "residual_rms_nT");
-    EXPECT_TRUE(agrees(m.condition_number, o["condition_number"].get<double>())) << "condition_number";
-    // The remote reference: used (or refused) in both, as strong in both, the same verdict on
-    // the pair alone. Hourly windows of a quiet simulated day: the remote's first-stage F is
-    // 7-56, so a few windows refuse it.
-    EXPECT_EQ(static_cast<bool>(m.remote_used), o["remote_used"].get<bool>());
-    remote_windows += m.remote_used;
-    EXPECT_EQ(static_cast<bool>(m.pair_biased), o["pair_biased"].get<bool>());
-    if (remote) EXPECT_TRUE(agrees(m.remote_strength, o["remote_strength"].get<double>())) << "remote_strength";
+    expect_window(it->second, *w, remote);
+    remote_windows += it->second.remote_used;
   }
   if (remote) {
     EXPECT_GE(2 * remote_windows, expected.size()) << "most windows rest on the remote";
