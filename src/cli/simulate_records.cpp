@@ -319,6 +319,21 @@ struct RecordPaths {
   std::string reference, test;
 };
 
+/// IAGA-2002 header of a simulated record: station `code`, its name, the comments.
+mic::Iaga2002WriteOptions simulated_iaga_options(const Options& o, const std::string& code, const std::string& name,
+                                                 const std::vector<std::string>& comments) {
+  mic::Iaga2002WriteOptions options;
+  options.source_of_data = "magnetometer_insitu_calibration simulator";
+  options.iaga_code = code;
+  options.data_type = "variation";
+  std::ostringstream sampling;
+  sampling << o.s.sample_period_s << " second";
+  options.digital_sampling = sampling.str();
+  options.station_name = name;
+  options.comments = comments;
+  return options;
+}
+
 /// Writes reference.<iaga|csv> and test.<iaga|csv> into dir, with the provenance in their comments.
 RecordPaths write_records(mic::SimulatedPair& pair, const Options& o, const std::filesystem::path& dir) {
   const std::string extension = o.format == "iaga" ? ".iaga" : ".csv";
@@ -326,20 +341,12 @@ RecordPaths write_records(mic::SimulatedPair& pair, const Options& o, const std:
   const std::string provenance = "Simulated by magnetometer_insitu_calibration simulate_records, seed " +
                                  std::to_string(o.s.seed) + "; truth in truth.json.";
   if (o.format == "iaga") {
-    mic::Iaga2002WriteOptions options;
-    options.source_of_data = "magnetometer_insitu_calibration simulator";
-    options.iaga_code = "SIM";
-    options.data_type = "variation";
-    std::ostringstream sampling;
-    sampling << o.s.sample_period_s << " second";
-    options.digital_sampling = sampling.str();
-    options.station_name = "Simulated reference";
-    options.comments = {provenance, "Reference instrument: R = B + noise (reference frame)."};
-    mic::write_iaga2002(paths.reference, pair.reference, options);
-    options.station_name = "Simulated test";
-    options.comments = {provenance,
-                        "Test instrument: T = B(t - delay) n(t) + drift + noise (test frame)."};
-    mic::write_iaga2002(paths.test, pair.test, options);
+    mic::write_iaga2002(paths.reference, pair.reference,
+                        simulated_iaga_options(o, "SIM", "Simulated reference",
+                                               {provenance, "Reference instrument: R = B + noise (reference frame)."}));
+    mic::write_iaga2002(paths.test, pair.test,
+                        simulated_iaga_options(o, "SIM", "Simulated test",
+                                               {provenance, "Test instrument: T = B(t - delay) n(t) + drift + noise (test frame)."}));
   } else {
     pair.reference.header["comments"] = provenance + "\nReference instrument: R = B + noise (reference frame), nT.";
     pair.test.header["comments"] =
@@ -356,14 +363,7 @@ nlohmann::json write_remote(mic::VectorRecord& remote, const Options& o, const s
   const std::string provenance = "Simulated remote observatory (simulate_records --remote, seed " +
                                  std::to_string(o.s.seed) + "): the field, none of the local disturbances.";
   if (o.format == "iaga") {
-    mic::Iaga2002WriteOptions options;
-    options.source_of_data = "magnetometer_insitu_calibration simulator";
-    options.iaga_code = "RMT";
-    options.data_type = "variation";
-    options.digital_sampling = std::to_string(o.s.sample_period_s) + " second";
-    options.station_name = "Simulated remote observatory";
-    options.comments = {provenance};
-    mic::write_iaga2002(path, remote, options);
+    mic::write_iaga2002(path, remote, simulated_iaga_options(o, "RMT", "Simulated remote observatory", {provenance}));
   } else {
     remote.header["comments"] = provenance;
     mic::write_csv_record(path, remote, true, o.decimals);

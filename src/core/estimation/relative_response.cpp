@@ -42,6 +42,17 @@ struct BandFit {
   double var_h0 = 0.0;
 };
 
+/// sum |T - P (H0 + H1 u)|^2 over the band's harmonics: the fit's residual power.
+double band_residual(const Eigen::VectorXcd& p_dft, const Eigen::VectorXcd& t_dft, std::size_t j0, std::size_t j1,
+                     double f_band, double df, const Eigen::Vector2cd& h) {
+  double residual = 0.0;
+  for (std::size_t j = j0; j < j1; ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    residual += std::norm(t_dft(jj) - p_dft(jj) * (h(0) + h(1) * ((static_cast<double>(j) * df - f_band) / df)));
+  }
+  return residual;
+}
+
 /// H varies across a band (a filter's phase turns with frequency): a band average would be
 /// biased where it turns fastest. So H is fitted as H0 + H1 (f - f_band) over the band's
 /// harmonics (complex least squares, 2 parameters) and H0 is the response at f_band. With
@@ -67,11 +78,7 @@ BandFit band_fit(const Eigen::VectorXcd& p_dft, const Eigen::VectorXcd& t_dft, s
   }
   const Eigen::Matrix2cd inverse = xhx.inverse();
   const Eigen::Vector2cd h = inverse * xht;
-  double residual = 0.0;
-  for (std::size_t j = j0; j < j1; ++j) {
-    const auto jj = static_cast<Eigen::Index>(j);
-    residual += std::norm(t_dft(jj) - p_dft(jj) * (h(0) + h(1) * ((static_cast<double>(j) * df - f_band) / df)));
-  }
+  const double residual = band_residual(p_dft, t_dft, j0, j1, f_band, df, h);
   return {h(0), residual / (static_cast<double>(j1 - j0) - 2.0) * std::abs(inverse(0, 0))};
 }
 
@@ -102,11 +109,7 @@ BandFit band_fit_remote(const Eigen::VectorXcd& p_dft, const Eigen::VectorXcd& t
   }
   const Eigen::Matrix2cd inverse = qhx.inverse();
   const Eigen::Vector2cd h = inverse * qht;
-  double residual = 0.0;
-  for (std::size_t j = j0; j < j1; ++j) {
-    const auto jj = static_cast<Eigen::Index>(j);
-    residual += std::norm(t_dft(jj) - p_dft(jj) * (h(0) + h(1) * ((static_cast<double>(j) * df - f_band) / df)));
-  }
+  const double residual = band_residual(p_dft, t_dft, j0, j1, f_band, df, h);
   const Eigen::Matrix2cd bread = inverse * qhq * inverse.adjoint();
   return {h(0), residual / (static_cast<double>(j1 - j0) - 2.0) * std::abs(bread(0, 0))};
 }

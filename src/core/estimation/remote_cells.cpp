@@ -61,16 +61,8 @@ JackknifeResult difference_jackknife(const std::vector<Cell>& cells, const std::
       leave_out.push_back(d);
     }
   }
-  JackknifeResult out;
-  out.sections = leave_out.size();
+  JackknifeResult out = jackknife_statistic(leave_out);
   out.frequency_groups = !by_section;
-  if (out.sections < 2) return out;
-  Vector9 mean = Vector9::Zero();
-  for (const Vector9& v : leave_out) mean += v;
-  mean /= static_cast<double>(out.sections);
-  out.covariance.setZero();
-  for (const Vector9& v : leave_out) out.covariance.noalias() += (v - mean) * (v - mean).transpose();
-  out.covariance *= static_cast<double>(out.sections - 1) / static_cast<double>(out.sections);
   return out;
 }
 

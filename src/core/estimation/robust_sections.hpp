@@ -130,6 +130,8 @@ JackknifeResult section_jackknife(const std::vector<Cell>& cells, const std::vec
 JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                           std::size_t groups, const Regression& regression);
 Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& jack);
+/// J = (G-1)/G sum (v_g - mean)(v_g - mean)^T of leave-one-group-out values of row-major vec(n).
+JackknifeResult jackknife_statistic(const std::vector<Eigen::Matrix<double, 9, 1>>& leave_out);
 
 /// Step 6 over the final weighted cells: the reported covariance of row-major vec(n) and its
 /// parts, and the window's quality figures.

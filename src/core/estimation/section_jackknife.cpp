@@ -9,8 +9,6 @@
 
 namespace magnetometer_insitu_calibration::detail::robust {
 
-namespace {
-
 /// J = (G-1)/G sum (v_g - mean)(v_g - mean)^T over the leave-one-group-out estimates.
 JackknifeResult jackknife_statistic(const std::vector<Eigen::Matrix<double, 9, 1>>& leave_out) {
   JackknifeResult out;
@@ -24,6 +22,8 @@ JackknifeResult jackknife_statistic(const std::vector<Eigen::Matrix<double, 9, 1
   out.covariance *= static_cast<double>(out.sections - 1) / static_cast<double>(out.sections);
   return out;
 }
+
+namespace {
 
 Eigen::Matrix<double, 9, 1> row_major(const Eigen::Matrix3d& n) {
   Eigen::Matrix<double, 9, 1> v;
