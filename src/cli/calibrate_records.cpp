@@ -3,11 +3,13 @@
 // instrument). Prints the table; --json writes the full report.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/formats/scalar_record.hpp"
+#include "magnetometer_insitu_calibration/formats/tolerance_file.hpp"
 
 #include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
 
@@ -73,6 +75,7 @@ void add_robust_options(CLI::App& app, mic::RobustSettings& robust) {
 struct Options {
   std::vector<std::string> reference_paths, test_paths, third_paths, remote_paths, scalar_paths;  // joined in time order
   std::string field_direction;  // "D,I" or "D,I,hdz", degrees
+  std::string tolerance_file;   // the user's tolerances (tolerance_file.hpp); "": INTERMAGNET's
   std::string json_path, band = "0.0002:0.01", method = "robust", eiv = "given";
   bool no_trend = false, no_despike = false;
   double reference_noise_pT = 0.0;
@@ -100,6 +103,9 @@ void add_input_options(CLI::App& app, Options& o, mic::CalibrationSettings& sett
   app.add_option("--field-direction", o.field_direction,
                  "the main field's declination and inclination at the station, degrees, D,I (reference x north) or "
                  "D,I,hdz (reference x along H): the scalar check's per-axis scales");
+  app.add_option("--tolerance-file", o.tolerance_file,
+                 "YAML with the tolerances of the summary's verdicts (scale_percent, nonorthogonality_deg, "
+                 "misalignment_deg; docs/programs.md); default INTERMAGNET's 1-second standard");
   auto* intervals = app.add_option("--intervals", settings.windows.intervals,
                                    "K equal intervals, then the whole record (the paper's layout)");
   auto* window = app.add_option("--window", settings.windows.window_s, "sliding window length, s");
@@ -200,6 +206,7 @@ void apply_options(const Options& o, mic::CalibrationSettings& settings) {
                                                      o.field_direction + "'");
     }
   }
+  if (!o.tolerance_file.empty()) window_settings.tolerances = mic::read_tolerance_file(o.tolerance_file);
   if (!o.third_paths.empty() && !estimator.robust.errors_in_variables) {
     throw mic::InputError("--third", "identifies the noise for --eiv given only (got --eiv " + o.eiv + ")");
   }
@@ -244,7 +251,8 @@ int main(int argc, char** argv) {
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings, sides);
     mic::ReportInputs inputs = bag->inputs(o.reference_paths, o.test_paths);
     inputs.remote = bag->from_bag() ? bag->remote_input() : joined(o.remote_paths);
-    std::cout << mic::format_calibration_table(result, inputs);
+    std::cout << mic::format_calibration_summary(result, settings.window.tolerances)
+              << mic::format_calibration_table(result, inputs);
     if (!o.json_path.empty()) {
       std::ofstream out(o.json_path);
       if (!out) throw mic::InputError(o.json_path, "cannot write the JSON report");

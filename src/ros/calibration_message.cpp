@@ -39,4 +39,19 @@ MagnetometerCalibration to_message(const CalibrationRecord& r) {
   return m;
 }
 
+void set_verdicts(MagnetometerCalibration& m, const std::vector<ToleranceVerdict>& verdicts) {
+  m.verdicts.clear();
+  for (const ToleranceVerdict& v : verdicts) {
+    ParameterVerdict out;  // the message (msg/ParameterVerdict.msg)
+    out.parameter = v.parameter;
+    out.value = v.value;
+    out.ci95 = v.ci95;
+    out.nominal = v.nominal;
+    out.tolerance = v.tolerance;
+    out.verdict = verdict_name(v.verdict);
+    out.record_needed_s = v.record_needed_s;
+    m.verdicts.push_back(out);
+  }
+}
+
 }  // namespace magnetometer_insitu_calibration

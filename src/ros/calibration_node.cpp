@@ -58,6 +58,7 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     }
     resume_from_file(ch);
     updater_.add(t.name, [this, i](DiagnosticStatusWrapper& status) { diagnose_channel(i, status); });
+    updater_.add(t.name + " tolerances", [this, i](DiagnosticStatusWrapper& status) { diagnose_tolerances(i, status); });
     ROS_INFO("%s: test '%s' on %s -> %s, file %s, temperature %s", node_name_.c_str(), t.name.c_str(),
              nh_.resolveName(t.topic).c_str(), nh_.resolveName(t.calibration_topic).c_str(), t.calibration_file.c_str(),
              t.temperature_topic.empty() ? "none" : nh_.resolveName(t.temperature_topic).c_str());

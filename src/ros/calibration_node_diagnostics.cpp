@@ -235,4 +235,19 @@ void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& sta
   }
 }
 
+void CalibrationNode::diagnose_tolerances(std::size_t index, DiagnosticStatusWrapper& status) {
+  Channel& ch = *channels_[index];
+  std::lock_guard<std::mutex> lock(ch.results_mutex);
+  status.summary(DiagnosticStatus::OK, "no window yet");
+  status.add("tolerances", settings_.window.tolerances.source);
+  if (!ch.last || ch.last->verdicts.empty()) return;
+  status.summary(DiagnosticStatus::OK, "within its tolerances");
+  for (const VerdictGroup& g : group_verdicts(ch.last->verdicts)) {
+    status.add(g.name + " (last window)", g.text);
+    if (g.worst == Verdict::kOutside) status.mergeSummary(DiagnosticStatus::ERROR, g.name + " outside its tolerance");
+    if (g.worst == Verdict::kUndecided) status.mergeSummary(DiagnosticStatus::WARN, g.name + " undecided");
+  }
+  status.add("intervals narrow (last window)", ch.last->narrowing.text);
+}
+
 }  // namespace magnetometer_insitu_calibration

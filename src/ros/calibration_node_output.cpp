@@ -23,7 +23,9 @@ MagnetometerCalibration CalibrationNode::calibration_message(const Job& job, con
   context.stamp = RecordTime{now.sec, now.nsec};
   context.sample_period_s = settings_.streams.estimation_period_s();
   context.estimator = settings_.window.estimator;
-  return to_message(make_calibration_record(result, context));
+  MagnetometerCalibration m = to_message(make_calibration_record(result, context));
+  set_verdicts(m, result.verdicts);
+  return m;
 }
 
 std::string CalibrationNode::publish_calibration(Channel& ch, const MagnetometerCalibration& m) {

@@ -4,6 +4,7 @@
 
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/tolerance_file.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
 #include <algorithm>
@@ -26,7 +27,7 @@ const std::vector<std::string> kKnownParameters = {
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
     "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike",
     "screen", "screen_threshold", "screen_baseline", "screen_margin", "section_length", "section_trend", "huber_k",
-    "section_rejection", "iterations", "remote_topic"};
+    "section_rejection", "iterations", "remote_topic", "tolerance_file"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -308,6 +309,12 @@ void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   s.change.false_alarm_probability = param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);
   s.change.scale_tolerance = param_double(p, "change_scale_tolerance", s.change.scale_tolerance);
   s.change.angle_tolerance_deg = param_double(p, "change_angle_tolerance", s.change.angle_tolerance_deg);
+  const std::string tolerance_file = param_string(p, "tolerance_file", "");
+  try {
+    if (!tolerance_file.empty()) s.window.tolerances = read_tolerance_file(tolerance_file);
+  } catch (const InputError& e) {
+    throw ParameterError("tolerance_file", e.what());
+  }
   s.silent_timeout_s = param_double(p, "silent_timeout", s.silent_timeout_s);
   require_positive("silent_timeout", s.silent_timeout_s, "s");
   s.time_jump_threshold_s = param_double(p, "time_jump_threshold", s.time_jump_threshold_s);

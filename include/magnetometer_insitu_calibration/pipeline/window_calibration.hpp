@@ -23,7 +23,9 @@
 //  4b. with a scalar magnetometer, the reference's scale along the field (scalar_window.hpp);
 //  5. the gap rule: a window with more than max_filled_fraction of its epochs interpolated or
 //     missing at its edges, or with a gap longer than max_fill_s, is flagged Quality::kGaps
-//     (the cause reported even when the shortened window also failed an estimator's rule).
+//     (the cause reported even when the shortened window also failed an estimator's rule);
+//  6. each parameter's verdict against the tolerances and, when one is undecided, how the
+//     intervals narrow with length, from the window's halves and quarters (tolerance_verdicts.hpp).
 // Units: nT, UNIX seconds, Hz; each instrument in its own frame.
 #pragma once
 
@@ -33,6 +35,7 @@
 #include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/pipeline/scalar_window.hpp"
+#include "magnetometer_insitu_calibration/pipeline/tolerance_verdicts.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
@@ -77,6 +80,8 @@ struct WindowCalibrationSettings {
   /// The main field's direction at the station (the observatory's D and I), for the scalar
   /// check's per-axis scales; none: not known.
   std::optional<FieldDirection> field_direction;
+  /// The yardstick of the verdicts (default: INTERMAGNET's 1-second standard).
+  Tolerances tolerances;
   GapSettings gaps;                   ///< max_fill_s: longest gap filled without flagging, s
   double max_filled_fraction = 0.05;  ///< of the window's expected epochs, [0, 1]
 
@@ -147,6 +152,10 @@ struct CalibrationWindow {
   /// Why the window's remote was not used before any estimate (its samples do not cover the
   /// window); "" otherwise (estimate.remote says the rest).
   std::string remote_refused;
+  /// Each parameter against its tolerance (step 6), and how the window's intervals narrow with
+  /// record length (measured only when a verdict is undecided; its text says why not otherwise).
+  std::vector<ToleranceVerdict> verdicts;
+  IntervalNarrowing narrowing;
   /// Temperature terms: fitted, or why not (text). When fitted, the estimate, the relative
   /// response and the offset are those of T with the terms removed, n at temperature.reference_C.
   TemperatureFit temperature;
@@ -192,8 +201,10 @@ class WindowCalibrator {
 
  private:
   struct Pass;
-  void estimate_pass(CalibrationWindow& w, const PairedRecord& paired, const Eigen::VectorXd& temperature_C,
-                     double period_s, const WindowInputs& inputs);
+  CalibrationParameters estimate_pass(CalibrationWindow& w, const PairedRecord& paired,
+                                      const Eigen::VectorXd& temperature_C, double period_s, const WindowInputs& inputs);
+  void decide_tolerances(CalibrationWindow& w, const PairedRecord& filled, double period_s, const WindowInputs& inputs,
+                         const CalibrationParameters& estimator_parameters);
   ReferenceNoiseModel noise_before_estimate(CalibrationWindow& w, const WindowRecords& window,
                                             const PairedRecord& filled);
 

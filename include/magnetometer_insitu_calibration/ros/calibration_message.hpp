@@ -4,6 +4,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/pipeline/calibration_record.hpp"
+#include "magnetometer_insitu_calibration/pipeline/tolerance_verdicts.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 
@@ -21,6 +22,9 @@ static_assert(static_cast<int>(Quality::kOk) == MagnetometerCalibration::QUALITY
 /// The message of a record (header.stamp = record.stamp, header.frame_id = record.frame_id).
 /// Throws std::out_of_range when a time does not fit ROS time (before 1970 or after 2106).
 MagnetometerCalibration to_message(const CalibrationRecord& record);
+
+/// The message's verdicts (beyond the record) from a window's.
+void set_verdicts(MagnetometerCalibration& message, const std::vector<ToleranceVerdict>& verdicts);
 
 /// A record time as ROS time; throws std::out_of_range naming `field` when it does not fit.
 ros::Time to_ros_time(const RecordTime& time, const char* field);

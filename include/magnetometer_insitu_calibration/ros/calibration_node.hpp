@@ -146,6 +146,8 @@ class CalibrationNode {
   using Problems = std::vector<std::pair<unsigned char, std::string>>;
   void diagnose_reference(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnose_channel(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// The last window's parameters against the tolerances: OK within, WARN undecided, ERROR outside.
+  void diagnose_tolerances(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status);
   /// The live stream: pairing, despiking, decimation, thermometer, windows queued and pending.
   void diagnose_stream(std::size_t channel, diagnostic_updater::DiagnosticStatusWrapper& status, Problems& problems);
   /// The worker's results (under the channel's results_mutex): windows, last estimate, resume,

@@ -5,6 +5,7 @@
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/estimation/temperature_terms.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
+#include "magnetometer_insitu_calibration/pipeline/tolerance_verdicts.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -124,6 +125,7 @@ void WindowCalibrationSettings::validate() const {
   if (!(gaps.max_fill_s >= 0.0) || !std::isfinite(gaps.max_fill_s)) throw InputError("max_fill", "must be a time >= 0 s");
   if (!(max_filled_fraction >= 0.0 && max_filled_fraction <= 1.0))
     throw InputError("max_filled_fraction", "must be in [0, 1]");
+  tolerances.validate();
 }
 
 Eigen::VectorXd temperature_on_grid(const TemperatureSamples& samples, const std::vector<double>& at, double max_gap_s) {
@@ -151,8 +153,9 @@ WindowCalibrator::WindowCalibrator(const WindowCalibrationSettings& settings)
 WindowCalibrator::~WindowCalibrator() = default;
 
 /// Step 3 with the given inputs: the estimate, the response model, the temperature terms and
-/// the relative response of the filled window.
-void WindowCalibrator::estimate_pass(CalibrationWindow& w, const PairedRecord& paired,
+/// the relative response of the filled window. Returns the estimator's own parameters of the
+/// window, before the response model and the temperature terms (the sub-windows' yardstick).
+CalibrationParameters WindowCalibrator::estimate_pass(CalibrationWindow& w, const PairedRecord& paired,
                                      const Eigen::VectorXd& temperature_C, double period_s,
                                      const WindowInputs& inputs) {
   const Readings& reference = paired.reference_nT;
@@ -162,6 +165,7 @@ void WindowCalibrator::estimate_pass(CalibrationWindow& w, const PairedRecord& p
     return estimator_.estimate(r, t, period, inputs);
   };
   w.estimate = estimator_.estimate(reference, test, period_s, inputs);
+  const CalibrationParameters estimator_parameters = w.estimate.parameters;
   // The bands' gains corrected for the reference noise n was corrected for.
   RelativeResponseSettings response = settings_.response;
   if (w.estimate.eiv == ErrorsInVariables::kApplied) response.reference_noise = inputs.reference_noise.spectrum;
@@ -191,6 +195,7 @@ void WindowCalibrator::estimate_pass(CalibrationWindow& w, const PairedRecord& p
   const double band_low = std::isfinite(w.estimate.band_low_hz) ? w.estimate.band_low_hz : 0.0;
   const double band_high = std::isfinite(w.estimate.band_high_hz) ? w.estimate.band_high_hz : 0.5 / period_s;
   w.response = summarise_response(w.relative_response, band_low, band_high);
+  return estimator_parameters;
 }
 
 /// Step 2 before any estimate: the maker's figure, or the hat with the window's third
@@ -255,7 +260,7 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
       w.remote_refused = "remote " + window.remote_name + " refused: " + refused;
     }
   }
-  estimate_pass(w, window.paired, temperature_C, period, inputs);
+  CalibrationParameters estimator_parameters = estimate_pass(w, window.paired, temperature_C, period, inputs);
   if (temperature_C.size() == 0) w.temperature.text = without_temperature;
   if (settings_.corrects_reference_noise() && settings_.pair_noise && !inputs.reference_noise.has_noise()) {
     // No figure and no hat: the reference's noise from the pair above the band, through the
@@ -272,7 +277,7 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
     if (!hat_text.empty()) w.reference_noise.text = hat_text + "; " + w.reference_noise.text;
     if (w.reference_noise.identified) {
       inputs.reference_noise = w.reference_noise.model(NoiseSource::kPairAboveBand, "");
-      estimate_pass(w, window.paired, temperature_C, period, inputs);
+      estimator_parameters = estimate_pass(w, window.paired, temperature_C, period, inputs);
       if (temperature_C.size() == 0) w.temperature.text = without_temperature;
     }
   }
@@ -287,7 +292,25 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
                             settings_.gaps, settings_.field_direction);
   }
   apply_gap_rule(w, settings_);
+  // Step 6.
+  decide_tolerances(w, window.paired, period, inputs, estimator_parameters);
   return w;
+}
+
+/// Step 6: the verdicts; the sub-windows are estimated only when one is undecided.
+void WindowCalibrator::decide_tolerances(CalibrationWindow& w, const PairedRecord& filled, double period_s,
+                                         const WindowInputs& inputs, const CalibrationParameters& estimator_parameters) {
+  const double length_s = static_cast<double>(w.expected_samples) * period_s;
+  w.verdicts = tolerance_verdicts(w.estimate.parameters, settings_.tolerances, length_s, w.narrowing);
+  const bool undecided = std::any_of(w.verdicts.begin(), w.verdicts.end(),
+                                     [](const ToleranceVerdict& v) { return v.verdict == Verdict::kUndecided; });
+  if (!undecided) return;
+  if (w.estimate.quality != Quality::kOk) {
+    w.narrowing.text = "not measured: the window is flagged (" + w.estimate.quality_text + ")";
+    return;
+  }
+  w.narrowing = measure_interval_narrowing(estimator_, filled, period_s, inputs, estimator_parameters);
+  w.verdicts = tolerance_verdicts(w.estimate.parameters, settings_.tolerances, length_s, w.narrowing);
 }
 
 }  // namespace magnetometer_insitu_calibration

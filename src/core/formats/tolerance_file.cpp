@@ -1,0 +1,70 @@
+// The tolerance file: see tolerance_file.hpp.
+#include "magnetometer_insitu_calibration/formats/tolerance_file.hpp"
+
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace magnetometer_insitu_calibration {
+
+namespace {
+
+/// One value (all three entries) or a list of three; each a positive finite number.
+Eigen::Vector3d three_values(const YAML::Node& node, const std::string& where) {
+  const auto number = [&](const YAML::Node& n) {
+    double v = 0.0;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      throw InputError(where, "expected a number, got '" + (n.IsScalar() ? n.Scalar() : std::string("a list or map")) + "'");
+    }
+    if (!(v > 0.0) || !std::isfinite(v)) throw InputError(where, "must be a positive finite tolerance, got " + n.Scalar());
+    return v;
+  };
+  if (node.IsScalar()) return Eigen::Vector3d::Constant(number(node));
+  if (!node.IsSequence() || node.size() != 3) throw InputError(where, "expected one number or a list of three");
+  return Eigen::Vector3d(number(node[0]), number(node[1]), number(node[2]));
+}
+
+}  // namespace
+
+Tolerances parse_tolerances(const std::string& text, const std::string& name) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(name + ":" + std::to_string(e.mark.line + 1), std::string("not YAML: ") + e.msg);
+  }
+  Tolerances t;
+  t.source = name;
+  if (root.IsNull()) return t;
+  if (!root.IsMap()) throw InputError(name, "expected keys scale_percent, nonorthogonality_deg, misalignment_deg");
+  for (const auto& entry : root) {
+    const std::string key = entry.first.as<std::string>();
+    const std::string where = name + ": " + key;
+    if (key == "scale_percent") {
+      t.scale = three_values(entry.second, where) / 100.0;
+    } else if (key == "nonorthogonality_deg") {
+      t.nonorthogonality_deg = three_values(entry.second, where);
+    } else if (key == "misalignment_deg") {
+      t.misalignment_deg = three_values(entry.second, where);
+    } else {
+      throw InputError(where, "unknown key (expected scale_percent, nonorthogonality_deg, misalignment_deg)");
+    }
+  }
+  return t;
+}
+
+Tolerances read_tolerance_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, "cannot open the tolerance file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_tolerances(text.str(), path);
+}
+
+}  // namespace magnetometer_insitu_calibration
