@@ -2,8 +2,11 @@
 // against known truth: a simulated quiet station whose reference reads its field with a scale
 // error (MC_REFERENCE_SCALE, 1.003: 0.3 % high along every axis), and an absolute scalar
 // magnetometer (scalar_magnetometer.hpp; 0.01 nT white) every `period` s, its stamps 0.37 s off
-// whole seconds. Per seed the default pipeline's whole-record window with the scalar: is the
-// reference's scale along the field inside its 95 % interval, and how far off.
+// whole seconds. Knobs for finding what limits the check: MC_SCALAR_WHITE (nT rms per sample,
+// 0.01), MC_SCALAR_OFFSET (s, 0.37), MC_REFERENCE_PINK (the reference's 1/f noise, nT/sqrt(Hz)
+// at 1 Hz, 0.005), MC_REFERENCE_WHITE (nT rms per sample, 0.01). Per seed the default
+// pipeline's whole-record window with the scalar: is the reference's scale along the field
+// inside its 95 % interval, and how far off.
 //
 //   monte_carlo_scalar [seeds=200] [days=1] [period_s=1] [first_seed=46000]
 //
@@ -56,10 +59,14 @@ int main(int argc, char** argv) {
     s.seed = first + static_cast<std::uint64_t>(i);
     s.duration_s = days * 86400.0;
     s.keep_clean_field = true;
+    s.reference_pink_nT_per_sqrt_hz = knob("MC_REFERENCE_PINK", s.reference_pink_nT_per_sqrt_hz);
+    s.reference_white_nT = knob("MC_REFERENCE_WHITE", s.reference_white_nT);
     mic::SimulatedPair pair = mic::simulate_pair(s);
     mic::ScalarMagnetometerSettings sm;
     sm.seed = s.seed + 500;
     sm.period_s = period;
+    sm.white_nT = knob("MC_SCALAR_WHITE", sm.white_nT);
+    sm.offset_s = knob("MC_SCALAR_OFFSET", sm.offset_s);
     const mic::ScalarRecord scalar = mic::simulate_scalar_magnetometer(pair, sm);
     // The reference reads k B; the test still reads B n: against this reference its matrix is n / k.
     pair.reference.values_nT *= k;

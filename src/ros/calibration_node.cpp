@@ -37,6 +37,12 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     remote_subscriber_ = nh_.subscribe(settings_.remote_topic, static_cast<std::uint32_t>(settings_.queue_size),
                                        &CalibrationNode::on_remote, this, hints);
   }
+  if (!settings_.scalar_topic.empty()) {
+    scalar_.topic = settings_.scalar_topic;
+    streams_->add_scalar(nh_.resolveName(settings_.scalar_topic));
+    scalar_subscriber_ = nh_.subscribe(settings_.scalar_topic, static_cast<std::uint32_t>(settings_.queue_size),
+                                       &CalibrationNode::on_scalar, this, hints);
+  }
   for (std::size_t i = 0; i < settings_.tests.size(); ++i) {
     const TestInstrumentSettings& t = settings_.tests[i];
     channels_.push_back(std::make_unique<Channel>(t));
@@ -72,9 +78,10 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
            streams.estimation_period_s(), streams.decimating() ? "low-passed and decimated" : "input rate",
            streams.despike ? ", despiked" : "", estimator.band_low_hz, estimator.band_high_hz,
            estimator.robust.auto_band ? " (auto band)" : "", estimator_method_name(estimator.method));
-  ROS_INFO("%s: errors in variables: %s; remote reference: %s", node_name_.c_str(),
+  ROS_INFO("%s: errors in variables: %s; remote reference: %s; scalar: %s", node_name_.c_str(),
            settings_.noise_model_state().c_str(),
-           settings_.remote_topic.empty() ? "none" : nh_.resolveName(settings_.remote_topic).c_str());
+           settings_.remote_topic.empty() ? "none" : nh_.resolveName(settings_.remote_topic).c_str(),
+           settings_.scalar_topic.empty() ? "none" : nh_.resolveName(settings_.scalar_topic).c_str());
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });
   worker_ = std::thread([this] { run_worker(); });
@@ -128,6 +135,13 @@ void CalibrationNode::on_remote(const sensor_msgs::MagneticField::ConstPtr& mess
     ROS_WARN("%s: remote stamps went backwards to %s", node_name_.c_str(), time_for_message(t).c_str());
   }
   streams_->push_remote(t, nanotesla(*message));
+}
+
+/// F (tesla on the topic) into the streams at its own stamp; a stamp not after the last is refused.
+void CalibrationNode::on_scalar(const ScalarField::ConstPtr& message) {
+  const double t = message->header.stamp.toSec();
+  scalar_.observe(t, ros::Time::now().toSec(), message->header.frame_id, settings_.time_jump_threshold_s);
+  streams_->push_scalar(t, calibration_node_detail::kNanoteslaPerTesla * message->field);
 }
 
 void CalibrationNode::on_temperature(std::size_t index, const sensor_msgs::Temperature::ConstPtr& message) {

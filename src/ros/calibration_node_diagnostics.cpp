@@ -109,6 +109,14 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
     status.mergeSummary(DiagnosticStatus::WARN, silence_problem(reference_, "reference", silence));
   }
+  if (const LiveScalarStream* f = streams_->scalar()) {  // the scalar magnetometer's stream
+    status.add("scalar topic", nh_.resolveName(scalar_.topic));
+    const double scalar_silence = add_stream_keys(scalar_, "scalar ", now, started_s_, status);
+    status.add("scalar refused (stamp not after the last)", f->refused);
+    if (started_s_ > 0.0 && scalar_silence > settings_.silent_timeout_s) {
+      status.mergeSummary(DiagnosticStatus::WARN, silence_problem(scalar_, "scalar", scalar_silence));
+    }
+  }
   if (remote_.topic.empty()) return;  // the remote observatory's stream beside the reference's
   status.add("remote topic", nh_.resolveName(remote_.topic));
   const double remote_silence = add_stream_keys(remote_, "remote ", now, started_s_, status);

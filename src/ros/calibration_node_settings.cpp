@@ -27,7 +27,7 @@ const std::vector<std::string> kKnownParameters = {
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
     "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike",
     "screen", "screen_threshold", "screen_baseline", "screen_margin", "section_length", "section_trend", "huber_k",
-    "section_rejection", "iterations", "remote_topic", "tolerance_file"};
+    "section_rejection", "iterations", "remote_topic", "scalar_topic", "tolerance_file"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -169,12 +169,15 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     }
   }
 
-  // A remote observatory (any frame): never one of the pair's or the calibrations' topics.
+  // A remote observatory (any frame) and a scalar magnetometer: never one of the pair's or the
+  // calibrations' topics, nor each other's.
   s.remote_topic = param_string(p, "remote_topic", "");
-  if (!s.remote_topic.empty()) {
-    require_topic_name("remote_topic", s.remote_topic);
-    if (topics.count(s.remote_topic) != 0 || outputs.count(s.remote_topic) != 0) {
-      throw ParameterError("remote_topic", "'" + s.remote_topic + "' is the reference, a test or a calibration topic");
+  s.scalar_topic = param_string(p, "scalar_topic", "");
+  for (const auto& [name, topic] : {std::make_pair("remote_topic", s.remote_topic), std::make_pair("scalar_topic", s.scalar_topic)}) {
+    if (topic.empty()) continue;
+    require_topic_name(name, topic);
+    if (topics.count(topic) != 0 || outputs.count(topic) != 0 || (topic == s.remote_topic && topic == s.scalar_topic)) {
+      throw ParameterError(name, "'" + topic + "' is the reference, a test, a calibration, the remote or the scalar topic");
     }
   }
   load_streams(p, s);

@@ -6,10 +6,12 @@
 // the test stream in "test_frame".
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+#include <magnetometer_insitu_calibration/ScalarField.h>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
@@ -106,6 +108,19 @@ class Harness {
   const mic::HutTemperatureSettings& hut() const { return hut_; }
   std::size_t temperature_subscribers() const { return temperature_pub_.getNumSubscribers(); }
 
+  /// The reference reads `scale` times the field along every axis (a scale error). Call before
+  /// publishing.
+  void scale_reference(double scale) { pair_.reference.values_nT *= scale; }
+
+  /// publish() also sends an absolute scalar magnetometer's F (nT, at its own times; ScalarField
+  /// in tesla, variance 0 = unknown) on `topic`: before each pair sample, F's samples stamped up
+  /// to one period after it, so that a window's F is in when its last pair completes it.
+  void add_scalar(const std::string& topic, const mic::ScalarRecord& scalar) {
+    scalar_ = scalar;
+    scalar_pub_ = nh_.advertise<mic::ScalarField>(topic, 100000);
+  }
+  std::size_t scalar_subscribers() const { return scalar_pub_.getNumSubscribers(); }
+
   /// Records MagnetometerCalibration messages of another topic (see calibrations_of()).
   void subscribe_calibration(const std::string& topic) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -159,6 +174,13 @@ class Harness {
       clock.clock = ros::Time().fromSec(clock_s);
       clock_pub_.publish(clock);
       const ros::Time stamp = ros::Time().fromSec(clock_s + stamp_offset_s);
+      for (; next_scalar_ < scalar_.size() && scalar_.time_s[next_scalar_] <= stamp.toSec() + settings_.sample_period_s; ++next_scalar_) {
+        mic::ScalarField f;
+        f.header.stamp = ros::Time().fromSec(scalar_.time_s[next_scalar_]);
+        f.header.frame_id = "scalar_frame";
+        f.field = scalar_.value_nT[next_scalar_] * kTeslaPerNanotesla;
+        scalar_pub_.publish(f);
+      }
       if (reference) reference_pub_.publish(field_message(stamp, "reference_frame", pair_.reference.values_nT.row(k), Eigen::Vector3d::Constant(0.01)));
       if (test && !temperature_C_.empty()) {
         sensor_msgs::Temperature t;
@@ -324,7 +346,9 @@ class Harness {
   mic::SimulatedPair pair_;
   ros::AsyncSpinner spinner_;
   std::string reference_topic_, test_topic_, calibration_topic_;
-  ros::Publisher clock_pub_, reference_pub_, test_pub_, temperature_pub_;
+  ros::Publisher clock_pub_, reference_pub_, test_pub_, temperature_pub_, scalar_pub_;
+  mic::ScalarRecord scalar_;     ///< published with the pair (empty: none)
+  std::size_t next_scalar_ = 0;  ///< its first sample not yet published
   mic::HutTemperatureSettings hut_;
   std::vector<double> temperature_C_;  ///< thermometer reading per sample, deg C (empty: none published)
   ros::Subscriber calibration_sub_, diagnostics_sub_;

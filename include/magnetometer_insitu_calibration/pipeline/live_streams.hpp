@@ -16,9 +16,14 @@
 // A remote observatory's stream (optional) goes the test's way, paired with the reference and
 // decimated like a test (as calibrate_records prepares --remote against the reference), into a
 // buffer from which every completed window takes the remote's samples of its epochs.
+// An absolute scalar magnetometer's stream (optional) is kept at its own times (F is neither
+// despiked, paired nor decimated: calibrate_records gives every window its --scalar record as
+// read); every completed window takes the samples within kScalarMargin_s of its ends (the
+// scalar check, pipeline/scalar_window.hpp, looks 60 s beyond them).
 // Units: nT and UNIX seconds; each instrument in its own frame.
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
@@ -92,6 +97,26 @@ struct LiveRemoteStream {
   std::shared_ptr<VectorRecord> copy(double low_s, double high_s) const;
 };
 
+/// An absolute scalar magnetometer's part of the streams: F (nT) at its own times, kept while the
+/// windows still to complete need it.
+struct LiveScalarStream {
+  explicit LiveScalarStream(const std::string& name) : name(name) {}
+
+  static constexpr double kMargin_s = 120.0;  ///< kept and copied beyond a window's ends, s
+  std::string name;      ///< names the scalar in texts (its topic)
+  std::deque<std::pair<double, double>> samples;  ///< (UNIX s, F nT), stamps strictly increasing
+  std::size_t received = 0;
+  std::size_t refused = 0;  ///< samples not after the last one, or with a non-finite stamp
+
+  /// Appends a sample; false (counted in `refused`) when its stamp is not finite or not after the
+  /// last one's. A non-finite F is kept: a gap, as in a record.
+  bool push(double time_s, double value_nT);
+  /// Its samples within [low_s, high_s], as a window's scalar record.
+  std::shared_ptr<ScalarRecord> copy(double low_s, double high_s) const;
+  /// Drops the samples before time_s.
+  void drop_before(double time_s);
+};
+
 class LiveCalibrationStreams {
  public:
   /// `tests`: names and whether each has a thermometer; `coincident`: release each window with
@@ -116,6 +141,12 @@ class LiveCalibrationStreams {
   void push_remote(double time_s, const Eigen::Vector3d& value_nT);
   /// The remote's part, null without one.
   const LiveRemoteStream* remote() const { return remote_.get(); }
+  /// An absolute scalar magnetometer's stream, named `name` in texts; call once, before any sample.
+  void add_scalar(const std::string& name);
+  /// A scalar sample (F, nT, at its own time); false when refused (LiveScalarStream::push).
+  bool push_scalar(double time_s, double value_nT);
+  /// The scalar's part, null without one.
+  const LiveScalarStream* scalar() const { return scalar_.get(); }
   /// Restarts a test's pairing, decimation and windows (its stamps went back).
   void restart(std::size_t test);
   /// Restarts everything (the reference's stamps went back).
@@ -137,6 +168,7 @@ class LiveCalibrationStreams {
   std::vector<std::unique_ptr<LiveTestStream>> tests_;
   std::unique_ptr<CoincidentWindows> coincident_;
   std::unique_ptr<LiveRemoteStream> remote_;
+  std::unique_ptr<LiveScalarStream> scalar_;
 };
 
 }  // namespace magnetometer_insitu_calibration

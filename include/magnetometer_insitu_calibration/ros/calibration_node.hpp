@@ -39,6 +39,7 @@
 #include "magnetometer_insitu_calibration/pipeline/window_calibration.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
+#include <magnetometer_insitu_calibration/ScalarField.h>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <ros/ros.h>
@@ -75,6 +76,9 @@ struct CalibrationNodeSettings {
   /// A remote observatory's sensor_msgs/MagneticField (any frame), the instruments of every
   /// window's remote-reference estimate; "" = none.
   std::string remote_topic;
+  /// An absolute scalar magnetometer's ScalarField (F), the check of the reference's scale along
+  /// the main field in every window (pipeline/scalar_window.hpp); "" = none.
+  std::string scalar_topic;
   /// Periods and decimation (s), pairing, window and step (s), despiking, the thermometer margin.
   LiveStreamSettings streams;
   /// The per-window stage: estimator, reference noise, response model, temperature, gap rule.
@@ -128,6 +132,7 @@ class CalibrationNode {
   void on_test(std::size_t channel, const sensor_msgs::MagneticField::ConstPtr& message);
   void on_temperature(std::size_t channel, const sensor_msgs::Temperature::ConstPtr& message);
   void on_remote(const sensor_msgs::MagneticField::ConstPtr& message);
+  void on_scalar(const ScalarField::ConstPtr& message);
   // Windows (calibration_node_windows.cpp): enqueue on the callback thread, the rest on the worker.
   void enqueue(std::vector<LiveCalibrationStreams::Completed> windows);
   void run_worker();
@@ -157,8 +162,8 @@ class CalibrationNode {
   ros::NodeHandle nh_, private_nh_;
   CalibrationNodeSettings settings_;
   std::string node_name_;
-  StreamMonitor reference_, remote_;
-  ros::Subscriber reference_subscriber_, remote_subscriber_;
+  StreamMonitor reference_, remote_, scalar_;
+  ros::Subscriber reference_subscriber_, remote_subscriber_, scalar_subscriber_;
   std::vector<std::unique_ptr<Channel>> channels_;
   std::unique_ptr<LiveCalibrationStreams> streams_;  ///< callback thread
   diagnostic_updater::Updater updater_;

@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -57,6 +58,31 @@ std::shared_ptr<VectorRecord> LiveRemoteStream::copy(double low_s, double high_s
   return out;
 }
 
+bool LiveScalarStream::push(double time_s, double value_nT) {
+  ++received;
+  if (!std::isfinite(time_s) || (!samples.empty() && !(time_s > samples.back().first))) {
+    ++refused;
+    return false;
+  }
+  samples.emplace_back(time_s, value_nT);
+  return true;
+}
+
+std::shared_ptr<ScalarRecord> LiveScalarStream::copy(double low_s, double high_s) const {
+  auto out = std::make_shared<ScalarRecord>();
+  for (const auto& [time, value] : samples) {
+    if (time < low_s || time > high_s) continue;
+    out->time_s.push_back(time);
+    out->value_nT.push_back(value);
+  }
+  out->source = name;
+  return out;
+}
+
+void LiveScalarStream::drop_before(double time_s) {
+  while (!samples.empty() && samples.front().first < time_s) samples.pop_front();
+}
+
 PairingCounters LiveTestStream::counters() const {
   PairingCounters total = counters_before_reset;
   add_counters(total, pairer.counters());
@@ -88,6 +114,20 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
 
 void LiveCalibrationStreams::add_remote(const std::string& name) {
   remote_ = std::make_unique<LiveRemoteStream>(name, settings_);
+}
+
+void LiveCalibrationStreams::add_scalar(const std::string& name) { scalar_ = std::make_unique<LiveScalarStream>(name); }
+
+bool LiveCalibrationStreams::push_scalar(double time_s, double value_nT) {
+  if (!scalar_ || !scalar_->push(time_s, value_nT)) return false;
+  // Samples before every test's next window (less the margin) are no longer needed; bounded
+  // whatever the tests do: at most two windows' span behind the newest sample.
+  double needed = time_s - 2.0 * settings_.window_s;
+  double next = std::numeric_limits<double>::infinity();
+  for (const auto& t : tests_) next = std::min(next, t->windows.next_start_s() - t->windows.period_s());
+  if (std::isfinite(next)) needed = std::max(needed, next - LiveScalarStream::kMargin_s);
+  scalar_->drop_before(needed);
+  return true;
 }
 
 void LiveCalibrationStreams::push_remote(double time_s, const Eigen::Vector3d& value_nT) {
@@ -185,6 +225,9 @@ void LiveCalibrationStreams::window_done(std::size_t test, WindowRecords&& windo
     window.remote = remote_->copy(window.start_s - 0.5 * window.period_s, window.end_s() + 0.5 * window.period_s);
     window.remote_name = remote_->name;
   }
+  if (scalar_) {
+    window.scalar = scalar_->copy(window.start_s - LiveScalarStream::kMargin_s, window.end_s() + LiveScalarStream::kMargin_s);
+  }
   if (!coincident_) {
     out.push_back(Completed{test, std::move(window), 0});
     return;
@@ -223,6 +266,7 @@ void LiveCalibrationStreams::restart_all() {
     remote_->samples.clear();
     remote_->any_pair = false;
   }
+  if (scalar_) scalar_->samples.clear();
   for (std::size_t i = 0; i < tests_.size(); ++i) restart(i);
 }
 

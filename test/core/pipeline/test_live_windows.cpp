@@ -1,17 +1,20 @@
 // The live side of calibration without ROS (pipeline/live_windows.hpp, live_streams.hpp,
 // preprocessing/streaming_despike.hpp): the sliding window, the stream monitor, the thermometer
 // buffer, the coincident windows of several tests, the streaming despiker against the batch one,
-// and the live streams against the offline preparation of the same samples.
+// and the live streams against the offline preparation of the same samples (a remote's and a
+// scalar magnetometer's too).
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/streaming_despike.hpp"
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
+#include "magnetometer_insitu_calibration/simulation/scalar_magnetometer.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -331,5 +334,62 @@ TEST(LiveCalibrationStreams, ARemoteStreamGivesTheWindowsTheOfflineRemote) {
     const mic::CalibrationWindow o = calibrator.calibrate(offline);
     EXPECT_TRUE(l.estimate.remote.used) << l.estimate.remote.text;
     EXPECT_EQ(l.estimate.n, o.estimate.n) << w.start_s;
+  }
+}
+
+TEST(LiveCalibrationStreams, AScalarStreamGivesTheWindowsTheOfflineScalarCheck) {
+  // The pair (its reference reading 0.3 % high along every axis) and a scalar magnetometer every
+  // second, 0.37 s off the pair's stamps, pushed sample by sample: every completed window carries
+  // the scalar's samples around it, the per-window stage gives it the scalar check that
+  // calibrate_records gives the same window from the whole scalar record, and that check finds
+  // the reference's scale 1.003 within its interval.
+  constexpr double kScale = 1.003;
+  mic::SimulationSettings s;
+  s.seed = 29;
+  s.duration_s = 5.0 * 3600.0 + 60.0;
+  s.start_time_s = 1747180800.0;
+  mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::ScalarMagnetometerSettings sm;
+  sm.seed = 31;
+  const mic::ScalarRecord scalar = mic::simulate_scalar_magnetometer(pair, sm);
+  pair.reference.values_nT *= kScale;
+  mic::LiveStreamSettings live;
+  live.window_s = 3.0 * 3600.0;
+  live.step_s = 3600.0;
+  mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
+  streams.add_scalar("/scalar/field");
+  std::vector<mic::WindowRecords> windows;
+  std::size_t next_scalar = 0;
+  for (std::size_t i = 0; i < pair.reference.size(); ++i) {
+    const auto row = [i](const mic::VectorRecord& r) { return Eigen::Vector3d(r.values_nT.row(static_cast<Eigen::Index>(i)).transpose()); };
+    // F as it arrives: every sample stamped up to the pair's (a scalar lagging the pair would
+    // miss a window's last samples).
+    for (; next_scalar < scalar.size() && scalar.time_s[next_scalar] <= pair.reference.time_s[i] + 1.0; ++next_scalar) {
+      ASSERT_TRUE(streams.push_scalar(scalar.time_s[next_scalar], scalar.value_nT[next_scalar]));
+    }
+    for (auto& c : streams.push_reference(pair.reference.time_s[i], row(pair.reference))) windows.push_back(std::move(c.window));
+    for (auto& c : streams.push_test(0, pair.test.time_s[i], row(pair.test))) windows.push_back(std::move(c.window));
+  }
+  EXPECT_FALSE(streams.push_scalar(scalar.time_s[10], 50000.0));  // a stamp gone back: refused
+  EXPECT_EQ(streams.scalar()->refused, 1u);
+  // Kept: what the next window (from 3 h) needs, its margin included, not the whole 5 h.
+  EXPECT_LT(streams.scalar()->samples.size(), static_cast<std::size_t>(2.0 * 3600.0 + 300.0));
+  ASSERT_EQ(windows.size(), 3u);
+  mic::CalibrationSettings settings;
+  const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
+  const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, nullptr, &scalar}, settings);
+  mic::WindowCalibrator calibrator{settings.window};
+  for (const mic::WindowRecords& w : windows) {
+    ASSERT_TRUE(w.scalar) << w.start_s;
+    ASSERT_GT(w.scalar->size(), static_cast<std::size_t>(live.window_s)) << w.start_s;
+    EXPECT_LE(w.scalar->time_s.front(), std::max(w.start_s - 60.0, scalar.time_s.front()));
+    EXPECT_GT(w.scalar->time_s.back(), w.end_s());  // what had arrived when the window completed
+    const std::size_t first = static_cast<std::size_t>(std::llround(w.start_s - prepared.paired.time_s[0]));
+    const mic::CalibrationWindow l = calibrator.calibrate(w);
+    const mic::CalibrationWindow o = calibrator.calibrate(mic::window_records(prepared, first, w.expected_samples, 60.0, &sides));
+    ASSERT_TRUE(l.scalar.assessed) << l.scalar.text;
+    EXPECT_EQ(l.scalar.reference_scale, o.scalar.reference_scale) << w.start_s;
+    EXPECT_EQ(l.scalar.reference_scale_ci95, o.scalar.reference_scale_ci95) << w.start_s;
+    EXPECT_NEAR(l.scalar.reference_scale, kScale, l.scalar.reference_scale_ci95) << l.scalar.text;
   }
 }
