@@ -134,7 +134,7 @@ void CalibrationNode::on_remote(const sensor_msgs::MagneticField::ConstPtr& mess
       StreamMonitor::Jump::kBackward) {
     ROS_WARN("%s: remote stamps went backwards to %s", node_name_.c_str(), time_for_message(t).c_str());
   }
-  streams_->push_remote(t, nanotesla(*message));
+  enqueue(streams_->push_remote(t, nanotesla(*message)));  // the windows that waited for it
 }
 
 /// F (tesla on the topic) into the streams at its own stamp; a stamp not after the last is refused.

@@ -4,7 +4,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
-#include "magnetometer_insitu_calibration/ros/bag_records.hpp"
+#include "bag_records.hpp"  // src/tools
 
 #include <cmath>
 #include <iostream>

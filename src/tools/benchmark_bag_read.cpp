@@ -14,7 +14,7 @@
 //
 //   benchmark_bag_read [--bag existing.bag] [--keep path.bag] [--repeat 5] [--compression none]
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
-#include "magnetometer_insitu_calibration/ros/bag_records.hpp"
+#include "bag_records.hpp"  // src/tools
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <CLI/CLI.hpp>

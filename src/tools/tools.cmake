@@ -16,7 +16,7 @@ target_include_directories(${PROJECT_NAME}_archive PUBLIC include src/tools)
 target_link_libraries(${PROJECT_NAME}_archive PUBLIC ${PROJECT_NAME}_core)
 target_compile_options(${PROJECT_NAME}_archive PRIVATE -Wall -Wextra)
 
-add_library(${PROJECT_NAME}_bag src/ros/bag_records.cpp src/tools/bag_input.cpp)
+add_library(${PROJECT_NAME}_bag src/tools/bag_records.cpp src/tools/bag_input.cpp)
 target_include_directories(${PROJECT_NAME}_bag PUBLIC include src/tools ${catkin_INCLUDE_DIRS})
 target_link_libraries(${PROJECT_NAME}_bag PUBLIC ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_compile_options(${PROJECT_NAME}_bag PRIVATE -Wall -Wextra)

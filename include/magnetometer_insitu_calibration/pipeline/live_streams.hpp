@@ -33,6 +33,7 @@
 
 #include <cstddef>
 #include <deque>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -137,8 +138,11 @@ class LiveCalibrationStreams {
   void push_temperature(std::size_t test, double time_s, double value_C);
   /// A remote observatory's stream, named `name` in texts; call once, before any sample.
   void add_remote(const std::string& name);
-  /// A remote sample (its own frame, nT).
-  void push_remote(double time_s, const Eigen::Vector3d& value_nT);
+  /// A remote sample (its own frame, nT); returns the windows that waited for it. A window the
+  /// pair completes waits until the remote's samples reach its end, or until the pair is
+  /// pairing_max_wait_s (stamp time) past it: a remote that arrives a little after the pair
+  /// fills the window as the offline --remote does, a late or silent one delays it no longer.
+  std::vector<Completed> push_remote(double time_s, const Eigen::Vector3d& value_nT);
   /// The remote's part, null without one.
   const LiveRemoteStream* remote() const { return remote_.get(); }
   /// An absolute scalar magnetometer's stream, named `name` in texts; call once, before any sample.
@@ -162,6 +166,16 @@ class LiveCalibrationStreams {
   void drain(std::size_t test, std::vector<Completed>& out);
   void drain_remote();
   void window_done(std::size_t test, WindowRecords&& window, std::vector<Completed>& out);
+  void release_waiting(std::vector<Completed>& out);
+  void finish_window(std::size_t test, WindowRecords&& window, std::vector<Completed>& out);
+
+  /// Windows completed by the pair, waiting for the remote (push_remote).
+  struct Waiting {
+    std::size_t test = 0;
+    WindowRecords window;
+  };
+  std::deque<Waiting> waiting_remote_;
+  double newest_pair_s_ = -std::numeric_limits<double>::infinity();  ///< the newest stamp of the pair, s
 
   LiveStreamSettings settings_;
   StreamingDespiker reference_despiker_;

@@ -105,10 +105,12 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
     remote_->pairer.push_reference(s.time_s, s.value_nT);
     drain_remote();
   }
+  newest_pair_s_ = std::max(newest_pair_s_, s.time_s);
   for (std::size_t i = 0; i < tests_.size(); ++i) {
     tests_[i]->pairer.push_reference(s.time_s, s.value_nT);
     drain(i, out);
   }
+  release_waiting(out);
   return out;
 }
 
@@ -130,13 +132,30 @@ bool LiveCalibrationStreams::push_scalar(double time_s, double value_nT) {
   return true;
 }
 
-void LiveCalibrationStreams::push_remote(double time_s, const Eigen::Vector3d& value_nT) {
-  if (!remote_) return;
+std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_remote(double time_s,
+                                                                                  const Eigen::Vector3d& value_nT) {
+  std::vector<Completed> out;
+  if (!remote_) return out;
   ++remote_->received;
   StreamingDespiker::Sample s{time_s, value_nT};
-  if (settings_.despike && !remote_->despiker.push(time_s, value_nT, s)) return;
+  if (settings_.despike && !remote_->despiker.push(time_s, value_nT, s)) return out;
   remote_->pairer.push_test(s.time_s, s.value_nT);
   drain_remote();
+  release_waiting(out);
+  return out;
+}
+
+/// The waiting windows whose end the remote has reached, or that the pair has left
+/// pairing_max_wait_s behind, in the order they completed.
+void LiveCalibrationStreams::release_waiting(std::vector<Completed>& out) {
+  while (!waiting_remote_.empty()) {
+    const WindowRecords& w = waiting_remote_.front().window;
+    const bool reached = !remote_->samples.empty() && remote_->samples.back().first >= w.end_s() - 0.25 * w.period_s;
+    if (!reached && !(newest_pair_s_ - w.end_s() > settings_.pairing_max_wait_s)) return;
+    Waiting waiting = std::move(waiting_remote_.front());
+    waiting_remote_.pop_front();
+    finish_window(waiting.test, std::move(waiting.window), out);
+  }
 }
 
 /// The remote's pairs with the reference, decimated like a test's, into its buffer; samples
@@ -168,6 +187,7 @@ void LiveCalibrationStreams::drain_remote() {
   for (const auto& t : tests_) needed = std::min(needed, t->windows.next_start_s() - 2.0 * t->windows.period_s());
   // Bounded whatever the tests do: at most two windows' span behind the newest sample.
   if (!r.samples.empty()) needed = std::max(needed, r.samples.back().first - 2.0 * settings_.window_s);
+  for (const Waiting& w : waiting_remote_) needed = std::min(needed, w.window.start_s - w.window.period_s);
   while (!r.samples.empty() && r.samples.front().first < needed) r.samples.pop_front();
 }
 
@@ -177,8 +197,10 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_test
   LiveTestStream& t = *tests_.at(test);
   StreamingDespiker::Sample s{time_s, value_nT};
   if (settings_.despike && !t.despiker.push(time_s, value_nT, s)) return out;
+  newest_pair_s_ = std::max(newest_pair_s_, s.time_s);
   t.pairer.push_test(s.time_s, s.value_nT);
   drain(test, out);
+  if (remote_) release_waiting(out);
   return out;
 }
 
@@ -221,6 +243,15 @@ void LiveCalibrationStreams::drain(std::size_t test, std::vector<Completed>& out
 }
 
 void LiveCalibrationStreams::window_done(std::size_t test, WindowRecords&& window, std::vector<Completed>& out) {
+  if (remote_) {  // its remote samples when they reach the window's end (release_waiting)
+    waiting_remote_.push_back(Waiting{test, std::move(window)});
+    return;
+  }
+  finish_window(test, std::move(window), out);
+}
+
+/// The window with its remote and scalar samples, to the per-window stage (or to its mate).
+void LiveCalibrationStreams::finish_window(std::size_t test, WindowRecords&& window, std::vector<Completed>& out) {
   if (remote_) {
     window.remote = remote_->copy(window.start_s - 0.5 * window.period_s, window.end_s() + 0.5 * window.period_s);
     window.remote_name = remote_->name;
@@ -248,6 +279,9 @@ void LiveCalibrationStreams::restart(std::size_t test) {
     t.test_decimator->reset();
   }
   t.windows.reset();
+  waiting_remote_.erase(std::remove_if(waiting_remote_.begin(), waiting_remote_.end(),
+                                       [test](const Waiting& w) { return w.test == test; }),
+                        waiting_remote_.end());
   if (coincident_) coincident_->reset(test);
   t.thermometer.reset();
   t.any_pair = false;
@@ -267,6 +301,7 @@ void LiveCalibrationStreams::restart_all() {
     remote_->any_pair = false;
   }
   if (scalar_) scalar_->samples.clear();
+  newest_pair_s_ = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < tests_.size(); ++i) restart(i);
 }
 

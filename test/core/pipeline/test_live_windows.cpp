@@ -337,6 +337,64 @@ TEST(LiveCalibrationStreams, ARemoteStreamGivesTheWindowsTheOfflineRemote) {
   }
 }
 
+TEST(LiveCalibrationStreams, AWindowWaitsForALateRemoteAndNotForASilentOne) {
+  // The remote's samples arrive two minutes (stamp time) after the pair's: each window waits for
+  // them and carries exactly the offline remote. A remote that never speaks holds a window
+  // only until the pair is pairing_max_wait_s past its end.
+  mic::SimulationSettings s;
+  s.seed = 29;
+  s.duration_s = 3.0 * 3600.0;
+  s.start_time_s = 1747180800.0;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  const mic::VectorRecord remote = mic::simulate_remote_observatory(s, pair, mic::RemoteObservatorySettings{});
+  mic::LiveStreamSettings live;
+  live.window_s = 3600.0;
+  live.step_s = 1800.0;
+  const std::size_t lag = 120;  // samples = s
+  const auto row = [](const mic::VectorRecord& r, std::size_t i) {
+    return Eigen::Vector3d(r.values_nT.row(static_cast<Eigen::Index>(i)).transpose());
+  };
+  for (bool silent : {false, true}) {
+    mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
+    streams.add_remote("/remote/magnetic_field");
+    std::vector<mic::WindowRecords> windows;
+    std::vector<double> released_at;  // the pair's newest stamp when each window came out
+    const auto take = [&](std::vector<mic::LiveCalibrationStreams::Completed> done, double now) {
+      for (auto& c : done) {
+        windows.push_back(std::move(c.window));
+        released_at.push_back(now);
+      }
+    };
+    for (std::size_t i = 0; i < pair.reference.size(); ++i) {
+      const double now = pair.reference.time_s[i];
+      take(streams.push_reference(now, row(pair.reference, i)), now);
+      take(streams.push_test(0, now, row(pair.test, i)), now);
+      if (!silent && i >= lag) take(streams.push_remote(remote.time_s[i - lag], row(remote, i - lag)), now);
+    }
+    mic::CalibrationSettings settings;
+    const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
+    const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);
+    if (!silent) {
+      ASSERT_EQ(windows.size(), 4u);
+      for (const mic::WindowRecords& w : windows) {
+        ASSERT_TRUE(w.remote) << w.start_s;
+        const std::size_t first = static_cast<std::size_t>(std::llround(w.start_s - prepared.paired.time_s[0]));
+        const mic::WindowRecords offline = mic::window_records(prepared, first, w.expected_samples, 60.0, &sides);
+        EXPECT_EQ(w.remote->time_s, offline.remote->time_s) << w.start_s;
+        EXPECT_TRUE(same_values(w.remote->values_nT, offline.remote->values_nT)) << w.start_s;
+      }
+    } else {
+      // The same four windows, each once the pair is 600 s past its end, without a remote.
+      ASSERT_EQ(windows.size(), 4u);
+      for (std::size_t k = 0; k < windows.size(); ++k) {
+        EXPECT_GT(released_at[k] - windows[k].end_s(), live.pairing_max_wait_s) << k;
+        EXPECT_LE(released_at[k] - windows[k].end_s(), live.pairing_max_wait_s + 60.0) << k;
+        EXPECT_TRUE(!windows[k].remote || windows[k].remote->time_s.empty()) << k;
+      }
+    }
+  }
+}
+
 TEST(LiveCalibrationStreams, AScalarStreamGivesTheWindowsTheOfflineScalarCheck) {
   // The pair (its reference reading 0.3 % high along every axis) and a scalar magnetometer every
   // second, 0.37 s off the pair's stamps, pushed sample by sample: every completed window carries
