@@ -5,8 +5,9 @@
 #
 #   bash scripts/build.sh && bash scripts/make_figures.sh
 #
-# Figure: docs/figures/wic20250514_relative_response.png, the FGE's response relative to the
-# LEMI-036 on the whole WIC day of 2025-05-14 with its gains as recorded (--no-pair-noise).
+# Figure: docs/figures/wic20250514_relative_response.png (in the README and docs/method.md), the
+# FGE's response relative to the LEMI-036 on the whole WIC day of 2025-05-14 with its gains as
+# recorded (--no-pair-noise).
 # Printed: the whole day's delay fit, the largest |gain - 1| in the band used and the group delay
 # (rows of calibrate_records' report), every band's gain and phase, and Z's gains with the
 # default reference-noise correction. test/ros/test_plot_calibration.py checks the quotes
@@ -22,6 +23,7 @@ pair=(--reference data/wic20250514_lemi036.sec.gz --test data/wic20250514_fge.se
 "$B/calibrate_records" "${pair[@]}" --no-pair-noise --json "$work/as_recorded.json" >"$work/as_recorded.txt"
 "$B/calibrate_records" "${pair[@]}" --json "$work/default.json" >"$work/default.txt"
 /usr/bin/python3 scripts/plot_calibration "$work/as_recorded.json" --view response \
+  --title "WIC 2025-05-14: DTU FGE relative to LEMI-036, whole day" \
   -o docs/figures/wic20250514_relative_response.png >/dev/null
 echo "wrote docs/figures/wic20250514_relative_response.png"
 
