@@ -90,7 +90,7 @@ run_station() {  # $1: extra roslaunch arguments
   clean[-1]="ROS_MASTER_URI=http://localhost:$((20000 + RANDOM % 20000))"  # a master of its own
   # Not through a function: $! is then roslaunch itself (env and bash exec it), which stops on SIGINT.
   env -i "${clean[@]}" bash -c "source '$setup' && exec roslaunch magnetometer_insitu_calibration simulated_station.launch speed:=100 \
-      start:=2025-05-13T23:55:00Z duration:=3000 simulator_args:= \
+      start:=2025-05-13T23:55:00Z duration:=3000 end_with_record:=false \
       'calibration_params:={input_period: 0.1, window: 1800, step: 600, band_low: 0.002, band_high: 0.05, silent_timeout: 30}' \
       reference_link:=$tmp/ros_home/reference_link test_link:=$tmp/ros_home/test_link \
       calibration_file:=$tmp/ros_home/calibration$2.yaml $1" >"$log/station$2.log" 2>&1 &

@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/ros/correction_node.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"  // kNormalQuantile95
+#include "magnetometer_insitu_calibration/pipeline/calibration_record.hpp"  // calibration_stream_mismatch
 
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
@@ -24,7 +25,7 @@ using diagnostic_msgs::DiagnosticStatus;
 using diagnostic_updater::DiagnosticStatusWrapper;
 
 const std::vector<std::string> kKnownParameters = {
-    "test_topic", "corrected_topic", "calibration_topic", "calibration_file", "reload_period", "queue_size",
+    "test_topic", "test_name", "corrected_topic", "calibration_topic", "calibration_file", "reload_period", "queue_size",
     "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
     "max_matrix_condition", "diagnostic_period", "apply_offset", "temperature_topic", "temperature_max_age", "temperature_model"};
 
@@ -38,6 +39,7 @@ CorrectionNodeSettings CorrectionNodeSettings::load(const ros::NodeHandle& p) {
   CorrectionNodeSettings s;
   s.test_topic = required_string(p, "test_topic");
   require_topic_name("test_topic", s.test_topic);
+  s.test_name = param_string(p, "test_name", s.test_name);
   s.corrected_topic = param_string(p, "corrected_topic", s.corrected_topic);
   require_topic_name("corrected_topic", s.corrected_topic);
   s.calibration_topic = param_string(p, "calibration_topic", s.calibration_topic);
@@ -114,6 +116,10 @@ CorrectionNode::CorrectionNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
 }
 
 std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::string& source) {
+  // The file's calibration again (calibration_node's latched message of it) changes nothing;
+  // one refused at the stream's start stays refused.
+  if (active_ && calibrations_equal(active_->calibration, c)) return "";
+  if (refused_ && calibrations_equal(*refused_, c)) return "refused at the stream's start";
   std::string reason;
   if (!c.accepted) {
     reason = "not accepted (" + c.quality_text + ")";
@@ -236,8 +242,27 @@ void CorrectionNode::on_temperature(const sensor_msgs::Temperature::ConstPtr& me
   temperature_stamp_s_ = message->header.stamp.toSec();
 }
 
+void CorrectionNode::refuse_if_not_of_stream(const sensor_msgs::MagneticField& first) {
+  const MagnetometerCalibration& c = active_->calibration;
+  const std::string reason = calibration_stream_mismatch(
+      c.test_name, c.test_frame_id, RecordTime{c.window_end.sec, c.window_end.nsec},
+      {settings_.test_name, settings_.check_frame_id ? first.header.frame_id : c.test_frame_id,
+       RecordTime{first.header.stamp.sec, first.header.stamp.nsec}});
+  if (reason.empty()) return;
+  ++rejected_;
+  last_rejection_ = active_->source + ", window " + window_text(c) + ": not of this stream: " + reason;
+  ROS_WARN("%s: calibration refused: %s", node_name_.c_str(), last_rejection_.c_str());
+  if (active_->source == "file " + settings_.calibration_file) {
+    file_error_ = true;
+    file_state_ = settings_.calibration_file + ": refused, not of this stream: " + reason;
+  }
+  refused_ = std::make_unique<MagnetometerCalibration>(c);
+  active_.reset();
+}
+
 void CorrectionNode::on_test(const sensor_msgs::MagneticField::ConstPtr& message) {
-  ++received_;
+  // A calibration held before the stream began must belong to it (docs/nodes.md).
+  if (++received_ == 1 && active_) refuse_if_not_of_stream(*message);
   if (!active_) {
     ++dropped_no_calibration_;
     return;

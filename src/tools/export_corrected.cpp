@@ -16,6 +16,7 @@
 #include "archive_records.hpp"
 
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "bag_records.hpp"  // src/tools
@@ -168,9 +169,11 @@ int main(int argc, char** argv) {
       record = mic::read_bag_records(bag_path, {test_topic}).front();
       test_name = record.source;
     } else {
-      mic::ArchiveRecord archive = mic::read_archive_records(test_paths);  // damaged records skipped, reported
-      for (const std::string& problem : archive.problems) std::cerr << "export_corrected: warning: " << problem << "\n";
-      record = std::move(archive.record);
+      // The strict reader of calibrate_records: a damaged line refuses the record, naming file,
+      // line and column, before any output is written (one rule for bad input in every program).
+      std::vector<std::string> warnings;
+      record = mic::read_records(test_paths, &warnings);
+      for (const std::string& w : warnings) std::cerr << "export_corrected: warning: " << w << "\n";
     }
     const std::array<std::string, 3> names = components.empty() ? record.components : split_components(components);
     const mic::VectorRecord corrected = mic::correct_record(record, applied.n, names, max_condition);

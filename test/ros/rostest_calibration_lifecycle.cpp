@@ -6,6 +6,9 @@
 //                                                                 persisted calibration at once,
 //                                                                 and (~publish_tf) its rotation
 //                                                                 on /tf_static
+//   Calibration.CorrectionRefusesACalibrationOfAnotherStream  correction_stream.test
+//                                  correction_node's file of a later window, another frame or
+//                                  test refused at the first sample; the day before adopted
 #include "calibration_harness.hpp"
 #include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
@@ -237,5 +240,89 @@ TEST(Calibration, ResumeAfterRestart) {
   const Eigen::AngleAxisd inverse(q.toRotationMatrix().transpose());
   const Eigen::Vector3d v = inverse.axis() * inverse.angle() * 180.0 / M_PI;
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(v(k), persisted.misalignment_deg[k], 1e-6) << "component " << k;
+  std::remove(file.c_str());
+}
+
+TEST(Calibration, CorrectionRefusesACalibrationOfAnotherStream) {
+  // correction_node started by the test once per case, with a calibration file it loads at
+  // start; the first test sample decides whether the file belongs to the stream
+  // (calibration_stream_mismatch): a window ending after the first sample (a second replay of a
+  // bag), another frame_id and another test name are refused (nothing corrected; the file and
+  // the field named in the diagnostics' error); the same instrument's calibration of the day
+  // before (a restart) is adopted and corrects every sample. Wall-clock time.
+  const std::string file = param("calibration_file"), corrected = "/stream/corrected";
+  ASSERT_FALSE(file.empty());
+  Harness h(simulation(600.0, 23));
+  h.subscribe_corrected(corrected);
+  const Eigen::Matrix3d n_true = h.pair().n_true;
+  struct Case {
+    const char* test_name;
+    const char* frame_id;
+    double end_after_first_s;  ///< window_end minus the stream's first sample, s
+    const char* field;         ///< the field named in the refusal; "" = adopted
+  };
+  const Case cases[] = {{"stream", "test_frame", 1000.0, "window_end"},
+                        {"stream", "another_frame", -3600.0, "test_frame_id 'another_frame'"},
+                        {"other", "test_frame", -3600.0, "test_name 'other'"},
+                        {"stream", "test_frame", -86400.0, ""}};
+  const std::size_t samples = 50;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Case& k = cases[i];
+    SCOPED_TRACE(std::string("case ") + std::to_string(i) + ": " + (*k.field ? k.field : "adopted"));
+    const std::size_t first = i * samples;
+    const double first_s = h.start_s() + static_cast<double>(first);
+    mic::MagnetometerCalibration c;
+    c.header.stamp = ros::Time().fromSec(first_s + k.end_after_first_s + 60.0);
+    c.header.frame_id = c.reference_frame_id = "reference_frame";
+    c.test_frame_id = k.frame_id;
+    c.test_name = k.test_name;
+    c.window_end = ros::Time().fromSec(first_s + k.end_after_first_s);
+    c.window_start = ros::Time().fromSec(first_s + k.end_after_first_s - 1799.0);
+    c.sample_period = 1.0;
+    c.quality = mic::MagnetometerCalibration::QUALITY_OK;
+    c.quality_text = "ok";
+    c.accepted = true;
+    for (int m = 0; m < 9; ++m) c.matrix[m] = n_true(m / 3, m % 3);
+    for (int m = 0; m < 9; ++m) c.matrix_covariance[10 * m] = 1e-12;
+    c.covariance_cells = 200.0;
+    c.interval_quantile = mic::student_t_two_sided_quantile(0.05, 200.0);
+    mic::write_file_atomically(file, mic::calibration_to_yaml(c, "test"));
+    const std::string name = "correction_stream_" + std::to_string(i);
+    Child node{spawn(CORRECTION_NODE_PATH, {"__name:=" + name, "_test_topic:=" + param("test_topic"),
+                                            "_calibration_topic:=" + param("calibration_topic"),
+                                            "_corrected_topic:=" + corrected, "_calibration_file:=" + file,
+                                            "_test_name:=stream", "_diagnostic_period:=0.1"})};
+    ASSERT_GT(node.pid, 0);
+    ASSERT_TRUE(h.wait([&] { return h.latest_diagnostic(name) != nullptr; }, 20.0)) << name << " did not start";
+    ASSERT_TRUE(h.wait_for_connections(0, 1, 20.0, /*calibration_publisher=*/false)) << name << " did not connect";
+    std::size_t corrected_before = 0;
+    {
+      std::lock_guard<std::mutex> lock(h.mutex());
+      corrected_before = h.corrected(corrected).size();
+    }
+    h.publish(first, first + samples, false, true, 0.0, 1000.0);
+    ASSERT_TRUE(h.wait([&] { return value_of(h.latest_diagnostic(name), "received") == samples; }, 10.0));
+    if (*k.field) {
+      ASSERT_TRUE(h.wait([&] { return value_of(h.latest_diagnostic(name), "dropped, no calibration") == samples; }, 10.0));
+      std::lock_guard<std::mutex> lock(h.mutex());
+      const DiagnosticRecord* d = h.latest_diagnostic(name);
+      EXPECT_EQ(h.corrected(corrected).size(), corrected_before) << "a refused calibration corrected samples";
+      EXPECT_EQ(d->level, 2) << d->message;  // no calibration and the file refused: an error
+      EXPECT_NE(d->message.find("calibration file unusable: " + file + ": refused"), std::string::npos) << d->message;
+      EXPECT_NE(d->message.find(k.field), std::string::npos) << d->message;
+      EXPECT_EQ(d->values.at("calibration source"), "none");
+      EXPECT_EQ(value_of(d, "calibrations rejected"), 1u);
+    } else {
+      ASSERT_TRUE(h.wait([&] { return h.corrected(corrected).size() == corrected_before + samples; }, 10.0));
+      std::lock_guard<std::mutex> lock(h.mutex());
+      const auto& out = h.corrected(corrected);
+      const Eigen::Matrix3d applied = n_true.inverse().transpose();
+      for (std::size_t j = 0; j < samples; ++j) {
+        const Eigen::Vector3d t = h.pair().test.values_nT.row(first + j).transpose();
+        EXPECT_LT((out[corrected_before + j].field_nT - applied * t).norm(), 1e-6) << "sample " << first + j;
+      }
+      EXPECT_EQ(h.latest_diagnostic(name)->values.at("calibration source"), "file " + file);
+    }
+  }
   std::remove(file.c_str());
 }

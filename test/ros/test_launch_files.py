@@ -6,10 +6,18 @@
 - replay.launch ends when calibration_node or rosbag play ends (required), so that a bag that
   does not open or an impossible parameter ends the launch with the node's message last, instead
   of idle nodes waiting for data;
-- calibration.launch passes remote_topic to calibration_node.
+- calibration.launch passes remote_topic to calibration_node;
+- every `rostopic echo` in the README's quick start names a topic that the roslaunch command
+  before it (in the same code block, with the same arguments) publishes;
+- simulated_station.launch: a duration plays the record once and ends the launch (simulators
+  required, no --loop); without one the record loops and nothing ends the launch;
+- calibration_node writes to the screen by default (one line per window on the console: with
+  output=log roslaunch sends a node's stdout, where ROS_INFO goes, to a file).
 """
 import argparse
 import os
+import re
+import shlex
 import sys
 import unittest
 
@@ -47,6 +55,63 @@ class LaunchFiles(unittest.TestCase):
         config = self.load("replay.launch", "bag:=pair.bag", "remote_topic:=/remote/magnetic_field")
         self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/remote/magnetic_field")
         self.assertIn("/remote/magnetic_field", self.node(config, "play").args.split())
+
+    def published_topics(self, config):
+        """Topics the launched nodes publish: each driver's magnetic_field in its namespace,
+        calibration_node's and correction_node's output topics as their parameters give them."""
+        topics = set()
+        for n in config.nodes:
+            if n.type == "lemi025_driver":
+                topics.add(n.namespace + "magnetic_field")
+        for name, p in config.params.items():
+            if name.endswith("/calibration_topic") or name.endswith("/corrected_topic"):
+                topics.add(p.value)
+        return topics
+
+    def test_readme_echoes_topics_its_launch_commands_publish(self):
+        with open(os.path.join(os.path.dirname(self.launch_dir), "README.md")) as f:
+            readme = f.read()
+        blocks = re.findall(r"(?:^    .*\n)+", readme, re.M)  # indented code blocks
+        echoes = 0
+        for block in blocks:
+            launch_args = None
+            for command in block.replace("\\\n", " ").splitlines():
+                words = shlex.split(command, comments=True)
+                if words[:2] == ["roslaunch", "magnetometer_insitu_calibration"]:
+                    launch_args = (words[2], [w for w in words[3:] if ":=" in w])
+                elif words[:2] == ["rostopic", "echo"]:
+                    self.assertIsNotNone(launch_args, "README: %r follows no roslaunch" % command)
+                    config = self.load(launch_args[0], *launch_args[1])
+                    topics = self.published_topics(config)
+                    self.assertIn(words[2], topics, "README: %r after %s" % (command, launch_args[0]))
+                    echoes += 1
+        self.assertGreaterEqual(echoes, 2)  # the station and the simulated station
+
+    def simulators(self, config):
+        nodes = [n for n in config.nodes if n.type == "lemi025_simulator"]
+        self.assertEqual(len(nodes), 2)
+        return nodes
+
+    def test_a_duration_ends_the_simulated_station(self):
+        for sim in self.simulators(self.load("simulated_station.launch", "duration:=3000")):
+            self.assertIn("--duration 3000", sim.args)
+            self.assertNotIn("--loop", sim.args.split())
+            self.assertTrue(sim.required)  # the launch ends when the record does
+        for sim in self.simulators(self.load("simulated_station.launch")):
+            self.assertIn("--duration 21600", sim.args)
+            self.assertIn("--loop", sim.args.split())
+            self.assertFalse(sim.required)
+        config = self.load("simulated_station.launch", "duration:=3000", "end_with_record:=false")
+        for sim in self.simulators(config):
+            self.assertFalse(sim.required)
+
+    def test_calibration_node_prints_its_windows_on_the_console(self):
+        for name, args in (("station.launch", []), ("simulated_station.launch", []), ("replay.launch", ["bag:=b.bag"]),
+                           ("network.launch", ["station:=obs", "tests:=fge"])):
+            config = self.load(name, *args)
+            self.assertEqual(self.node(config, "calibration_node").output, "screen", name)
+        config = self.load("station.launch", "calibration_output:=log")
+        self.assertEqual(self.node(config, "calibration_node").output, "log")
 
 
 if __name__ == "__main__":

@@ -15,13 +15,18 @@ What is asserted:
     of the band present);
   * the time-series view (--window 21600 --step 3600) draws every sliding window at its middle
     time, and a window flagged in the report is listed and drawn in red;
-  * a missing report and a certificate with an unknown key exit 1 with the file named.
+  * a missing report and a certificate with an unknown key exit 1 with the file named;
+  * docs/method.md and the README's caption quote what calibrate_records prints now on the WIC
+    day (its delay, group delay, largest in-band departure, Z's gains with and without the
+    reference-noise correction, the pair's Z noise): a stale quote fails
+    (scripts/make_figures.sh regenerates the figure and prints these numbers).
 """
 
 import argparse
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -47,6 +52,25 @@ def calibrate(json_path, *options):
         raise AssertionError("calibrate_records failed: %s %s" % (out, err))
     with open(json_path) as f:
         return json.load(f)
+
+
+def calibrate_with_report(json_path, *options):
+    """calibrate() and the text report it printed."""
+    data = ARGS.data_dir
+    code, out, err = run([ARGS.calibrate_records, "--reference", os.path.join(data, "wic20250514_lemi036.sec.gz"),
+                          "--test", os.path.join(data, "wic20250514_fge.sec.gz"), "--json", json_path] + list(options))
+    if code != 0:
+        raise AssertionError("calibrate_records failed: %s %s" % (out, err))
+    with open(json_path) as f:
+        return json.load(f), out
+
+
+def report_row(report, name):
+    """The whole-record column (the last) of a row of calibrate_records' text report."""
+    for line in report.splitlines():
+        if line.startswith(name):
+            return line[len(name):].split()[-3:]
+    raise AssertionError("no row %r in the report" % name)
 
 
 def plot(*options):
@@ -161,6 +185,51 @@ class PlotCalibration(unittest.TestCase):
             self.assertTrue(2.6 < num / den < 3.1, "component %d delay %.2f s" % (k, num / den))
         with open(png, "rb") as f:
             self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+
+    def test_docs_quote_what_the_programs_print_on_the_wic_day(self):
+        root = os.path.dirname(os.path.dirname(os.path.abspath(ARGS.script)))
+        with open(os.path.join(root, "docs", "method.md")) as f:
+            method = " ".join(f.read().split())
+        with open(os.path.join(root, "README.md")) as f:
+            readme = f.read()
+        recorded, report = calibrate_with_report(os.path.join(WORK, "wic_as_recorded.json"), "--intervals", "4",
+                                                 "--no-pair-noise")
+        whole, default = recorded["windows"][-1], self.intervals["windows"][-1]
+
+        def quoted(pattern, text=method):
+            m = re.search(pattern, text)
+            self.assertIsNotNone(m, "no quote matching %r" % pattern)
+            return m.groups()
+
+        self.assertEqual(quoted(r"delay fit (\d\.\d+) ± (\d\.\d+) s"),
+                         ("%.3f" % whole["delay_s"], "%.3f" % whole["delay_ci95_s"]))
+        self.assertEqual(quoted(r"group delay over the band used (\d\.\d+) s"),
+                         (report_row(report, "response group delay s")[-1],))
+        gain, _, ci = report_row(report, "response |gain-1| max")
+        self.assertEqual(quoted(r"largest departure (\d\.\d+) ± (\d\.\d+)"),
+                         ("%.3f" % float(gain), "%.3f" % float(ci)))
+        self.assertEqual(quoted(r"X's phase (-?\d+\.\d) deg at (0\.\d+) Hz"),
+                         self.band_value(whole, 0.045, "phase_deg", 0, "%.1f") + ("0.045",))
+        white_z = re.search(r"white [\d.]+/[\d.]+/([\d.]+) pT rms", default["reference_noise"]).group(1)
+        self.assertEqual(quoted(r"on Z ([\d.]+) pT rms white"), (white_z,))
+        for sentence, window in (("Z gain as recorded falls:", whole), ("Z reads", default)):
+            text = quoted(re.escape(sentence) + r"([^:]*?Hz[^:]*?Hz[^:]*?Hz)")[0]
+            values = re.findall(r"(\d\.\d\d) ± (\d\.\d\d) at (0\.\d+) Hz", text)
+            self.assertEqual(len(values), 3, text)
+            for g, c, f in values:
+                self.assertEqual((g, c), self.band_value(window, float(f), "gain", 2, "%.2f", "gain_ci95"),
+                                 "%s at %s Hz" % (sentence, f))
+        caption = quoted(r"!\[The FGE's response[^\]]*?a (\d\.\d) s lag", readme)
+        self.assertEqual(caption, ("%.1f" % whole["delay_s"],))
+
+    def band_value(self, window, frequency_hz, key, component, form, ci_key=None):
+        """A band's value (and 95 % half-width) formatted as a quote gives it: the band whose
+        frequency rounds to the quoted one (within 5 %)."""
+        bands = window["relative_response"]
+        band = min(bands, key=lambda b: abs(math.log(b["frequency_hz"] / frequency_hz)))
+        self.assertLess(abs(band["frequency_hz"] / frequency_hz - 1), 0.05, "no band at %g Hz" % frequency_hz)
+        values = (form % band[key][component],)
+        return values + ((form % band[ci_key][component],) if ci_key else ())
 
     def test_bad_input_is_named(self):
         code, out, err = plot(os.path.join(WORK, "missing.json"))

@@ -145,4 +145,21 @@ CalibrationRecord make_calibration_record(const CalibrationWindow& window, const
 /// matrices as rows, non-orthogonality as {xy, xz, yz}, quality by name, non-finite values null.
 nlohmann::json record_to_json(const CalibrationRecord& record);
 
+/// The stream a calibration would correct: the node's test name ("" = not checked), the frame_id
+/// of the stream's first sample and that sample's time.
+struct StreamStart {
+  std::string test_name;
+  std::string test_frame_id;
+  RecordTime first_sample;
+};
+
+/// Why a calibration held before a stream began (a file from an earlier run, or its latched
+/// message) does not belong to that stream, naming the field; "" when it belongs. It belongs when
+/// its test_name is the node's (when the node has one), its test_frame_id is the stream's, and its
+/// window ended no later than the stream's first sample: a restart resumes the instrument's last
+/// calibration whatever its age, but a calibration of another instrument or frame, or of data
+/// after the stream's start (a replay of older data, or a second replay of one bag), is refused.
+std::string calibration_stream_mismatch(const std::string& test_name, const std::string& test_frame_id,
+                                        const RecordTime& window_end, const StreamStart& stream);
+
 }  // namespace magnetometer_insitu_calibration

@@ -14,6 +14,10 @@
 //  * at start, the YAML file ~calibration_file if it holds a valid accepted calibration; a
 //    missing file is a warning, a malformed or half-written one an error in the diagnostics
 //    (the node then publishes nothing until a valid calibration arrives on the topic);
+//  * a calibration held when the first test sample arrives (the file's, or calibration_node's
+//    latched message of it) is kept only if it belongs to the stream (calibration_stream_mismatch:
+//    ~test_name, the sample's frame_id, its window ended by the first sample); else it is refused
+//    with a warning naming its source and the field, and the diagnostics report the file refused;
 //  * then every MagnetometerCalibration on ~calibration_topic with accepted=true, quality OK,
 //    a finite matrix and covariance, and a matrix condition number <= ~max_matrix_condition
 //    replaces it at once (the most recently received valid one wins; no interpolation between
@@ -64,6 +68,7 @@ namespace magnetometer_insitu_calibration {
 /// Every parameter of correction_node (config/correction.yaml documents them).
 struct CorrectionNodeSettings {
   std::string test_topic;                       ///< raw test sensor_msgs/MagneticField (required)
+  std::string test_name;                        ///< a calibration held at start must be this test's ("" = any)
   std::string corrected_topic = "corrected";    ///< output sensor_msgs/MagneticField
   std::string calibration_topic = "calibration";
   std::string calibration_file;                 ///< YAML loaded at start ("" = none)
@@ -104,6 +109,8 @@ class CorrectionNode {
   /// Adopts a calibration or returns why not (empty = adopted).
   std::string adopt(const MagnetometerCalibration& calibration, const std::string& source);
   void load_file(bool at_start);
+  /// Drops the calibration in use when it is not of the stream whose first sample is `first`.
+  void refuse_if_not_of_stream(const sensor_msgs::MagneticField& first);
   void on_calibration(const MagnetometerCalibration::ConstPtr& calibration);
   void on_test(const sensor_msgs::MagneticField::ConstPtr& message);
   void on_temperature(const sensor_msgs::Temperature::ConstPtr& message);
@@ -119,6 +126,7 @@ class CorrectionNode {
   ros::WallTimer reload_timer_;
 
   std::unique_ptr<Active> active_;
+  std::unique_ptr<MagnetometerCalibration> refused_;  ///< refused at the stream's first sample
   std::size_t received_ = 0, published_ = 0, dropped_no_calibration_ = 0, dropped_frame_ = 0,
               dropped_before_window_ = 0, corrected_before_window_ = 0, reported_frame_ = 0;
   std::string last_frame_seen_;

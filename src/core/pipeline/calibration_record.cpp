@@ -179,4 +179,21 @@ json record_to_json(const CalibrationRecord& r) {
   return out;
 }
 
+std::string calibration_stream_mismatch(const std::string& test_name, const std::string& test_frame_id,
+                                        const RecordTime& window_end, const StreamStart& stream) {
+  if (!stream.test_name.empty() && test_name != stream.test_name) {
+    return "test_name '" + test_name + "' is not this node's '" + stream.test_name + "'";
+  }
+  if (test_frame_id != stream.test_frame_id) {
+    return "test_frame_id '" + test_frame_id + "' is not the stream's '" + stream.test_frame_id + "'";
+  }
+  const bool later = window_end.sec > stream.first_sample.sec ||
+                     (window_end.sec == stream.first_sample.sec && window_end.nsec > stream.first_sample.nsec);
+  if (later) {
+    return "window_end " + time_for_message(window_end.seconds()) + " is after the stream's first sample " +
+           time_for_message(stream.first_sample.seconds()) + " (a calibration of later data)";
+  }
+  return "";
+}
+
 }  // namespace magnetometer_insitu_calibration

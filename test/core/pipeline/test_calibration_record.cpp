@@ -149,3 +149,26 @@ TEST(CalibrationRecord, TimesKeepTheirNanoseconds) {
   }
   EXPECT_EQ(mic::RecordTime::from_seconds(1747180800.9999999999), (mic::RecordTime{1747180801, 0}));
 }
+
+TEST(CalibrationStreamMismatch, ACalibrationBelongsToItsInstrumentFrameAndEarlierTimeOnly) {
+  const mic::RecordTime first{1747180800, 500000000};  // 2025-05-14T00:00:00.5Z
+  const mic::StreamStart stream{"fge", "fge_frame", first};
+  // A restart: the same instrument's calibration of a window that ended an hour or a year before,
+  // or exactly at the first sample, belongs.
+  EXPECT_EQ(mic::calibration_stream_mismatch("fge", "fge_frame", {first.sec - 3600, 0}, stream), "");
+  EXPECT_EQ(mic::calibration_stream_mismatch("fge", "fge_frame", {first.sec - 365 * 86400, 0}, stream), "");
+  EXPECT_EQ(mic::calibration_stream_mismatch("fge", "fge_frame", first, stream), "");
+  // Another instrument or frame, named with both values.
+  EXPECT_EQ(mic::calibration_stream_mismatch("lemi", "fge_frame", {first.sec - 3600, 0}, stream),
+            "test_name 'lemi' is not this node's 'fge'");
+  EXPECT_EQ(mic::calibration_stream_mismatch("fge", "test", {first.sec - 3600, 0}, stream),
+            "test_frame_id 'test' is not the stream's 'fge_frame'");
+  // A node without a test name checks the frame and the time only.
+  EXPECT_EQ(mic::calibration_stream_mismatch("lemi", "fge_frame", {first.sec - 3600, 0}, {"", "fge_frame", first}), "");
+  // A window ending 1 ns or a day after the first sample: data the stream has not reached.
+  EXPECT_EQ(mic::calibration_stream_mismatch("fge", "fge_frame", {first.sec, first.nsec + 1}, stream),
+            "window_end 2025-05-14T00:00:00.500Z is after the stream's first sample 2025-05-14T00:00:00.500Z "
+            "(a calibration of later data)");
+  const std::string later = mic::calibration_stream_mismatch("fge", "fge_frame", {first.sec + 86400, 0}, stream);
+  EXPECT_EQ(later.rfind("window_end 2025-05-15T00:00:00", 0), 0u) << later;
+}

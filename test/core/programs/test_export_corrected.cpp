@@ -236,6 +236,28 @@ TEST_F(ExportCorrected, FlaggedWindowsAndBadRequestsAreRefusedWithTheReason) {
   EXPECT_NE(r.output.find("nope.sec"), std::string::npos) << r.output;
 }
 
+TEST_F(ExportCorrected, ADamagedCsvLineIsRefusedAsCalibrateRecordsRefusesItAndNothingIsWritten) {
+  // Text in a number column (line 5, column 3 "y"): export_corrected refuses the record as
+  // calibrate_records does, naming file, line and column, exits 1 and writes no output file.
+  const std::string bad = dir_ + "/damaged.csv", out = dir_ + "/damaged_corrected.sec";
+  {
+    std::ofstream csv(bad);
+    csv << "time,x,y,z\n";
+    for (int k = 0; k < 6; ++k) {
+      csv << 1747180800 + k << ",20000.5," << (k == 3 ? std::string("abc") : std::string("1500.25")) << ",44000.75\n";
+    }
+  }
+  std::remove(out.c_str());
+  const std::string expected = bad + ":5: column 3 (y): 'abc' is not a number";
+  const ProgramRun r = export_corrected("--test " + bad + " --calibration " + dir_ + "/report.json -o " + out);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
+  EXPECT_FALSE(std::ifstream(out).good()) << out << " written from a refused record";
+  const ProgramRun c = run_program(CALIBRATE_RECORDS_BIN, "--reference " + dir_ + "/reference.sec --test " + bad);
+  EXPECT_NE(c.status, 0) << c.output;
+  EXPECT_NE(c.output.find(expected), std::string::npos) << c.output;
+}
+
 // The real Conrad Observatory pair (data/README.md): the DTU FGE record corrected with the
 // day's calibration against the LEMI-036.
 TEST(ExportCorrectedWic, FgeDayCorrectedIntoTheLemiFrame) {
