@@ -309,6 +309,30 @@ void check_bad_file_nodes(Harness& h) {
   }
 }
 
+/// 6. The verdicts against the tolerances (INTERMAGNET's, the default): nine in the last
+///    message, each as its own value, interval and tolerance say; the test's tolerances status
+///    at the worst one's level (OK within, WARN undecided, ERROR outside).
+void check_verdicts(Harness& h) {
+  const mic::MagnetometerCalibration& last = h.calibrations().back();
+  ASSERT_EQ(last.verdicts.size(), 9u);
+  int worst = 0;
+  for (const auto& v : last.verdicts) {
+    const double d = std::abs(v.value - v.nominal);
+    const char* expected = d + v.ci95 <= v.tolerance ? "within" : d - v.ci95 > v.tolerance ? "outside" : "undecided";
+    EXPECT_EQ(v.verdict, expected) << v.parameter;
+    worst = std::max(worst, v.verdict == "outside" ? 2 : v.verdict == "undecided" ? 1 : 0);
+  }
+  EXPECT_EQ(last.verdicts[0].parameter, "scale_x");
+  EXPECT_DOUBLE_EQ(last.verdicts[0].value, last.scale_ratio[0]);
+  EXPECT_DOUBLE_EQ(last.verdicts[0].ci95, last.scale_ratio_ci95[0]);
+  EXPECT_DOUBLE_EQ(last.verdicts[0].tolerance, 0.01);
+  EXPECT_EQ(last.verdicts[8].parameter, "misalignment_z");
+  const DiagnosticRecord* t = h.latest_diagnostic("calibration_sim: sim tolerances");
+  ASSERT_NE(t, nullptr);
+  EXPECT_EQ(t->level, worst) << t->message;
+  EXPECT_EQ(t->values.count("non-orthogonality (last window)"), 1u);
+}
+
 }  // namespace
 
 TEST(Calibration, Nominal) {
@@ -342,4 +366,5 @@ TEST(Calibration, Nominal) {
   check_corrected_level(h, out, errors);
   ASSERT_NO_FATAL_FAILURE(check_sample_accounting(h, out.size()));
   check_bad_file_nodes(h);
+  check_verdicts(h);
 }

@@ -34,9 +34,11 @@ std::string verdict_row(const ToleranceVerdict& v) {
                 v.ci95 * unit, suffix);
   std::snprintf(tolerance, sizeof tolerance, "%.3g%s", v.tolerance * unit, suffix);
   char row[256];
-  std::snprintf(row, sizeof row, "  %-34s %-24s %-12s %-10s %s\n", words(v.parameter).c_str(), value, tolerance,
+  std::snprintf(row, sizeof row, "  %-34s %-24s %-12s %-10s %s", words(v.parameter).c_str(), value, tolerance,
                 verdict_name(v.verdict), record_length_text(v.record_needed_s).c_str());
-  return row;
+  std::string text = row;
+  text.erase(text.find_last_not_of(' ') + 1);  // a decided verdict has no record column
+  return text + "\n";
 }
 
 /// n^-1 and the offset, stated as the correction of a test reading t (test frame, nT).
