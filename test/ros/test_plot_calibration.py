@@ -11,6 +11,14 @@ What is asserted:
     values and 95 % half-widths for intervals 1-4 and the whole record, and the certificate's
     value and uncertainty as the grey band (scale ratios and non-orthogonality; none for the
     axes row, which the certificate does not give);
+  * with the report's settings.tolerances (INTERMAGNET's 1-second standard by default), each
+    scale-ratio, non-orthogonality and misalignment panel draws the zone nominal +- tolerance of
+    the report (1 +- the scale fraction, 0 +- degrees; the same as every verdict's nominal and
+    tolerance), and marks for each window exactly the report's verdict; the light green of the
+    zones and the red of an "outside" mark are in the PNG; with --axes deviation the bottom row has
+    neither; a report whose tolerances and verdicts are edited is drawn as edited (nothing is
+    recomputed or hard-coded); a report without tolerances or verdicts (an older
+    calibrate_records) still plots, with neither zones nor marks;
   * the PNG is a PNG of the expected size, not blank (dark pixels of markers and text, the grey
     of the band present);
   * the time-series view (--window 21600 --step 3600) draws every sliding window at its middle
@@ -134,6 +142,112 @@ class PlotCalibration(unittest.TestCase):
         rgb = self.check_png(png)
         grey = (abs(rgb - 209.0 / 255.0).max(axis=2) < 0.02).mean()
         self.assertGreater(grey, 0.001, "certificate bands drawn in grey")
+
+    # Panel row -> (settings.tolerances key, verdict parameter prefix, nominal, CI key).
+    TOLERANCE_ROWS = {"scale_ratio": ("scale", "scale_", 1.0),
+                      "nonorthogonality_deg": ("nonorthogonality_deg", "nonorthogonality_", 0.0),
+                      "misalignment_deg": ("misalignment_deg", "misalignment_", 0.0)}
+    COLUMN = {"x": 0, "y": 1, "z": 2, "xy": 0, "xz": 1, "yz": 2}
+
+    def check_tolerances_drawn(self, report, summary, rows_with_zones):
+        """Every panel of rows_with_zones draws the report's zone and verdicts; the others neither."""
+        tolerances = report["settings"]["tolerances"]
+        self.assertEqual(summary["tolerance_source"], tolerances["source"])
+        kinds = set()
+        for panel in summary["panels"]:
+            key, comp = panel["parameter"], panel["component"]
+            if key not in rows_with_zones:
+                self.assertNotIn("tolerance", panel, key)
+                self.assertNotIn("verdicts", panel, key)
+                continue
+            tol_key, prefix, nominal = self.TOLERANCE_ROWS[key]
+            tolerance = tolerances[tol_key][self.COLUMN[comp]]
+            self.assertEqual(panel["tolerance"], {"nominal": nominal, "tolerance": tolerance,
+                                                  "band": [nominal - tolerance, nominal + tolerance]}, key + " " + comp)
+            expected = []
+            for w in report["windows"]:
+                verdict = [v for v in w["verdicts"] if v["parameter"] == prefix + comp]
+                self.assertEqual(len(verdict), 1, "%s: %s%s" % (w["label"], prefix, comp))
+                # The zone drawn is the one the verdict was decided against.
+                self.assertEqual((verdict[0]["nominal"], verdict[0]["tolerance"]), (nominal, tolerance))
+                expected.append(verdict[0]["verdict"])
+            self.assertEqual(panel["verdicts"], expected, key + " " + comp)
+            kinds.update(expected)
+        return kinds
+
+    @staticmethod
+    def tolerance_green(rgb):
+        """Fraction of pixels of the tolerance zone's fill: tab:green (44, 160, 44) at alpha 0.1 on
+        white is (234, 245, 234)."""
+        zone = [1 - 0.1 * (1 - c / 255.0) for c in (44, 160, 44)]
+        return (abs(rgb - zone).max(axis=2) < 0.015).mean()
+
+    @staticmethod
+    def red(rgb):
+        """Pixels of tab:red (214, 39, 40): the outside mark (or a flagged window)."""
+        return ((abs(rgb[:, :, 0] - 214 / 255.0) < 0.03) & (abs(rgb[:, :, 1] - 39 / 255.0) < 0.03)).sum()
+
+    def test_intervals_view_draws_the_tolerance_zones_and_verdicts(self):
+        self.assertIn("tolerances", self.intervals["settings"])
+        png = os.path.join(WORK, "tolerances.png")
+        code, out, err = plot(self.intervals_json, "-o", png, "--summary")
+        self.assertEqual(code, 0, err)
+        summary = json.loads(out)
+        kinds = self.check_tolerances_drawn(self.intervals, summary, set(self.TOLERANCE_ROWS))
+        # The WIC day (default estimator) has all three verdicts: X, Y scales within 1 %, interval
+        # 4's rotation about Z outside 2 mrad, the rest undecided.
+        self.assertEqual(kinds, {"within", "outside", "undecided"})
+        self.assertEqual(summary["flagged"], [])
+        rgb = self.check_png(png)
+        self.assertGreater(self.tolerance_green(rgb), 0.02, "tolerance zones shaded light green")
+        self.assertGreater(self.red(rgb), 10, "the outside mark in red")
+
+        code, out, err = plot(self.intervals_json, "-o", os.path.join(WORK, "deviation.png"), "--axes", "deviation",
+                              "--summary")
+        self.assertEqual(code, 0, err)
+        summary = json.loads(out)
+        self.assertEqual([p["parameter"] for p in summary["panels"][6:]], ["axis_deviation_deg"] * 3)
+        self.check_tolerances_drawn(self.intervals, summary, {"scale_ratio", "nonorthogonality_deg"})
+
+    def test_tolerances_are_the_reports_and_old_reports_still_plot(self):
+        edited = json.loads(json.dumps(self.intervals))
+        tolerances = edited["settings"]["tolerances"]
+        tolerances.update({"source": "edited", "scale": [0.02, 0.003, 0.0005],
+                           "nonorthogonality_deg": [0.5, 0.25, 0.125], "misalignment_deg": [1.5, 0.75, 0.375]})
+        for w in edited["windows"]:
+            for v in w["verdicts"]:
+                row = [r for r in self.TOLERANCE_ROWS.values() if v["parameter"].startswith(r[1])][0]
+                v["tolerance"] = tolerances[row[0]][self.COLUMN[v["parameter"][len(row[1]):]]]
+                v["verdict"] = "outside"  # what the report says is drawn, not recomputed
+        edited_json = os.path.join(WORK, "edited.json")
+        with open(edited_json, "w") as f:
+            json.dump(edited, f)
+        code, out, err = plot(edited_json, "-o", os.path.join(WORK, "edited.png"), "--summary")
+        self.assertEqual(code, 0, err)
+        summary = json.loads(out)
+        self.assertEqual(self.check_tolerances_drawn(edited, summary, set(self.TOLERANCE_ROWS)), {"outside"})
+        self.assertEqual(summary["panels"][2]["tolerance"]["band"], [0.9995, 1.0005])
+
+        old = json.loads(json.dumps(self.intervals))
+        del old["settings"]["tolerances"]
+        for w in old["windows"]:
+            del w["verdicts"]
+        old_json = os.path.join(WORK, "old.json")
+        with open(old_json, "w") as f:
+            json.dump(old, f)
+        png = os.path.join(WORK, "old.png")
+        code, out, err = plot(old_json, "-o", png, "--summary")
+        self.assertEqual(code, 0, err)
+        summary = json.loads(out)
+        self.assertNotIn("tolerance_source", summary)
+        self.assertEqual(len(summary["panels"]), 9)
+        for panel in summary["panels"]:
+            self.assertNotIn("tolerance", panel)
+            self.assertNotIn("verdicts", panel)
+        self.assertEqual(summary["panels"][0]["values"], [w["scale_ratio"][0] for w in old["windows"]])
+        rgb = self.check_png(png)
+        self.assertLess(self.tolerance_green(rgb), 0.0005, "no tolerance zone")
+        self.assertEqual(self.red(rgb), 0, "no verdict mark, no flagged window")
 
     def test_timeseries_view_follows_the_sliding_windows_and_flags(self):
         report = json.loads(json.dumps(self.sliding))
