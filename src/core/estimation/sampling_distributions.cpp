@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <utility>
 
 namespace magnetometer_insitu_calibration {
 
@@ -81,9 +83,10 @@ double f_tail_probability(double f, double d1, double d2) {
   return incomplete_beta(d2 / (d2 + d1 * f), 0.5 * d2, 0.5 * d1);
 }
 
-double student_t_two_sided_quantile(double tail, double nu) {
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  if (!(nu > 0.0) || !(tail > 0.0) || !(tail < 1.0)) return kNaN;
+namespace {
+
+/// The quantile by bisection on the exact tail (see student_t_two_sided_quantile).
+double student_t_quantile_by_bisection(double tail, double nu) {
   // P(|t_nu| > x) = P(F(1, nu) > x^2); for an infinite nu the normal's tail, erfc(x / sqrt 2).
   const auto tail_at = [&](double x) {
     return std::isfinite(nu) ? f_tail_probability(x * x, 1.0, nu) : std::erfc(x / std::sqrt(2.0));
@@ -96,6 +99,24 @@ double student_t_two_sided_quantile(double tail, double nu) {
     (tail_at(mid) > tail ? low : high) = mid;
   }
   return 0.5 * (low + high);
+}
+
+}  // namespace
+
+double student_t_two_sided_quantile(double tail, double nu) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  if (!(nu > 0.0) || !(tail > 0.0) || !(tail < 1.0)) return kNaN;
+  // Each bisection costs some 45 incomplete beta functions, slow to converge at many degrees of
+  // freedom; a window asks for the same few (tail, nu) many times (each band and component of
+  // its relative response): remembered per thread, the same value every time.
+  thread_local std::map<std::pair<double, double>, double> known;
+  const auto key = std::make_pair(tail, nu);
+  const auto found = known.find(key);
+  if (found != known.end()) return found->second;
+  if (known.size() > 4096) known.clear();
+  const double q = student_t_quantile_by_bisection(tail, nu);
+  known.emplace(key, q);
+  return q;
 }
 
 QuadraticFormMoments quadratic_form_moments(double nu, int p) {
