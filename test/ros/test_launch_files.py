@@ -10,7 +10,8 @@
 - every `rostopic echo` in the README's quick start names a topic that the roslaunch command
   before it (in the same code block, with the same arguments) publishes;
 - simulated_station.launch: a duration plays the record once and ends the launch (simulators
-  required, no --loop); without one the record loops and nothing ends the launch;
+  required, no --loop); without one the record loops and nothing ends the launch; the same for
+  simulated_network.launch's five simulators;
 - calibration_node writes to the screen by default (one line per window on the console: with
   output=log roslaunch sends a node's stdout, where ROS_INFO goes, to a file).
 """
@@ -103,6 +104,20 @@ class LaunchFiles(unittest.TestCase):
             self.assertFalse(sim.required)
         config = self.load("simulated_station.launch", "duration:=3000", "end_with_record:=false")
         for sim in self.simulators(config):
+            self.assertFalse(sim.required)
+
+    def test_a_duration_ends_the_simulated_network(self):
+        def simulators(config):
+            nodes = [n for n in config.nodes if n.type == "lemi025_simulator"]
+            self.assertEqual(len(nodes), 5)
+            return nodes
+        for sim in simulators(self.load("simulated_network.launch", "duration:=3000")):
+            self.assertIn("--duration 3000", sim.args)
+            self.assertNotIn("--loop", sim.args.split())
+            self.assertTrue(sim.required)
+        for sim in simulators(self.load("simulated_network.launch")):
+            self.assertIn("--duration 21600", sim.args)
+            self.assertIn("--loop", sim.args.split())
             self.assertFalse(sim.required)
 
     def test_calibration_node_prints_its_windows_on_the_console(self):
