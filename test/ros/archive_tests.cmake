@@ -80,6 +80,7 @@ if(TARGET rostest_replay)
     set(_mic_bag ${_mic_replay}/pair.bag)
     set(_mic_remote "")
     set(_mic_replay_test ${CMAKE_CURRENT_BINARY_DIR}/replay_agreement_${_mic_variant}.test)
+    set(_mic_test_name replay_agreement_${_mic_variant})
     if(_mic_variant STREQUAL "despiked")
       set(_mic_offline ${_mic_replay}/offline_despiked.json)
     elseif(_mic_variant STREQUAL "plain")
@@ -99,6 +100,7 @@ if(TARGET rostest_replay)
     <arg name=\"offline_json\" value=\"${_mic_offline}\"/>
     <arg name=\"despike\" value=\"${_mic_despike}\"/>
     <arg name=\"remote_topic\" value=\"${_mic_remote}\"/>
+    <arg name=\"test_name\" value=\"${_mic_test_name}\"/>
   </include>
 </launch>
 ")
