@@ -24,6 +24,8 @@
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 
+#include "percentile.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -60,14 +62,6 @@ Errors errors_of(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth) {
   return out;
 }
 
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  if (v.empty()) return NAN;
-  const double pos = p * static_cast<double>(v.size() - 1);
-  const std::size_t i = static_cast<std::size_t>(pos);
-  const double f = pos - static_cast<double>(i);
-  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
-}
 
 /// Environment override of a scenario number (for exploring which disturbance does what).
 double knob(const char* name, double value) {

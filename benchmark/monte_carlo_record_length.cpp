@@ -14,6 +14,8 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
+#include "percentile.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,13 +27,6 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double pos = p * static_cast<double>(v.size() - 1);
-  const auto i = static_cast<std::size_t>(pos);
-  return i + 1 < v.size() ? v[i] + (pos - static_cast<double>(i)) * (v[i + 1] - v[i]) : v[i];
-}
 
 Eigen::Matrix<double, 9, 1> half_widths(const mic::CalibrationParameters& p) {
   Eigen::Matrix<double, 9, 1> c;

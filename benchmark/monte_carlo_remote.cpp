@@ -25,6 +25,8 @@
 
 #include "unmodelled_scenario.hpp"
 
+#include "percentile.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <complex>
@@ -54,14 +56,6 @@ struct Tally {
   double seconds = 0.0;
 };
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double pos = p * static_cast<double>(v.size() - 1);
-  const auto i = static_cast<std::size_t>(pos);
-  const double f = pos - static_cast<double>(i);
-  return i + 1 < v.size() ? v[i] * (1.0 - f) + v[i + 1] * f : v[i];
-}
 
 /// The relative response's bands against the test's true filter H(f) = e^{-2 pi i f delay} /
 /// (1 + i f / corner): gain and phase inside their 95 % intervals, for bands up to 0.01 Hz and up

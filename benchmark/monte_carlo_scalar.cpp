@@ -14,6 +14,8 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/simulation/scalar_magnetometer.hpp"
 
+#include "percentile.hpp"
+
 #include <Eigen/LU>
 
 #include <algorithm>
@@ -32,13 +34,6 @@ double knob(const char* name, double value) {
   return text != nullptr ? std::atof(text) : value;
 }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double pos = p * static_cast<double>(v.size() - 1);
-  const auto i = static_cast<std::size_t>(pos);
-  return i + 1 < v.size() ? v[i] + (pos - static_cast<double>(i)) * (v[i + 1] - v[i]) : v[i];
-}
 
 }  // namespace
 

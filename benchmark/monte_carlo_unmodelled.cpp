@@ -52,6 +52,8 @@
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 
+#include "percentile.hpp"
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -69,14 +71,6 @@ namespace {
 
 using monte_carlo::knob;
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double pos = p * static_cast<double>(v.size() - 1);
-  const std::size_t i = static_cast<std::size_t>(pos);
-  const double f = pos - static_cast<double>(i);
-  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
-}
 
 struct Tally {
   std::vector<double> scale_pct, angle_deg;

@@ -96,7 +96,9 @@ void expect_window(const mic::MagnetometerCalibration& m, const nlohmann::json& 
   // 7-56, so a few windows refuse it.
   EXPECT_EQ(static_cast<bool>(m.remote_used), o["remote_used"].get<bool>());
   EXPECT_EQ(static_cast<bool>(m.pair_biased), o["pair_biased"].get<bool>());
-  if (remote) EXPECT_TRUE(agrees(m.remote_strength, o["remote_strength"].get<double>())) << "remote_strength";
+  if (remote) {
+    EXPECT_TRUE(agrees(m.remote_strength, o["remote_strength"].get<double>())) << "remote_strength";
+  }
 }
 
 }  // namespace

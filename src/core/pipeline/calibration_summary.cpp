@@ -30,8 +30,7 @@ std::string verdict_row(const ToleranceVerdict& v) {
   const double unit = scale ? 100.0 : 1.0;
   const char* suffix = scale ? " %" : " deg";
   char value[64], tolerance[32];
-  std::snprintf(value, sizeof value, "%+.*f ± %.*f%s", scale ? 3 : 3, (v.value - v.nominal) * unit, scale ? 3 : 3,
-                v.ci95 * unit, suffix);
+  std::snprintf(value, sizeof value, "%+.3f ± %.3f%s", (v.value - v.nominal) * unit, v.ci95 * unit, suffix);
   std::snprintf(tolerance, sizeof tolerance, "%.3g%s", v.tolerance * unit, suffix);
   char row[256];
   std::snprintf(row, sizeof row, "  %-34s %-24s %-12s %-10s %s", words(v.parameter).c_str(), value, tolerance,

@@ -11,7 +11,6 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// The nine half-widths in a fixed order: scale x, y, z; non-orthogonality xy, xz, yz;
 /// misalignment x, y, z.
@@ -20,9 +19,6 @@ Eigen::Matrix<double, 9, 1> half_widths(const CalibrationParameters& p) {
   c << p.scale_ratio_ci95, p.nonorthogonality_ci95_deg, p.misalignment_ci95_deg;
   return c;
 }
-
-/// Rows [first, first + count) of a reading matrix.
-Readings rows_of(const Readings& r, Eigen::Index first, Eigen::Index count) { return r.middleRows(first, count); }
 
 }  // namespace
 
@@ -85,6 +81,12 @@ IntervalNarrowing measure_interval_narrowing(WindowEstimator& estimator, const P
   // A sub-window shorter than two periods of the band's lowest frequency resolves less of the
   // band than the window: its interval is wider for that, not for its length alone.
   const double min_length_s = 2.0 / estimator.settings().band_low_hz;
+  if (static_cast<double>(n / 2) * period_s < min_length_s) {
+    std::ostringstream text;
+    text << "not measured: the window's halves are shorter than 2 / band_low (" << min_length_s << " s)";
+    out.text = text.str();
+    return out;
+  }
   for (int parts : {2, 4}) {
     const Eigen::Index length = n / parts;
     if (static_cast<double>(length) * period_s < min_length_s) continue;
@@ -93,11 +95,11 @@ IntervalNarrowing measure_interval_narrowing(WindowEstimator& estimator, const P
       WindowInputs sub_inputs = inputs;
       Readings remote;
       if (inputs.remote_nT != nullptr) {
-        remote = rows_of(*inputs.remote_nT, first, length);
+        remote = inputs.remote_nT->middleRows(first, length);
         sub_inputs.remote_nT = &remote;
       }
-      const WindowEstimate e = estimator.estimate(rows_of(filled.reference_nT, first, length),
-                                                  rows_of(filled.test_nT, first, length), period_s, sub_inputs);
+      const WindowEstimate e = estimator.estimate(filled.reference_nT.middleRows(first, length),
+                                                  filled.test_nT.middleRows(first, length), period_s, sub_inputs);
       if (e.quality != Quality::kOk) {
         if (failed.empty()) failed = e.quality_text;
         continue;
@@ -118,12 +120,6 @@ IntervalNarrowing measure_interval_narrowing(WindowEstimator& estimator, const P
     }
   }
   out.sub_windows = static_cast<int>(per_sub_window.size());
-  if (static_cast<double>(n / 2) * period_s < min_length_s) {
-    std::ostringstream text;
-    text << "not measured: the window's halves are shorter than 2 / band_low (" << min_length_s << " s)";
-    out.text = text.str();
-    return out;
-  }
   if (out.sub_windows == 0 || sxx <= 0.0) {
     out.text = "not measured: no half or quarter of the window gives an estimate (" +
                (failed.empty() ? std::string("no finite interval") : failed) + ")";
