@@ -104,11 +104,14 @@ roslaunch_add_file_check(launch/station.launch nodelet_manager:=station_manager 
 # streams (their pairing and windows assume the node keeps up; the pty stations at 100x) run
 # alone, each with both cores; the core gtests, the driver rostests (packets at a few per
 # second), the bag replay (rosbag play waits for the nodes), the plotting script and the launch
-# checks run two at a time. Measured: one extra busy process beside two tests made rostest
-# time_jump lose a window's samples at the jump; these passed beside it.
+# checks run two at a time, and so do the rostests that start nodes on wall-clock time with no
+# stream to keep up with (impossible parameters, the correction node's file reload and its
+# refusal of another stream's file). Measured: one extra busy process beside two tests made
+# rostest time_jump lose a window's samples at the jump; these passed beside it.
 get_property(_mic_all_tests DIRECTORY PROPERTY TESTS)
 foreach(_mic_test ${_mic_all_tests})
-  if(_mic_test MATCHES "_rostest_" AND NOT _mic_test MATCHES "lemi025_driver|faults_driver|replay_agreement|nodelet_device_error")
+  if(_mic_test MATCHES "_rostest_" AND NOT _mic_test MATCHES
+     "lemi025_driver|faults_driver|replay_agreement|nodelet_device_error|bad_parameters|correction_reload|correction_stream")
     set_tests_properties(${_mic_test} PROPERTIES RUN_SERIAL TRUE)
   endif()
 endforeach()
