@@ -113,6 +113,7 @@ void CalibrationNode::on_reference(const sensor_msgs::MagneticField::ConstPtr& m
 
 void CalibrationNode::on_test(std::size_t index, const sensor_msgs::MagneticField::ConstPtr& message) {
   Channel& ch = *channels_[index];
+  drop_resumed_if_not_of_stream(ch, *message);
   const double t = message->header.stamp.toSec();
   const auto jump = ch.test.observe(t, ros::Time::now().toSec(), message->header.frame_id,
                                     settings_.time_jump_threshold_s);

@@ -67,6 +67,9 @@ struct CalibrationNode::Channel {
   std::string last_change_window;
   std::size_t changes_detected = 0;
   std::string resume_state = "not tried";
+  /// The calibration resumed from the file, until the first test sample decides whether it is of
+  /// this stream (calibration_stream_mismatch); callback thread.
+  std::optional<MagnetometerCalibration> resumed_unchecked;
   // TF (~publish_tf).
   std::size_t tf_published = 0;
   std::string tf_state = "off (~publish_tf false)";

@@ -238,6 +238,10 @@ void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& sta
                                                       : "the band's halves disagree: not vouched for");
   }
   if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
+  // Until this stream's first accepted window replaces it, the file is another stream's.
+  if (ch.accepted == 0 && ch.resume_state.rfind("resumed file refused", 0) == 0) {
+    problems.emplace_back(DiagnosticStatus::WARN, ch.resume_state);
+  }
   if (ch.estimated > 0 && !ch.last_accepted && !ch.last_failed) {
     problems.emplace_back(DiagnosticStatus::WARN, "last window rejected (" + ch.last_quality + ")");
   }

@@ -80,6 +80,7 @@ void CalibrationNode::resume_from_file(Channel& ch) {
     ch.last_accepted_window = window;
     ch.last_accepted_stamp = time_for_message(m.header.stamp.toSec());
     ch.resume_state = "resumed from file";
+    ch.resumed_unchecked = m;
     ch.publisher.publish(m);  // latched: subscribers get the persisted calibration at once
     publish_rotation(ch, m);  // with ~publish_tf, its rotation on /tf_static (also latched)
     ROS_INFO("%s: test '%s': resumed the accepted calibration of window %s from %s", node_name_.c_str(),
@@ -88,6 +89,26 @@ void CalibrationNode::resume_from_file(Channel& ch) {
     ch.resume_state = std::string("calibration file not resumed: ") + error.what();
     ROS_WARN("%s: test '%s': %s", node_name_.c_str(), t.name.c_str(), ch.resume_state.c_str());
   }
+}
+
+void CalibrationNode::drop_resumed_if_not_of_stream(Channel& ch, const sensor_msgs::MagneticField& first) {
+  if (!ch.resumed_unchecked) return;
+  const MagnetometerCalibration m = *ch.resumed_unchecked;
+  ch.resumed_unchecked.reset();
+  const std::string reason = calibration_stream_mismatch(
+      m.test_name, m.test_frame_id, RecordTime{m.window_end.sec, m.window_end.nsec},
+      {ch.settings.name, first.header.frame_id, RecordTime{first.header.stamp.sec, first.header.stamp.nsec}});
+  if (reason.empty()) return;
+  std::lock_guard<std::mutex> lock(ch.results_mutex);
+  if (ch.baseline_source != "file (loaded at start)") return;  // a window was accepted meanwhile
+  ch.baseline.reset();
+  ch.baseline_window.clear();
+  ch.baseline_source = "none";
+  ch.last_accepted_window.clear();
+  ch.last_accepted_stamp.clear();
+  ch.resume_state = "resumed file refused, not of this stream: " + reason;
+  ROS_WARN("%s: test '%s': the calibration resumed from %s is refused at the stream's first sample: %s",
+           node_name_.c_str(), ch.settings.name.c_str(), ch.settings.calibration_file.c_str(), reason.c_str());
 }
 
 }  // namespace magnetometer_insitu_calibration

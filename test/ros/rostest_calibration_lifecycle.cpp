@@ -5,7 +5,8 @@
 //                                                                 and restarted by the test: the
 //                                                                 persisted calibration at once,
 //                                                                 and (~publish_tf) its rotation
-//                                                                 on /tf_static
+//                                                                 on /tf_static; a third,
+//                                                                 on another frame, refuses it
 //   Calibration.CorrectionRefusesACalibrationOfAnotherStream  correction_stream.test
 //                                  correction_node's file of a later window, another frame or
 //                                  test refused at the first sample; the day before adopted
@@ -212,6 +213,14 @@ TEST(Calibration, ResumeAfterRestart) {
     const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
     return d != nullptr && d->values.count("loaded from file") && d->values.at("loaded from file") == "True";
   }, 20.0);
+  // A sample of the same stream after the persisted window: the file is kept.
+  const std::string persisted_frame = persisted.test_frame_id;
+  h.publish_test_sample(0, persisted.window_end.toSec() + 60.0, persisted_frame);
+  const double kept_after_s = persisted.window_end.toSec() + 60.0;
+  const bool kept = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+    return d != nullptr && d->sim_time_s > kept_after_s + 2.0;
+  }, 20.0);
   const bool second_stopped = second.stop();
   std::lock_guard<std::mutex> lock(h.mutex());
   std::printf("[ timing ] restarted node published the persisted calibration %.2f s (wall) after its start\n",
@@ -227,6 +236,8 @@ TEST(Calibration, ResumeAfterRestart) {
   EXPECT_EQ(d->values.at("resume at start"), "resumed from file");
   EXPECT_EQ(d->values.at("accepted calibration source"), "file (loaded at start)");
   EXPECT_EQ(value_of(d, "windows estimated"), 0u);
+  EXPECT_TRUE(kept) << "no diagnostics after a sample of the stream";
+  EXPECT_EQ(d->values.at("accepted calibration source"), "file (loaded at start)") << "dropped on its own stream";
   EXPECT_TRUE(second_stopped);
   // The persisted calibration's rotation on /tf_static from the restarted node: the rotation
   // vector of its inverse is the file's misalignment_deg (calibration_node_tf.cpp).
@@ -240,6 +251,43 @@ TEST(Calibration, ResumeAfterRestart) {
   const Eigen::AngleAxisd inverse(q.toRotationMatrix().transpose());
   const Eigen::Vector3d v = inverse.axis() * inverse.angle() * 180.0 / M_PI;
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(v(k), persisted.misalignment_deg[k], 1e-6) << "component " << k;
+}
+
+TEST(Calibration, ResumeRefusesAFileOfAnotherStream) {
+  // After ResumeAfterRestart (same file): calibration_node started again on a stream whose first
+  // test sample has another frame_id. The persisted calibration is published at start (the
+  // correction node makes its own check), but at that sample it stops being the change check's
+  // baseline and the diagnostics warn, naming the field.
+  const std::string file = param("calibration_file");
+  mic::MagnetometerCalibration persisted;
+  ASSERT_NO_THROW(persisted = mic::load_calibration_file(file)) << "ResumeAfterRestart runs first and leaves " << file;
+  const std::vector<std::string> arguments = {
+      "__name:=resume_calibration_node", "_reference_topic:=" + param("reference_topic"), "_test_topic:=" + param("test_topic"),
+      "_calibration_topic:=" + param("calibration_topic"), "_calibration_file:=" + file, "_test_name:=resume",
+      "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5"};
+  Harness h(simulation(600.0, 31));
+  Child node{spawn(CALIBRATION_NODE_PATH, arguments)};
+  ASSERT_GT(node.pid, 0);
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "calibration_node did not connect";
+  const bool resumed = h.wait([&] { return !h.calibrations().empty(); }, 20.0);
+  h.publish_test_sample(0, persisted.window_end.toSec() + 60.0, "another_frame");
+  const bool refused = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+    return d != nullptr && d->values.count("resume at start") &&
+           d->values.at("resume at start").rfind("resumed file refused", 0) == 0;
+  }, 20.0);
+  const bool stopped = node.stop();
+  std::lock_guard<std::mutex> lock(h.mutex());
+  EXPECT_TRUE(resumed) << "the file was not published at start";
+  ASSERT_TRUE(refused) << "the file of another frame was not refused";
+  const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+  EXPECT_NE(d->values.at("resume at start").find("test_frame_id '" + persisted.test_frame_id + "'"), std::string::npos)
+      << d->values.at("resume at start");
+  EXPECT_EQ(d->values.at("accepted calibration source"), "none");
+  EXPECT_EQ(d->values.at("loaded from file"), "False");
+  EXPECT_EQ(d->level, 1) << d->message;
+  EXPECT_NE(d->message.find("another_frame"), std::string::npos) << d->message;
+  EXPECT_TRUE(stopped);
   std::remove(file.c_str());
 }
 
