@@ -188,22 +188,10 @@ void apply_options(const Options& o, mic::CalibrationSettings& settings) {
     throw mic::InputError("--reference-noise-pT", "is used by --eiv given only (got --eiv " + o.eiv + ")");
   }
   if (!o.field_direction.empty()) {
-    const auto comma = o.field_direction.find(',');
     try {
-      if (comma == std::string::npos) throw std::invalid_argument("no comma");
-      mic::FieldDirection d;
-      std::size_t used = 0;
-      d.declination_deg = std::stod(o.field_direction.substr(0, comma), &used);
-      std::string rest = o.field_direction.substr(comma + 1);
-      const auto second = rest.find(',');
-      d.hdz = second != std::string::npos && rest.substr(second + 1) == "hdz";
-      if (second != std::string::npos && !d.hdz) throw std::invalid_argument("third field");
-      d.inclination_deg = std::stod(rest.substr(0, second));
-      if (!(std::abs(d.inclination_deg) <= 90.0)) throw std::invalid_argument("inclination");
-      window_settings.field_direction = d;
-    } catch (const std::exception&) {
-      throw mic::InputError("--field-direction", "expected D,I or D,I,hdz in degrees (|I| <= 90), got '" +
-                                                     o.field_direction + "'");
+      window_settings.field_direction = mic::parse_field_direction(o.field_direction);
+    } catch (const std::invalid_argument& error) {
+      throw mic::InputError("--field-direction", error.what());
     }
   }
   if (!o.tolerance_file.empty()) window_settings.tolerances = mic::read_tolerance_file(o.tolerance_file);

@@ -40,6 +40,20 @@ std::string silence_problem(const StreamMonitor& m, const std::string& name, dou
                         : "no " + name + " message yet";
 }
 
+/// The scalar check of the last window: its text, and its numbers (NaN where not determined).
+void describe_scalar(const ScalarCheck& f, DiagnosticStatusWrapper& status) {
+  status.add("scalar check (last window)", f.text);
+  status.add("reference scale along the field", f.reference_scale);
+  status.add("reference scale along the field ci95", f.reference_scale_ci95);
+  for (int l = 0; l < 3; ++l) {
+    const std::string axis(1, "xyz"[l]);
+    status.add("reference scale " + axis + " (given direction)", f.axis_scale(l));
+    status.add("reference scale " + axis + " ci95 (given direction)", f.axis_scale_ci95(l));
+  }
+  status.add("fitted direction from the given (deg)", f.direction_offset_deg);
+  status.add("fitted direction from the given ci95 (deg)", f.direction_offset_ci95_deg);
+}
+
 /// The last window's estimate in words: method, noise model, weights, band, delay, offset,
 /// response, response model and temperature terms.
 void describe_window(const CalibrationWindow& w, DiagnosticStatusWrapper& status) {
@@ -73,6 +87,7 @@ void describe_window(const CalibrationWindow& w, DiagnosticStatusWrapper& status
   status.add("response model (last window)", w.response_model.text);
   status.add("remote reference (last window)", e.remote.given ? e.remote.text : std::string("none"));
   status.add("band split (last window)", e.remote.used ? std::string("not needed (remote)") : e.band_split.text);
+  if (!w.scalar.text.empty()) describe_scalar(w.scalar, status);
   // Relative frequency response of the test against R n over the band used (relative_response.hpp).
   if (w.response.bands > 0) {
     status.add("response bands in the band used", w.response.bands);
@@ -238,6 +253,10 @@ void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& sta
                                                       : "the band's halves disagree: not vouched for");
   }
   if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
+  if (ch.last && ch.last->scalar.reference_off) {
+    problems.emplace_back(DiagnosticStatus::WARN, "the reference needs calibration: its scale along the field departs "
+                                                  "from 1 beyond its interval (scalar check)");
+  }
   // Until this stream's first accepted window replaces it, the file is another stream's.
   if (ch.accepted == 0 && ch.resume_state.rfind("resumed file refused", 0) == 0) {
     problems.emplace_back(DiagnosticStatus::WARN, ch.resume_state);

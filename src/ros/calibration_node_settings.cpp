@@ -5,6 +5,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/tolerance_file.hpp"
+#include "magnetometer_insitu_calibration/estimation/scalar_check.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
 #include <algorithm>
@@ -27,7 +28,7 @@ const std::vector<std::string> kKnownParameters = {
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
     "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike",
     "screen", "screen_threshold", "screen_baseline", "screen_margin", "section_length", "section_trend", "huber_k",
-    "section_rejection", "iterations", "remote_topic", "scalar_topic", "tolerance_file"};
+    "section_rejection", "iterations", "remote_topic", "scalar_topic", "field_direction", "tolerance_file"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -178,6 +179,17 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     require_topic_name(name, topic);
     if (topics.count(topic) != 0 || outputs.count(topic) != 0 || (topic == s.remote_topic && topic == s.scalar_topic)) {
       throw ParameterError(name, "'" + topic + "' is the reference, a test, a calibration, the remote or the scalar topic");
+    }
+  }
+  // The main field's direction (D,I from the observatory's absolute observations): the scalar
+  // check then gives the reference's scale per axis.
+  const std::string field_direction = param_string(p, "field_direction", "");
+  if (!field_direction.empty()) {
+    if (s.scalar_topic.empty()) throw ParameterError("field_direction", "is used with ~scalar_topic only");
+    try {
+      s.window.field_direction = parse_field_direction(field_direction);
+    } catch (const std::invalid_argument& e) {
+      throw ParameterError("field_direction", e.what());
     }
   }
   load_streams(p, s);

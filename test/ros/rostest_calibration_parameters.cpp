@@ -55,6 +55,8 @@ TEST(Calibration, BadParameters) {
       {calibration + " __name:=bad_temperature_topic" + ok + " _temperature_topic:=/t", "parameter ~temperature_topic: '/t' is a magnetic field"},
       {calibration + " __name:=bad_temperature_name" + ok + " _temperature_topic:='a b'", "parameter ~temperature_topic:"},
       {calibration + " __name:=bad_temperature_range" + ok + " _temperature_min_range:=-1", "parameter ~temperature_min_range:"},
+      {calibration + " __name:=lone_direction" + ok + " _field_direction:=1.3,63.4", "parameter ~field_direction: is used with ~scalar_topic only"},
+      {calibration + " __name:=bad_direction" + ok + " _scalar_topic:=/f _field_direction:=1.3,93", "parameter ~field_direction: expected D,I or D,I,hdz"},
       {correction + " __name:=bad_temperature_age _test_topic:=/t _temperature_topic:=/temp _temperature_max_age:=0", "parameter ~temperature_max_age:"},
       {correction + " __name:=bad_temperature_model _test_topic:=/t _temperature_model:=linear", "parameter ~temperature_model:"},
       {correction + " __name:=bad_offset _test_topic:=/t _apply_offset:=maybe", "parameter ~apply_offset:"},

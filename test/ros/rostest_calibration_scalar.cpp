@@ -2,8 +2,10 @@
 // ~scalar_topic. The reference reads 0.3 % high along every axis; F (simulation/
 // scalar_magnetometer.hpp) every second, 0.37 s off the pair's stamps. Every published
 // calibration carries the scalar check, and its reference scale along the field holds the truth
-// within its interval.
+// within its interval. With the main field's D and I (~field_direction), the diagnostics give
+// the reference's scale along x and z (y is across the field), each holding 1.003.
 #include "calibration_harness.hpp"
+#include "magnetometer_insitu_calibration/estimation/scalar_check.hpp"
 #include "magnetometer_insitu_calibration/simulation/scalar_magnetometer.hpp"
 
 using namespace calibration_rostest;
@@ -25,9 +27,36 @@ TEST(Calibration, ScalarTopic) {
   h.scale_reference(kReferenceScale);
   ASSERT_TRUE(h.wait_for_connections(1, 2)) << "nodes did not connect";
   ASSERT_TRUE(h.wait([&] { return h.scalar_subscribers() >= 1; }, 30.0)) << "calibration_node did not subscribe to F";
+  // The direction the node was given is the simulated main field's.
+  const mic::FieldDirection given = mic::parse_field_direction(param("field_direction"));
+  EXPECT_LT(std::acos(std::min(1.0, given.unit().dot(sim.main_field_nT.normalized()))) * 180.0 / M_PI, 1e-3);
   h.publish(0, kPairedSamples, true, true);
   ASSERT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 60.0)) << "timed out waiting for the calibrations";
+  const bool diagnosed = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("calibration_sim: sim");
+    return d != nullptr && d->values.count("scalar check (last window)") != 0;
+  }, 30.0);
   std::lock_guard<std::mutex> lock(h.mutex());
+  ASSERT_TRUE(diagnosed) << "no scalar check in the diagnostics";
+  const DiagnosticRecord* d = h.latest_diagnostic("calibration_sim: sim");
+  EXPECT_NE(d->values.at("scalar check (last window)").find("reference scale x"), std::string::npos);
+  for (const char* axis : {"x", "z"}) {
+    const double scale = std::stod(d->values.at(std::string("reference scale ") + axis + " (given direction)"));
+    const double ci95 = std::stod(d->values.at(std::string("reference scale ") + axis + " ci95 (given direction)"));
+    EXPECT_GT(ci95, 0.0) << axis;
+    EXPECT_NEAR(scale, kReferenceScale, ci95) << axis;
+  }
+  EXPECT_EQ(d->values.at("reference scale y (given direction)"), "nan");  // |b_y| = 0.02: not determined
+  // The fitted direction's angle from the given one, a 2-D offset: under twice the 1-D half-width
+  // (3.9 standard errors) but for one window in 2000.
+  const double offset = std::stod(d->values.at("fitted direction from the given (deg)"));
+  EXPECT_LT(offset, 2.0 * std::stod(d->values.at("fitted direction from the given ci95 (deg)")));
+  // The WARN that the reference needs calibration when, and only when, the last window's scale
+  // along the field excludes 1 (1.003 from 3-hour windows: +- 0.1-0.3 %).
+  const mic::MagnetometerCalibration& last = h.calibrations().back();  // of the two windows, the last
+  EXPECT_EQ(d->message.find("the reference needs calibration") != std::string::npos, last.reference_needs_calibration)
+      << d->message << "; " << last.scalar_text;
+  if (last.reference_needs_calibration) EXPECT_EQ(d->level, 1) << d->message;
   for (const mic::MagnetometerCalibration& c : h.calibrations()) {
     SCOPED_TRACE(c.scalar_text);
     EXPECT_NE(c.scalar_text.find("reference scale along the field"), std::string::npos);

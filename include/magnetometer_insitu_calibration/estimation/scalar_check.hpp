@@ -35,6 +35,10 @@ struct FieldDirection {
   Eigen::Vector3d unit() const;
 };
 
+/// "D,I" or "D,I,hdz" (degrees, |I| <= 90), as calibrate_records --field-direction and
+/// calibration_node ~field_direction take it; std::invalid_argument naming what was expected.
+FieldDirection parse_field_direction(const std::string& text);
+
 struct ScalarCheck {
   bool assessed = false;
   std::string text;  ///< what was found, or why not assessed

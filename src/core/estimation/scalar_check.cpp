@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 namespace magnetometer_insitu_calibration {
 
@@ -18,6 +19,32 @@ constexpr double kDegree = M_PI / 180.0;
 double spread(const Eigen::Vector3d& g, const Eigen::Matrix3d& s) { return std::sqrt(std::max(0.0, g.dot(s * g))); }
 
 }  // namespace
+
+FieldDirection parse_field_direction(const std::string& text) {
+  const std::string expected = "expected D,I or D,I,hdz in degrees (|I| <= 90), got '" + text + "'";
+  const auto comma = text.find(',');
+  if (comma == std::string::npos) throw std::invalid_argument(expected);
+  const std::string rest = text.substr(comma + 1);
+  const auto second = rest.find(',');
+  FieldDirection d;
+  d.hdz = second != std::string::npos && rest.substr(second + 1) == "hdz";
+  if (second != std::string::npos && !d.hdz) throw std::invalid_argument(expected);
+  const auto number = [&](const std::string& field) {
+    std::size_t used = 0;
+    double value = std::numeric_limits<double>::quiet_NaN();
+    try {
+      value = std::stod(field, &used);
+    } catch (const std::exception&) {
+      throw std::invalid_argument(expected);
+    }
+    if (used != field.size() || !std::isfinite(value)) throw std::invalid_argument(expected);
+    return value;
+  };
+  d.declination_deg = number(text.substr(0, comma));
+  d.inclination_deg = number(rest.substr(0, second));
+  if (!(std::abs(d.inclination_deg) <= 90.0)) throw std::invalid_argument(expected);
+  return d;
+}
 
 Eigen::Vector3d FieldDirection::unit() const {
   const double d = declination_deg * kDegree, i = inclination_deg * kDegree;
@@ -83,6 +110,17 @@ ScalarCheck assess_scalar(const Eigen::Vector3d& c, const Eigen::Matrix3d& covar
                 out.reference_off ? " (departs from 1: the reference needs calibration)" : "", out.test_scale,
                 out.test_scale_ci95);
   out.text = text;
+  if (given) {  // each axis's scale where the given direction determines it, and the direction's fit
+    for (int l = 0; l < 3; ++l) {
+      if (!std::isfinite(out.axis_scale(l))) continue;
+      std::snprintf(text, sizeof text, "; reference scale %c %.5f +- %.5f", "xyz"[l], out.axis_scale(l),
+                    out.axis_scale_ci95(l));
+      out.text += text;
+    }
+    std::snprintf(text, sizeof text, "; fitted direction %.3f +- %.3f deg from the given one",
+                  out.direction_offset_deg, out.direction_offset_ci95_deg);
+    out.text += text;
+  }
   return out;
 }
 
