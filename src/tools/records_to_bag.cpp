@@ -8,8 +8,11 @@
 //                  [--reference-topic /reference/magnetic_field] [--test-topic /test/magnetic_field]
 //                  [--reference-frame reference] [--test-frame test] [--compression none|bz2|lz4]
 //
-// A damaged record is reported with its position (file:line, or file byte offset) and skipped;
-// the good records around it are kept. Exit status 0 when the bag was written (the number of
+// A damaged text line (IAGA-2002, CSV) refuses the file, naming file and line, as in
+// calibrate_records and export_corrected (one rule for bad input); with --skip-damaged it is
+// reported and skipped and the good lines around it are kept. A damaged binary record (a LEMI
+// packet or block with a bad checksum or time) is reported with its byte offset and skipped, as
+// every reader of those formats does. Exit status 0 when the bag was written (the number of
 // skipped records is printed), 1 when it could not be.
 #include "archive_records.hpp"
 
@@ -136,8 +139,21 @@ std::string time_range(const mic::VectorRecord& r) {
   return mic::format_iso8601(r.time_s.front(), 3) + " .. " + mic::format_iso8601(r.time_s.back(), 3);
 }
 
+/// Without --skip-damaged, a text file with damaged lines is refused with the first of them.
+void refuse_damaged_text(const std::string& path, const mic::ArchiveRecord& r) {
+  const bool text = r.format == mic::RecordFormat::kIaga2002 || r.format == mic::RecordFormat::kCsv;
+  if (!text || r.skipped == 0 || r.problems.empty()) return;
+  std::string first = r.problems.front();
+  const std::string skipped = " (line skipped)";
+  if (first.size() > skipped.size() && first.compare(first.size() - skipped.size(), skipped.size(), skipped) == 0) {
+    first.resize(first.size() - skipped.size());
+  }
+  throw mic::InputError(path, std::to_string(r.skipped) + " damaged line(s), the first " + first +
+                                  "; refused (--skip-damaged converts the other lines)");
+}
+
 mic::ArchiveRecord read_one(const std::string& role, const std::string& path, const mic::ArchiveReadOptions& base,
-                            Progress& progress, std::size_t max_problems) {
+                            Progress& progress, std::size_t max_problems, bool skip_damaged) {
   mic::ArchiveReadOptions options = base;
   options.progress = [&progress](double fraction) { progress.update(fraction); };
   const Clock::time_point start = Clock::now();
@@ -148,6 +164,7 @@ mic::ArchiveRecord read_one(const std::string& role, const std::string& path, co
     r = mic::read_archive_record(path, options);
   }
   progress.finish();
+  if (!skip_damaged) refuse_damaged_text(path, r);
   for (std::size_t i = 0; i < r.problems.size() && i < max_problems; ++i) {
     std::cerr << "records_to_bag: " << r.problems[i] << "\n";
   }
@@ -173,7 +190,7 @@ int main(int argc, char** argv) {
   std::string reference_topic = "/reference/magnetic_field", test_topic = "/test/magnetic_field",
               remote_topic = "/remote/magnetic_field";
   std::string reference_frame = "reference", test_frame = "test", compression = "none", checksum = "none";
-  bool no_temperatures = false, variation = false, quiet = false;
+  bool no_temperatures = false, variation = false, quiet = false, skip_damaged = false;
   double time_shift_s = mic::kLemi025TimeShift_s;
   std::size_t max_problems = 20;
   double progress_delay_s = 1.0;
@@ -199,6 +216,8 @@ int main(int argc, char** argv) {
   app.add_option("--lemi-time-shift", time_shift_s, "LEMI formats: seconds added to the GPS time of the readings")
       ->capture_default_str();
   app.add_option("--max-problems", max_problems, "problems printed per file (all are counted)")->capture_default_str();
+  app.add_flag("--skip-damaged", skip_damaged,
+               "IAGA-2002 and CSV: skip a damaged line (reported with its number) instead of refusing the file");
   app.add_flag("-q,--quiet", quiet, "no progress display");
   app.add_option("--progress-delay", progress_delay_s, "seconds into a step before its progress is shown")
       ->capture_default_str();
@@ -220,7 +239,7 @@ int main(int argc, char** argv) {
     Progress progress(!quiet, progress_delay_s);
     auto read_all = [&](const std::string& role, const std::vector<std::string>& paths) {
       std::vector<mic::ArchiveRecord> parts;
-      for (const std::string& path : paths) parts.push_back(read_one(role, path, options, progress, max_problems));
+      for (const std::string& path : paths) parts.push_back(read_one(role, path, options, progress, max_problems, skip_damaged));
       if (parts.size() == 1) return std::move(parts.front());
       std::size_t printed = 0;  // the parts' own problems, printed by read_one; then the joining's
       for (const mic::ArchiveRecord& part : parts) printed += part.problems.size();

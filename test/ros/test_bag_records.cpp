@@ -15,6 +15,8 @@
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
+
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <rosbag/bag.h>
 #include <sensor_msgs/MagneticField.h>
@@ -303,8 +305,10 @@ TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
   }
 }
 
-// Damaged IAGA-2002 lines: named with their line numbers, skipped, counted; the rest converted.
-TEST(RecordsToBag, DamagedTextRecordsAreNamedSkippedAndCounted) {
+// Damaged IAGA-2002 lines: the file refused, naming the first line, and no bag written (as
+// calibrate_records refuses it); with --skip-damaged named with their line numbers, skipped,
+// counted, the rest converted.
+TEST(RecordsToBag, DamagedTextRecordsAreRefusedOrNamedSkippedAndCounted) {
   const std::string dir = make_temp_dir("bag_damaged");
   mic::SimulationSettings s;
   s.duration_s = 7200.0;
@@ -319,8 +323,20 @@ TEST(RecordsToBag, DamagedTextRecordsAreNamedSkippedAndCounted) {
   lines[d + 5000].replace(11, 2, "25");  // hour 25
   mic::test::write_lines(dir + "/test_damaged.sec", lines, true);
 
-  const ProgramRun r = run_program(RECORDS_TO_BAG_BIN, "--reference " + dir + "/reference.sec --test " + dir +
-                                            "/test_damaged.sec -o " + dir + "/d.bag");
+  const std::string inputs = "--reference " + dir + "/reference.sec --test " + dir + "/test_damaged.sec -o " + dir + "/d.bag";
+  const ProgramRun refused = run_program(RECORDS_TO_BAG_BIN, inputs);
+  EXPECT_EQ(refused.status, 1) << refused.output;
+  EXPECT_TRUE(has(refused.output, "2 damaged line(s), the first " + dir + "/test_damaged.sec:" + std::to_string(d + 11) + ": "))
+      << refused.output;
+  EXPECT_TRUE(has(refused.output, "--skip-damaged")) << refused.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/d.bag")) << "a bag written from a refused file";
+  const ProgramRun calibrate = run_program(CALIBRATE_RECORDS_BIN, "--reference " + dir + "/reference.sec --test " + dir +
+                                                                      "/test_damaged.sec");
+  EXPECT_EQ(calibrate.status, 1) << "calibrate_records and records_to_bag disagree on a damaged line: "
+                                 << calibrate.output;
+  EXPECT_TRUE(has(calibrate.output, dir + "/test_damaged.sec:" + std::to_string(d + 11))) << calibrate.output;
+
+  const ProgramRun r = run_program(RECORDS_TO_BAG_BIN, inputs + " --skip-damaged");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_TRUE(has(r.output, dir + "/test_damaged.sec:" + std::to_string(d + 11) + ": ")) << r.output;
   EXPECT_TRUE(has(r.output, dir + "/test_damaged.sec:" + std::to_string(d + 5001) + ": ")) << r.output;
