@@ -115,6 +115,9 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--link", o.link, "symlink to create, pointing at the pty slave (e.g. /tmp/lemi_ref)")->required();
   app.add_option("--role", o.role, "reference|test: which instrument of the simulated pair")->capture_default_str();
   app.add_option("--seed", o.s.seed, "random seed (same seed = same pair)")->capture_default_str();
+  app.add_option("--field-seed", o.s.field_seed,
+                 "seed of the field's variations alone (0: --seed); stations with one field seed share the field")
+      ->capture_default_str();
   app.add_option("--rate", o.rate, "packets per second of wall-clock time")->capture_default_str();
   app.add_option("--speed", o.speed, "time-lapse factor applied to --rate")->capture_default_str();
   app.add_option("--start", o.start_text, "UTC start of the record, ISO 8601 (default: current hour, live)");

@@ -56,7 +56,9 @@ TEST(Calibration, ScalarTopic) {
   const mic::MagnetometerCalibration& last = h.calibrations().back();  // of the two windows, the last
   EXPECT_EQ(d->message.find("the reference needs calibration") != std::string::npos, last.reference_needs_calibration)
       << d->message << "; " << last.scalar_text;
-  if (last.reference_needs_calibration) EXPECT_EQ(d->level, 1) << d->message;
+  if (last.reference_needs_calibration) {
+    EXPECT_EQ(d->level, 1) << d->message;
+  }
   for (const mic::MagnetometerCalibration& c : h.calibrations()) {
     SCOPED_TRACE(c.scalar_text);
     EXPECT_NE(c.scalar_text.find("reference scale along the field"), std::string::npos);

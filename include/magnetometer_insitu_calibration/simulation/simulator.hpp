@@ -40,6 +40,10 @@ struct SimulationSettings {
   double duration_s = 86400.0;         ///< s; samples = round(duration_s / sample_period_s)
   double sample_period_s = 1.0;        ///< s (1.0 for 1 Hz, 0.1 for 10 Hz)
   std::uint64_t seed = 1;              ///< same seed and settings -> identical output
+  /// Seed of the field's variations alone; 0: `seed`. Two stations with one field_seed and their
+  /// own seeds see one field through independent instruments, noise and disturbances: each is
+  /// the other's remote reference (a network of stations on one master).
+  std::uint64_t field_seed = 0;
 
   // --- Geomagnetic field B in the reference frame ----------------------------------------------
   /// Constant (main) field, nT, reference x, y, z (default: mid-latitude Europe).

@@ -88,7 +88,7 @@ void assess_cells_remote_strength(RemoteReference& remote, const std::vector<Cel
 
 void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cell>& cells, const IrlsResult& fit,
                                   std::size_t k_sections, const Regression& pair, const Regression& iv,
-                                  double covariance_cells) {
+                                  const ReferenceNoiseModel* noise, double covariance_cells) {
   const WeightedSolution ls = solve_frozen(cells, fit.weight, pair, -1);
   if (!ls.ok) {
     remote.text += "; the pair alone is singular on these cells";
@@ -121,8 +121,8 @@ void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cel
   for (int r = 0; r < 9; ++r) {
     for (int q = 0; q < 9; ++q) sandwich(r, q) = omega(3 * (r % 3) + r / 3, 3 * (q % 3) + q / 3);  // to row-major
   }
-  const Matrix9d covariance =
-      combine_covariances(sandwich, difference_jackknife(cells, fit.weight, k_sections, pair, iv));
+  Matrix9d covariance = combine_covariances(sandwich, difference_jackknife(cells, fit.weight, k_sections, pair, iv));
+  if (noise != nullptr) covariance += noise_level_covariance_term(cells, fit.weight, ls, *noise, pair.sample_period_s);
   assess_pair_difference(remote, ls.n, fit.n, covariance, covariance_cells);
 }
 

@@ -457,7 +457,7 @@ void RobustFdEstimator::Window::compare_with_pair(const std::vector<Cell>& cells
   Regression pair;
   pair.noise = eiv_spectrum();
   pair.sample_period_s = period_s_;
-  assess_cells_pair_difference(remote, cells, fit, sections_.count, pair, regression_, covariance_cells);
+  assess_cells_pair_difference(remote, cells, fit, sections_.count, pair, regression_, eiv_.noise, covariance_cells);
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -155,14 +155,16 @@ CellCovariance cell_covariance(const std::vector<Cell>& cells, const IrlsResult&
 /// coherence, canonical coherence and first-stage F of the remote over the cells and weights.
 void assess_cells_remote_strength(RemoteReference& remote, const std::vector<Cell>& cells,
                                   const std::vector<double>& weight);
-/// The pair-only estimate (least squares with `pair`'s noise correction) with the remote fit's
-/// final weights, the covariance of its difference from the remote's n (per-cell influence
-/// difference, raised to the jackknife of the difference over the same groups) and the test.
 /// The band-split check (remote_reference.hpp) over the cells with the fit's final weights.
 BandSplitCheck band_split_check(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
                                 std::size_t bins, const ReferenceNoiseModel* noise, const Regression& regression);
+/// The pair-only estimate (least squares with `pair`'s noise correction) with the remote fit's
+/// final weights, the covariance of its difference from the remote's n (per-cell influence
+/// difference, raised to the jackknife of the difference over the same groups, plus the
+/// correction's noise-level term when `noise` corrected the pair: the remote's n has no
+/// correction, so a level error moves the difference in every cell alike) and the test.
 void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cell>& cells, const IrlsResult& fit,
                                   std::size_t k_sections, const Regression& pair, const Regression& iv,
-                                  double covariance_cells);
+                                  const ReferenceNoiseModel* noise, double covariance_cells);
 
 }  // namespace magnetometer_insitu_calibration::detail::robust

@@ -145,7 +145,7 @@ void add_variations(const SimulationSettings& s, SpectralSynthesizer& synthesize
   const std::size_t n = static_cast<std::size_t>(clean.field.rows());
   const Eigen::Index rows = clean.field.rows();
   const double dt = s.sample_period_s;
-  SimulationRng rng(s.seed, kStreamVariations);
+  SimulationRng rng(s.field_seed != 0 ? s.field_seed : s.seed, kStreamVariations);
   Readings w(rows, 3), w_delayed(rows, 3);
   for (int c = 0; c < 3; ++c) {
     const Eigen::VectorXcd spectrum =
