@@ -17,6 +17,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
+#include "magnetometer_insitu_calibration/simulation/lemi025_station.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -102,7 +103,7 @@ struct Options {
   std::string gps_status = "A";
   bool loop = false;
   long corrupt_every = 0;
-  double variation_rms = 5.0;  ///< nT
+  double variation_rms = mic::kLemi025StationVariationRms_nT;  ///< nT
   mic::SimulationSettings s;
   // The test in a field hut (hut_temperature.hpp, seed = --seed, its default coefficients): its
   // readings carry the temperature effect and its packets the hut thermometer's reading.
@@ -153,12 +154,8 @@ mic::ChecksumMode check_options(const Options& o) {
 
 /// The simulated pair at 10 Hz from start_s (GPS second of packet 0), with the hut if asked for.
 mic::SimulatedPair simulate(const Options& o, double start_s) {
-  mic::SimulationSettings s = o.s;
   // Sample 10 i + k is taken at gps_i - 0.3 + 0.1 k: the record starts 0.3 s before second 0.
-  s.start_time_s = start_s + mic::kLemi025TimeShift_s;
-  s.duration_s = std::ceil(o.duration_s);
-  s.sample_period_s = mic::kLemi025SamplePeriod_s;
-  s.variation_rms_nT = o.variation_rms;
+  mic::SimulationSettings s = mic::lemi025_station_settings(o.s, start_s, o.duration_s, o.variation_rms);
   s.keep_clean_field = false;
   mic::SimulatedPair pair = mic::simulate_pair(s);
   if (o.hut()) {
@@ -265,7 +262,7 @@ int main(int argc, char** argv) {
                                       std::chrono::system_clock::now().time_since_epoch())
                                       .count());
     const bool live = o.start_text.empty();
-    double start_s = live ? std::floor(now / 3600.0) * 3600.0 : 0.0;
+    double start_s = live ? mic::lemi025_live_start_s(now) : 0.0;
     if (!live) {
       try {
         start_s = std::round(mic::parse_iso8601(o.start_text));

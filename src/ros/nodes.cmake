@@ -48,6 +48,9 @@ mic_add_node(calibration_node src/ros/calibration_node_settings.cpp src/ros/cali
 mic_add_node(correction_node)
 mic_add_node(lemi025_driver src/ros/lemi025_driver_port.cpp src/ros/lemi025_driver_timing.cpp
   src/ros/lemi025_driver_diagnostics.cpp)
+# A simulated scalar magnetometer for the simulated station (not a nodelet: it stands in for an
+# instrument, as lemi025_simulator does).
+mic_add_node(scalar_simulator)
 
 # Nodelets (nodelets.xml, exported in package.xml): magnetometer_insitu_calibration/<node>.
 add_library(${PROJECT_NAME}_nodelets

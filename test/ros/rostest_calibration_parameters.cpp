@@ -1,5 +1,6 @@
-// rostest_calibration, bad_parameters.test (Calibration.BadParameters): calibration_node and
-// correction_node started with impossible parameters exit 1 with a FATAL naming the parameter.
+// rostest_calibration, bad_parameters.test (Calibration.BadParameters): calibration_node,
+// correction_node and scalar_simulator started with impossible parameters exit 1 with a FATAL
+// naming the parameter.
 #include "calibration_harness.hpp"
 
 #include <sys/wait.h>
@@ -31,6 +32,7 @@ RunResult run(const std::string& command) {
 
 TEST(Calibration, BadParameters) {
   const std::string calibration = CALIBRATION_NODE_PATH, correction = CORRECTION_NODE_PATH;
+  const std::string scalar = SCALAR_SIMULATOR_PATH;
   const std::string ok = " _reference_topic:=/r _test_topic:=/t _calibration_file:=/tmp/unused.yaml";
   struct Case {
     std::string command, expected;
@@ -61,6 +63,9 @@ TEST(Calibration, BadParameters) {
       {correction + " __name:=bad_temperature_model _test_topic:=/t _temperature_model:=linear", "parameter ~temperature_model:"},
       {correction + " __name:=bad_offset _test_topic:=/t _apply_offset:=maybe", "parameter ~apply_offset:"},
       {correction + " __name:=no_test_topic", "parameter ~test_topic: is required"},
+      {scalar + " __name:=bad_scalar_period _period:=0", "parameter ~period: must be 0.1 to 3600 s"},
+      {scalar + " __name:=bad_scalar_start _start:=yesterday", "parameter ~start:"},
+      {scalar + " __name:=bad_scalar_seed _seed:=0", "parameter ~seed: must be >= 1"},
       {correction + " __name:=bad_queue _test_topic:=/t _queue_size:=0", "parameter ~queue_size:"},
   };
   for (const Case& c : cases) {

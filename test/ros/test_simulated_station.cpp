@@ -25,7 +25,8 @@
 // the same for every pair, all running at once.
 // Private parameters (strings): seed, start, duration (as given to the simulators), field_seed
 // (simulated_network.launch shared_field: the field's seed, 0 = seed), remote ("true": every
-// accepted calibration must have used the remote reference),
+// accepted calibration must have used the remote reference), scalar ("true": it must carry the
+// scalar check of simulated_station.launch's scalar_simulator, the reference's scale 1),
 // pairs (corrected samples to compare per pair), timeout (s); for SimulatedStation optionally
 // the topics and frame ids; for SimulatedNetwork `network`, the pairs as STATION/TEST:SEED
 // separated by spaces (topics /STATION/reference/magnetic_field, /STATION/TEST/calibration,
@@ -271,6 +272,15 @@ void check_pairs_live(const std::vector<PairUnderTest>& pairs) {
                  mic::format_iso8601(calibration.window_start.toSec(), 0).c_str(),
                  mic::format_iso8601(calibration.window_end.toSec(), 0).c_str());
     const double worst = expect_calibration_recovers_truth(calibration, truth, pairs[i]);
+    if (station_param("scalar", "false") == "true") {  // scalar_simulator beside the reference
+      // The simulated reference reads the field (scale 1): the check's scale along the field holds
+      // 1 within 1.5 half-widths (2.9 standard errors).
+      EXPECT_NE(calibration.scalar_text.find("reference scale along the field"), std::string::npos)
+          << pairs[i].label << ": " << calibration.scalar_text;
+      EXPECT_LE(std::abs(calibration.reference_scale_along_field - 1.0), 1.5 * calibration.reference_scale_along_field_ci95)
+          << pairs[i].label << ": " << calibration.scalar_text;
+      std::fprintf(stderr, "%s: %s\n", pairs[i].label.c_str(), calibration.scalar_text.c_str());
+    }
     if (station_param("remote", "false") == "true") {  // each station the other's remote reference
       EXPECT_TRUE(calibration.remote_used) << pairs[i].label << ": " << calibration.remote_text;
       // One field, no local disturbance: the pair alone is not biased (a false call at most

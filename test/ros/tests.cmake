@@ -31,9 +31,10 @@ target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PR
 target_compile_options(rostest_calibration PRIVATE -Wall -Wextra)
 target_compile_definitions(rostest_calibration PRIVATE
   CALIBRATION_NODE_PATH="$<TARGET_FILE:calibration_node>"
-  CORRECTION_NODE_PATH="$<TARGET_FILE:correction_node>")
+  CORRECTION_NODE_PATH="$<TARGET_FILE:correction_node>"
+  SCALAR_SIMULATOR_PATH="$<TARGET_FILE:scalar_simulator>")
 # add_rostest_gtest does not make the test depend on the nodes it launches.
-add_dependencies(rostest_calibration calibration_node correction_node)
+add_dependencies(rostest_calibration calibration_node correction_node scalar_simulator)
 foreach(rostest_file silent_topic time_jump decimation two_instruments three_cornered_hat correction_reload correction_stream bad_parameters temperature scalar)
   add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 endforeach()
@@ -51,7 +52,7 @@ add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros
   test/ros/lemi025_test_packets.cpp test/ros/driver_process.cpp test/ros/test_simulated_station.cpp
   test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
 target_link_libraries(test_lemi025_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
-add_dependencies(test_lemi025_driver lemi025_driver lemi025_simulator calibration_node correction_node)
+add_dependencies(test_lemi025_driver lemi025_driver lemi025_simulator scalar_simulator calibration_node correction_node)
 add_rostest(test/ros/test_simulated_station.test DEPENDENCIES test_lemi025_driver)
 # The same station with the test in a field hut: temperature from the packets to both nodes.
 add_rostest(test/ros/test_simulated_station_hut.test DEPENDENCIES test_lemi025_driver)

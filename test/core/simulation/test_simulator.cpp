@@ -4,6 +4,7 @@
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
+#include "magnetometer_insitu_calibration/simulation/lemi025_station.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "simulator_test_helpers.hpp"
 #include "test_support.hpp"
@@ -212,6 +213,23 @@ TEST(Simulator, AFieldSeedSharesTheFieldAndNotTheNoise) {
     // fewer independent values, hence 0.1).
     EXPECT_LT(std::abs(x.dot(y)) / (x.norm() * y.norm()), 0.1) << "component " << c;
   }
+}
+
+// The simulated LEMI-025 station's time base, as the vendor's packets have it: readings at
+// 10 Hz, the first 0.3 s before the first packet's GPS second; a live record from the hour.
+TEST(Simulator, Lemi025StationSettings) {
+  mic::SimulationSettings base;
+  base.seed = 7;
+  base.field_seed = 3;
+  const mic::SimulationSettings s = mic::lemi025_station_settings(base, 1747180800.0, 1619.2, 4.0);
+  EXPECT_EQ(s.seed, 7u);
+  EXPECT_EQ(s.field_seed, 3u);
+  EXPECT_DOUBLE_EQ(s.start_time_s, 1747180800.0 - 0.3);
+  EXPECT_DOUBLE_EQ(s.duration_s, 1620.0);
+  EXPECT_DOUBLE_EQ(s.sample_period_s, 0.1);
+  EXPECT_DOUBLE_EQ(s.variation_rms_nT, 4.0);
+  EXPECT_DOUBLE_EQ(mic::lemi025_live_start_s(1747184399.9), 1747180800.0);  // 00:59:59.9 -> 00:00
+  EXPECT_DOUBLE_EQ(mic::lemi025_live_start_s(1747184400.0), 1747184400.0);
 }
 
 TEST(Simulator, RandomNumbersArePortable) {
