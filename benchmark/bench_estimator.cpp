@@ -12,7 +12,11 @@
 //    reference's noise from the pair (and the second estimate those may ask for);
 //  - robust_disturbed: the default estimate on the same records with traffic, spikes and a step
 //    added (the disturbances of monte_carlo_disturbed): the screen masks about 11 % of the
-//    samples, so its second pass and the Eq. 2 estimates on the screened records are paid.
+//    samples, so its second pass and the Eq. 2 estimates on the screened records are paid;
+//  - robust_remote: the default estimate on the clean records with a remote observatory
+//    (simulate_remote_observatory's defaults, 20 % of its variance its own) as its instruments:
+//    the instrumental-variable fit, the remote's strength and the pair-only comparison; its
+//    ratio to robust_estimate is what a remote costs per window.
 // After the run it prints each one's CPU time divided by transforms_only's of the same length:
 // ratios of the means, medians and minima over the repetitions when there are several (on a
 // shared machine the medians and minima move less). docs/performance.md quotes its output:
@@ -21,6 +25,7 @@
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 
@@ -38,14 +43,31 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
+mic::SimulationSettings settings_for_days(int days) {
+  mic::SimulationSettings s;
+  s.duration_s = days * 86400.0;
+  s.keep_clean_field = false;
+  return s;
+}
+
 const mic::SimulatedPair& data_for_days(int days) {
   static std::map<int, mic::SimulatedPair> cache;
   auto it = cache.find(days);
+  if (it == cache.end()) it = cache.emplace(days, mic::simulate_pair(settings_for_days(days))).first;
+  return it->second;
+}
+
+/// A remote observatory beside data_for_days(days): the same records with their clean field kept.
+const mic::Readings& remote_for_days(int days) {
+  static std::map<int, mic::Readings> cache;
+  auto it = cache.find(days);
   if (it == cache.end()) {
-    mic::SimulationSettings s;
-    s.duration_s = days * 86400.0;
-    s.keep_clean_field = false;
-    it = cache.emplace(days, mic::simulate_pair(s)).first;
+    mic::SimulationSettings s = settings_for_days(days);
+    s.keep_clean_field = true;
+    const mic::SimulatedPair pair = mic::simulate_pair(s);
+    mic::RemoteObservatorySettings r;
+    r.seed = s.seed + 7000;
+    it = cache.emplace(days, mic::simulate_remote_observatory(s, pair, r).values_nT).first;
   }
   return it->second;
 }
@@ -112,6 +134,23 @@ void robust_disturbed(benchmark::State& state) {
   }
   state.counters["samples"] = static_cast<double>(pair.reference.size());
   state.counters["screened"] = screened;
+}
+
+void robust_remote(benchmark::State& state) {
+  const int days = static_cast<int>(state.range(0));
+  const auto& pair = data_for_days(days);
+  mic::WindowInputs inputs;
+  inputs.remote_nT = &remote_for_days(days);
+  inputs.remote_name = "simulated remote";
+  mic::WindowEstimator estimator(mic::EstimatorSettings{});
+  bool used = false;
+  for (auto _ : state) {
+    const mic::WindowEstimate e = estimator.estimate(pair.reference.values_nT, pair.test.values_nT, 1.0, inputs);
+    used = e.remote.used;
+    benchmark::DoNotOptimize(e.n(0, 0));
+  }
+  if (!used) state.SkipWithError("the remote was not used");
+  state.counters["samples"] = static_cast<double>(pair.reference.size());
 }
 
 /// The 7 columns of Eq. 2 with the trend column, loaded minus their means and transformed by one
@@ -190,6 +229,7 @@ BENCHMARK(full_estimate)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond)->Comput
 BENCHMARK(robust_estimate)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
 BENCHMARK(window_outputs)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
 BENCHMARK(robust_disturbed)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
+BENCHMARK(robust_remote)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
 BENCHMARK(transforms_only)->Arg(2)->Arg(10)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
 
 int main(int argc, char** argv) {
@@ -206,10 +246,13 @@ int main(int argc, char** argv) {
       const double floor_ms = reporter.cpu_ms(std::string("transforms_only/") + days, statistic);
       if (!(floor_ms > 0.0)) continue;
       std::printf("  %2s days: transforms %.2f ms", days, floor_ms);
-      for (const char* name : {"full_estimate", "robust_estimate", "window_outputs", "robust_disturbed"}) {
+      for (const char* name : {"full_estimate", "robust_estimate", "window_outputs", "robust_disturbed", "robust_remote"}) {
         const double ms = reporter.cpu_ms(std::string(name) + "/" + days, statistic);
         if (ms > 0.0) std::printf("; %s %.4g ms = %.2fx", name, ms, ms / floor_ms);
       }
+      const double pair_ms = reporter.cpu_ms(std::string("robust_estimate/") + days, statistic);
+      const double remote_ms = reporter.cpu_ms(std::string("robust_remote/") + days, statistic);
+      if (pair_ms > 0.0 && remote_ms > 0.0) std::printf("; remote / pair-only default %.2fx", remote_ms / pair_ms);
       std::printf("\n");
     }
   }

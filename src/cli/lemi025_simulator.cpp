@@ -40,6 +40,10 @@
 
 namespace mic = magnetometer_insitu_calibration;
 
+// The simulation's station record has the packets' timing (simulation may not include formats).
+static_assert(mic::kLemi025StationSamplePeriod_s == mic::kLemi025SamplePeriod_s, "LEMI-025 reading period");
+static_assert(mic::kLemi025StationTimeShift_s == mic::kLemi025TimeShift_s, "LEMI-025 time shift");
+
 namespace {
 
 std::atomic<bool> g_stop{false};

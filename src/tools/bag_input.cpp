@@ -128,8 +128,8 @@ ReportInputs BagInputOptions::inputs(const std::vector<std::string>& reference_p
 }
 
 ReportInputs BagInputOptions::inputs(const std::string& reference_path, const std::string& test_path) const {
-  if (bag_.empty()) return {reference_path, test_path};
-  return {bag_ + ":" + bag_topic_name(reference_topic_), bag_ + ":" + bag_topic_name(test_topic_)};
+  if (bag_.empty()) return {reference_path, test_path, ""};
+  return {bag_ + ":" + bag_topic_name(reference_topic_), bag_ + ":" + bag_topic_name(test_topic_), ""};
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -9,6 +9,12 @@
 
 namespace magnetometer_insitu_calibration {
 
+/// The LEMI-025's reading period and the vendor's time shift of reading 0 from the packet's GPS
+/// second, s: formats/lemi025_packet.hpp's kLemi025SamplePeriod_s and kLemi025TimeShift_s, which
+/// the simulation may not include; lemi025_simulator asserts at compile time that they agree.
+constexpr double kLemi025StationSamplePeriod_s = 0.1;
+constexpr double kLemi025StationTimeShift_s = -0.3;
+
 /// The simulated station's rms of the horizontal variations, nT (lemi025_simulator
 /// --variation-rms-nT's default).
 constexpr double kLemi025StationVariationRms_nT = 5.0;
