@@ -8,6 +8,7 @@
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <chrono>
+#include <cstdio>
 
 namespace magnetometer_insitu_calibration {
 
@@ -65,9 +66,15 @@ void CalibrationNode::process(Job& job, WindowCalibrator& calibrator) {
   const MagnetometerCalibration m = calibration_message(job, result);
   const std::string file_error = publish_calibration(ch, m);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  ROS_INFO("%s: test '%s': window %s: %s (%s; %u samples, %u missing; %.3f s)", node_name_.c_str(),
+  // With a scalar magnetometer, the reference's own check on the same line.
+  char scalar[96] = "";
+  if (result.scalar.assessed) {
+    std::snprintf(scalar, sizeof scalar, "; reference along F %.5f +- %.5f%s", result.scalar.reference_scale,
+                  result.scalar.reference_scale_ci95, result.scalar.reference_off ? ", needs calibration" : "");
+  }
+  ROS_INFO("%s: test '%s': window %s: %s (%s; %u samples, %u missing; %.3f s%s)", node_name_.c_str(),
            ch.settings.name.c_str(), window_text.c_str(), m.accepted ? "accepted" : "rejected", m.quality_text.c_str(),
-           m.samples, m.filled_samples, seconds);
+           m.samples, m.filled_samples, seconds, scalar);
 
   std::lock_guard<std::mutex> lock(ch.results_mutex);
   const WindowEstimate& e = result.estimate;

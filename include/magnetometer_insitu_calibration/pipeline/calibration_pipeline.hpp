@@ -6,9 +6,11 @@
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
 #include "magnetometer_insitu_calibration/pipeline/window_calibration.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -70,6 +72,9 @@ struct PreprocessReport {
 struct PreparedPair {
   PairedRecord paired;  ///< time_s on the grid; NaN = missing (in all six values)
   double sample_period_s = 1.0;
+  /// The decimation the pair went through (when decimated): a scalar magnetometer's F goes
+  /// through the same (prepare_sides).
+  std::optional<DecimationSettings> decimation;
   TemperatureSamples test_temperature;  ///< the test's sensor temperature as recorded; recorded false: none
 };
 

@@ -1,6 +1,7 @@
 // Gaussian FIR low-pass filter and decimation (10 Hz -> 1 Hz by default), batch and streaming.
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <Eigen/Core>
@@ -46,6 +47,15 @@ double gaussian_gain(double sigma_s, double frequency_hz);
 /// Throws InputError(input.source, ...) for fewer than two samples or stamps not increasing
 /// (naming the sample), and InputError for impossible settings.
 VectorRecord decimate(const VectorRecord& input, const DecimationSettings& settings);
+
+/// A scalar magnetometer's F through decimate()'s filter onto its output epochs j * T_out: what F
+/// goes through before it is compared with a pair that decimate() has low-passed. Else the pair's
+/// gain (0.955 at 0.05 Hz for 1 s output) is read as the reference's scale; and the kernel, centred
+/// on each epoch, takes F's samples off the epochs (0.37 s for a GP20S3) without the loss a linear
+/// interpolation onto them has (1.1 % at 0.05 Hz). F sparser than the output epochs (its median
+/// step over 1.5 T_out: every 30 s) comes back unchanged: the check then puts the reference on
+/// F's own times.
+ScalarRecord decimate_scalar(const ScalarRecord& input, const DecimationSettings& settings);
 
 /// The same filter for a live stream: push samples in time order, collect the outputs; they
 /// equal decimate() of the same samples (to rounding) as long as no step between consecutive

@@ -123,6 +123,7 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     out.paired.reference_nT = r.values_nT;
     out.paired.test_nT = t.values_nT;
     rep.decimated = true;
+    out.decimation = dec;
   }
   // 4. Regular grid, common mask; the windows fill the gaps.
   out.sample_period_s = rep.decimated ? settings.output_period_s : native_period;
@@ -271,7 +272,11 @@ PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& p
                             const CalibrationSettings& settings) {
   PreparedSides out;
   if (sides.third != nullptr) out.third = prepare_side(reference, *sides.third, prepared, settings, "--third");
-  if (sides.scalar != nullptr) out.scalar = std::make_shared<ScalarRecord>(*sides.scalar);
+  if (sides.scalar != nullptr) {  // F through the pair's low-pass when the pair was decimated
+    out.scalar = std::make_shared<ScalarRecord>(
+        prepared.decimation && sides.scalar->size() >= 2 ? decimate_scalar(*sides.scalar, *prepared.decimation)
+                                                         : *sides.scalar);
+  }
   if (sides.remote != nullptr) {
     out.remote = prepare_side(reference, *sides.remote, prepared, settings, "--remote");
     if (!sides.remote->station.empty()) out.remote_name = sides.remote->station;

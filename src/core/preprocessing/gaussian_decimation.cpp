@@ -147,6 +147,27 @@ VectorRecord decimate(const VectorRecord& input, const DecimationSettings& setti
   return out;
 }
 
+ScalarRecord decimate_scalar(const ScalarRecord& input, const DecimationSettings& settings) {
+  const std::size_t n = input.size();
+  if (n < 2) return input;
+  std::vector<double> steps(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) steps[i] = input.time_s[i + 1] - input.time_s[i];
+  const auto middle = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+  std::nth_element(steps.begin(), middle, steps.end());
+  if (*middle > kGapFactor * settings.output_period_s) return input;
+  VectorRecord v;
+  v.source = input.source;
+  v.time_s = input.time_s;
+  v.values_nT = Eigen::Map<const Eigen::VectorXd>(input.value_nT.data(), static_cast<Eigen::Index>(n)).replicate(1, 3);
+  const VectorRecord d = decimate(v, settings);
+  ScalarRecord out;
+  out.source = input.source;
+  out.station = input.station;
+  out.time_s = d.time_s;
+  out.value_nT.assign(d.values_nT.col(0).data(), d.values_nT.col(0).data() + d.values_nT.rows());
+  return out;
+}
+
 StreamingDecimator::StreamingDecimator(double input_period_s, const DecimationSettings& settings,
                                        double restart_gap_s)
     : input_period_s_(input_period_s), restart_gap_s_(restart_gap_s) {

@@ -67,6 +67,39 @@ TEST(ScalarCheck, ARightReferenceIsNotFlagged) {
   EXPECT_LT(std::abs(s.reference_scale - 1.0), 2.5 * s.reference_scale_ci95 / 1.96);
 }
 
+// A 10 Hz pair decimated to 1 s, band up to 0.05 Hz where the decimation's low-pass takes 4.5 %
+// of the pair's gain: F (1 s, 0.37 s off the seconds) goes through the same filter onto the
+// pair's epochs, or the reference's scale along the field reads low (these windows: 0.9960-0.9964
+// before, 1.0006-1.0016 after; the simulated station's 15-minute windows 0.9935 +- 0.008 before).
+// Three hourly windows.
+TEST(ScalarCheck, ADecimatedPairsLowPassIsNotReadAsTheReferencesScale) {
+  mic::SimulationSettings s;
+  s.seed = 63;
+  s.duration_s = 3 * 3600.0 + 60.0;  // the decimation's kernel takes a few seconds at each end
+  s.sample_period_s = 0.1;
+  s.keep_clean_field = true;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::ScalarMagnetometerSettings sm;
+  sm.seed = 563;
+  const mic::ScalarRecord scalar = mic::simulate_scalar_magnetometer(pair, sm);
+  mic::CalibrationSettings settings;
+  settings.windows.window_s = 3600.0;
+  settings.windows.step_s = 3600.0;
+  settings.window.estimator.band_low_hz = 0.002;
+  settings.window.estimator.band_high_hz = 0.05;
+  const mic::PairCalibration c = mic::calibrate_records(pair.reference, pair.test, settings, {nullptr, nullptr, &scalar});
+  ASSERT_TRUE(c.report.decimated);
+  ASSERT_GE(c.windows.size(), 3u);
+  double mean = 0.0;
+  for (const auto& w : c.windows) {
+    ASSERT_TRUE(w.scalar.assessed) << w.scalar.text;
+    std::printf("window: reference scale %.5f +- %.5f\n", w.scalar.reference_scale, w.scalar.reference_scale_ci95);
+    EXPECT_LT(std::abs(w.scalar.reference_scale - 1.0), 1.5 * w.scalar.reference_scale_ci95) << w.scalar.text;
+    mean += w.scalar.reference_scale / static_cast<double>(c.windows.size());
+  }
+  EXPECT_GT(mean, 0.997) << "the windows' mean scale: the pair's low-pass read as the reference's";
+}
+
 TEST(ScalarRecord, ReadsACsvAndNamesABadLine) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "mic_scalar_csv";
   std::filesystem::create_directories(dir);
