@@ -72,8 +72,8 @@ struct PreprocessReport {
 struct PreparedPair {
   PairedRecord paired;  ///< time_s on the grid; NaN = missing (in all six values)
   double sample_period_s = 1.0;
-  /// The decimation the pair went through (when decimated): a scalar magnetometer's F goes
-  /// through the same (prepare_sides).
+  /// The decimation the pair went through (when decimated): each window carries it, and a scalar
+  /// magnetometer's F goes through the same (check_scalar).
   std::optional<DecimationSettings> decimation;
   TemperatureSamples test_temperature;  ///< the test's sensor temperature as recorded; recorded false: none
 };

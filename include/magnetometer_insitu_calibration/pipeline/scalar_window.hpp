@@ -16,6 +16,7 @@
 #include "magnetometer_insitu_calibration/estimation/scalar_check.hpp"
 #include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include <optional>
@@ -24,9 +25,12 @@ namespace magnetometer_insitu_calibration {
 
 /// window: the pair on its grid, filled (reference frame and test frame, nT); period_s its
 /// period; estimate: the window's estimate of n (with its covariance). Never throws for data:
-/// a window the scalar cannot check says why in ScalarCheck::text.
+/// a window the scalar cannot check says why in ScalarCheck::text. `decimation`: the low-pass
+/// and decimation the pair went through, if it did; F as dense as the pair's epochs goes through
+/// the same onto them (decimate_scalar), or the pair's gain would be read as the reference's scale.
 ScalarCheck check_scalar(const ScalarRecord& scalar, const PairedRecord& window, double period_s,
                          const WindowEstimate& estimate, WindowEstimator& estimator, const WindowInputs& inputs,
-                         const GapSettings& gaps, const std::optional<FieldDirection>& given);
+                         const GapSettings& gaps, const std::optional<FieldDirection>& given,
+                         const std::optional<DecimationSettings>& decimation);
 
 }  // namespace magnetometer_insitu_calibration

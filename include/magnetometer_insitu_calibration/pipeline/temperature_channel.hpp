@@ -22,10 +22,17 @@ namespace magnetometer_insitu_calibration {
 /// A channel whose values are not one per sample throws InputError(record.source, ...).
 const AuxiliaryChannel* find_temperature_channel(const VectorRecord& record, const std::string& name);
 
-/// Linear interpolation of a channel (times strictly increasing, NaN = missing) at times `at`:
-/// NaN outside the finite samples' span and where the two finite neighbours are more than
+/// How interpolate_channel joins two samples: a straight line, or a cubic Hermite curve with
+/// centred-difference slopes (Catmull-Rom on a regular record; a straight line where a
+/// neighbour beyond the two is missing or more than max_gap_s away). At 0.01 Hz on a 1 s record
+/// halfway between samples a straight line loses 0.05 % of the amplitude, the cubic about 1e-7.
+enum class ChannelInterpolation { kLinear, kCubic };
+
+/// Interpolation of a channel (times strictly increasing, NaN = missing) at times `at`: NaN
+/// outside the finite samples' span and where the two finite neighbours are more than
 /// max_gap_s apart.
 Eigen::VectorXd interpolate_channel(const std::vector<double>& time_s, const std::vector<double>& values,
-                                    const std::vector<double>& at, double max_gap_s);
+                                    const std::vector<double>& at, double max_gap_s,
+                                    ChannelInterpolation how = ChannelInterpolation::kLinear);
 
 }  // namespace magnetometer_insitu_calibration

@@ -121,6 +121,9 @@ struct WindowRecords {
   /// An absolute scalar magnetometer's samples around the window (F, nT, its own times): the
   /// check of the reference's scale along the field (pipeline/scalar_window.hpp); null: none.
   std::shared_ptr<const ScalarRecord> scalar;
+  /// The low-pass and decimation the pair went through onto the grid, if it did (the scalar
+  /// check puts F through the same).
+  std::optional<DecimationSettings> decimation;
 
   /// Nominal last epoch, UNIX s.
   double end_s() const { return start_s + (static_cast<double>(expected_samples) - 1.0) * period_s; }

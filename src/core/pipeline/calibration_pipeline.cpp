@@ -204,6 +204,7 @@ WindowRecords window_records(const PreparedPair& prepared, std::size_t first, st
   const PairedRecord& p = prepared.paired;
   const double period = prepared.sample_period_s;
   WindowRecords w;
+  w.decimation = prepared.decimation;
   w.start_s = p.time_s[first];
   w.period_s = period;
   w.expected_samples = count;
@@ -272,11 +273,7 @@ PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& p
                             const CalibrationSettings& settings) {
   PreparedSides out;
   if (sides.third != nullptr) out.third = prepare_side(reference, *sides.third, prepared, settings, "--third");
-  if (sides.scalar != nullptr) {  // F through the pair's low-pass when the pair was decimated
-    out.scalar = std::make_shared<ScalarRecord>(
-        prepared.decimation && sides.scalar->size() >= 2 ? decimate_scalar(*sides.scalar, *prepared.decimation)
-                                                         : *sides.scalar);
-  }
+  if (sides.scalar != nullptr) out.scalar = std::make_shared<ScalarRecord>(*sides.scalar);
   if (sides.remote != nullptr) {
     out.remote = prepare_side(reference, *sides.remote, prepared, settings, "--remote");
     if (!sides.remote->station.empty()) out.remote_name = sides.remote->station;

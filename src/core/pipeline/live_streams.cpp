@@ -258,10 +258,8 @@ void LiveCalibrationStreams::finish_window(std::size_t test, WindowRecords&& win
   }
   if (scalar_) {
     window.scalar = scalar_->copy(window.start_s - LiveScalarStream::kMargin_s, window.end_s() + LiveScalarStream::kMargin_s);
-    if (settings_.decimating() && window.scalar->size() >= 2) {  // F through the pair's low-pass
-      window.scalar = std::make_shared<ScalarRecord>(decimate_scalar(*window.scalar, settings_.decimation));
-    }
   }
+  if (settings_.decimating()) window.decimation = settings_.decimation;
   if (!coincident_) {
     out.push_back(Completed{test, std::move(window), 0});
     return;

@@ -29,48 +29,6 @@ double scalar_period(const ScalarRecord& s, double low_s, double high_s, std::ve
   return steps[steps.size() / 2];
 }
 
-/// F at the grid's epochs from its samples off them (a GP20S3 0.37 s off the whole seconds): cubic
-/// Hermite with centred-difference slopes (Catmull-Rom on a regular record), whose loss at 0.01 Hz
-/// of a 1 s record is about 1e-7 where a straight line between the two samples loses 0.05 % (the
-/// fit would read it as the reference's scale); a straight line where a neighbour is missing, NaN
-/// across a step over max_gap_s.
-Eigen::VectorXd scalar_on_grid(const std::vector<double>& time_s, const std::vector<double>& values,
-                               const std::vector<double>& at, double max_gap_s) {
-  std::vector<double> t, v;  // finite samples only
-  for (std::size_t i = 0; i < time_s.size() && i < values.size(); ++i) {
-    if (std::isfinite(values[i])) {
-      t.push_back(time_s[i]);
-      v.push_back(values[i]);
-    }
-  }
-  Eigen::VectorXd out = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(at.size()), std::numeric_limits<double>::quiet_NaN());
-  const std::size_t n = t.size();
-  if (n == 0) return out;
-  const auto near = [&](std::size_t a, std::size_t b) { return t[b] - t[a] <= max_gap_s; };
-  std::size_t k = 0;  // at is increasing: walk once
-  for (std::size_t i = 0; i < at.size(); ++i) {
-    const double x = at[i];
-    if (x < t.front() || x > t.back()) continue;
-    while (k + 1 < n && t[k + 1] < x) ++k;
-    if (t[k] == x || k + 1 == n) {
-      if (t[k] == x) out(static_cast<Eigen::Index>(i)) = v[k];
-      continue;
-    }
-    if (!near(k, k + 1)) continue;
-    const double h = t[k + 1] - t[k], u = (x - t[k]) / h;
-    if (k == 0 || k + 2 >= n || !near(k - 1, k) || !near(k + 1, k + 2)) {
-      out(static_cast<Eigen::Index>(i)) = v[k] + u * (v[k + 1] - v[k]);
-      continue;
-    }
-    const double m0 = (v[k + 1] - v[k - 1]) / (t[k + 1] - t[k - 1]);
-    const double m1 = (v[k + 2] - v[k]) / (t[k + 2] - t[k]);
-    const double u2 = u * u, u3 = u2 * u;
-    out(static_cast<Eigen::Index>(i)) = (2 * u3 - 3 * u2 + 1) * v[k] + (u3 - 2 * u2 + u) * h * m0 +
-                                        (-2 * u3 + 3 * u2) * v[k + 1] + (u3 - u2) * h * m1;
-  }
-  return out;
-}
-
 /// The reference at times `at` by linear interpolation on its regular grid (first epoch t0).
 Readings reference_at(const PairedRecord& w, double period_s, const std::vector<double>& at) {
   Readings out(static_cast<Eigen::Index>(at.size()), 3);
@@ -88,14 +46,27 @@ Readings reference_at(const PairedRecord& w, double period_s, const std::vector<
 
 ScalarCheck check_scalar(const ScalarRecord& scalar, const PairedRecord& window, double period_s,
                          const WindowEstimate& estimate, WindowEstimator& estimator, const WindowInputs& inputs,
-                         const GapSettings& gaps, const std::optional<FieldDirection>& given) {
+                         const GapSettings& gaps, const std::optional<FieldDirection>& given,
+                         const std::optional<DecimationSettings>& decimation) {
   ScalarCheck none;
   if (window.size() < 16 || !estimate.n.allFinite()) {
     none.text = "scalar check not assessed: the window has no estimate";
     return none;
   }
   std::vector<double> times, values;
-  const double step = scalar_period(scalar, window.time_s.front() - 60.0, window.time_s.back() + 60.0, times, values);
+  const double low_s = window.time_s.front() - 60.0, high_s = window.time_s.back() + 60.0;
+  double step = scalar_period(scalar, low_s, high_s, times, values);
+  if (decimation && times.size() >= 2) {  // through the pair's low-pass (unchanged when sparser)
+    ScalarRecord around;
+    around.time_s = times;
+    around.value_nT = values;
+    try {
+      step = scalar_period(decimate_scalar(around, *decimation), low_s, high_s, times, values);
+    } catch (const std::exception& error) {
+      none.text = std::string("scalar check not assessed: ") + error.what();
+      return none;
+    }
+  }
   if (!(step > 0.0) || times.size() < 16) {
     none.text = "scalar check not assessed: " + std::to_string(times.size()) + " scalar samples in the window";
     return none;
@@ -110,8 +81,10 @@ ScalarCheck check_scalar(const ScalarRecord& scalar, const PairedRecord& window,
   }
   // F on the grid (NaN across its own gaps), the reference on the same times; F thrice as the
   // "test", so that the estimator's three columns of n are each c.
-  const Eigen::VectorXd f =
-      own_grid ? interpolate_channel(times, values, grid, 2.5 * step) : scalar_on_grid(times, values, grid, 2.5 * step);
+  // On the window's epochs, from samples off them (a GP20S3 0.37 s off the whole seconds), a
+  // straight line's loss between samples would be read as the reference's scale: cubic.
+  const Eigen::VectorXd f = interpolate_channel(times, values, grid, 2.5 * step,
+                                                own_grid ? ChannelInterpolation::kLinear : ChannelInterpolation::kCubic);
   PairedRecord paired;
   paired.time_s = grid;
   paired.reference_nT = own_grid ? reference_at(window, period_s, grid) : window.reference_nT;

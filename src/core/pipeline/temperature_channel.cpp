@@ -58,7 +58,7 @@ const AuxiliaryChannel* find_temperature_channel(const VectorRecord& record, con
 }
 
 Eigen::VectorXd interpolate_channel(const std::vector<double>& time_s, const std::vector<double>& values,
-                                    const std::vector<double>& at, double max_gap_s) {
+                                    const std::vector<double>& at, double max_gap_s, ChannelInterpolation how) {
   std::vector<double> t, v;  // finite samples only
   for (std::size_t i = 0; i < time_s.size() && i < values.size(); ++i) {
     if (std::isfinite(values[i])) {
@@ -67,20 +67,29 @@ Eigen::VectorXd interpolate_channel(const std::vector<double>& time_s, const std
     }
   }
   Eigen::VectorXd out = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(at.size()), std::numeric_limits<double>::quiet_NaN());
-  if (t.empty()) return out;
+  const std::size_t n = t.size();
+  if (n == 0) return out;
+  const auto near = [&](std::size_t a, std::size_t b) { return t[b] - t[a] <= max_gap_s; };
   std::size_t k = 0;  // at is increasing: walk once
   for (std::size_t i = 0; i < at.size(); ++i) {
     const double x = at[i];
     if (x < t.front() || x > t.back()) continue;
-    while (k + 1 < t.size() && t[k + 1] < x) ++k;
-    if (t[k] == x || k + 1 == t.size()) {
+    while (k + 1 < n && t[k + 1] < x) ++k;
+    if (t[k] == x || k + 1 == n) {
       if (t[k] == x) out(static_cast<Eigen::Index>(i)) = v[k];
       continue;
     }
-    const double span = t[k + 1] - t[k];
-    if (span > max_gap_s) continue;
-    const double f = (x - t[k]) / span;
-    out(static_cast<Eigen::Index>(i)) = v[k] + f * (v[k + 1] - v[k]);
+    if (!near(k, k + 1)) continue;
+    const double h = t[k + 1] - t[k], u = (x - t[k]) / h;
+    if (how == ChannelInterpolation::kLinear || k == 0 || k + 2 >= n || !near(k - 1, k) || !near(k + 1, k + 2)) {
+      out(static_cast<Eigen::Index>(i)) = v[k] + u * (v[k + 1] - v[k]);
+      continue;
+    }
+    const double m0 = (v[k + 1] - v[k - 1]) / (t[k + 1] - t[k - 1]);
+    const double m1 = (v[k + 2] - v[k]) / (t[k + 2] - t[k]);
+    const double u2 = u * u, u3 = u2 * u;
+    out(static_cast<Eigen::Index>(i)) = (2 * u3 - 3 * u2 + 1) * v[k] + (u3 - 2 * u2 + u) * h * m0 +
+                                        (-2 * u3 + 3 * u2) * v[k + 1] + (u3 - u2) * h * m1;
   }
   return out;
 }

@@ -289,7 +289,7 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
   estimate_offset(w, window.paired);
   if (window.scalar) {
     w.scalar = check_scalar(*window.scalar, window.paired, period, w.estimate, scalar_estimator_, inputs,
-                            settings_.gaps, settings_.field_direction);
+                            settings_.gaps, settings_.field_direction, window.decimation);
   }
   apply_gap_rule(w, settings_);
   // Step 6.
