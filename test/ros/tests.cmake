@@ -102,7 +102,7 @@ roslaunch_add_file_check(launch/replay.launch bag:=/tmp/any.bag USE_TEST_DEPENDE
 roslaunch_add_file_check(launch/station.launch nodelet_manager:=station_manager USE_TEST_DEPENDENCIES)
 
 # run_tests.sh runs ctest -j2. The rostests that drive calibration_node with fast simulated
-# streams (their pairing and windows assume the node keeps up; the pty stations at 100x) run
+# streams (their pairing and windows assume the node keeps up; the pty stations at 200x) run
 # alone, each with both cores; the core gtests, the driver rostests (packets at a few per
 # second), the bag replay (rosbag play waits for the nodes), the plotting script and the launch
 # checks run two at a time, and so do the rostests that start nodes on wall-clock time with no
