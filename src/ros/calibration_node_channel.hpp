@@ -67,6 +67,7 @@ struct CalibrationNode::Channel {
   std::string last_change_window;
   std::size_t changes_detected = 0;
   std::string resume_state = "not tried";
+  bool resume_refused = false;  ///< the resumed file was found not of this stream (WARN until a window is accepted)
   /// The calibration resumed from the file, until the first test sample decides whether it is of
   /// this stream (calibration_stream_mismatch); callback thread.
   std::optional<MagnetometerCalibration> resumed_unchecked;

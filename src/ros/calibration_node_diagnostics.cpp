@@ -258,7 +258,7 @@ void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& sta
                                                   "from 1 beyond its interval (scalar check)");
   }
   // Until this stream's first accepted window replaces it, the file is another stream's.
-  if (ch.accepted == 0 && ch.resume_state.rfind("resumed file refused", 0) == 0) {
+  if (ch.accepted == 0 && ch.resume_refused) {
     problems.emplace_back(DiagnosticStatus::WARN, ch.resume_state);
   }
   if (ch.estimated > 0 && !ch.last_accepted && !ch.last_failed) {

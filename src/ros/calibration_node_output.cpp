@@ -99,14 +99,15 @@ void CalibrationNode::drop_resumed_if_not_of_stream(Channel& ch, const sensor_ms
       m.test_name, m.test_frame_id, RecordTime{m.window_end.sec, m.window_end.nsec},
       {ch.settings.name, first.header.frame_id, RecordTime{first.header.stamp.sec, first.header.stamp.nsec}});
   if (reason.empty()) return;
+  // No window can have been estimated before the stream's first sample: the baseline is the file's.
   std::lock_guard<std::mutex> lock(ch.results_mutex);
-  if (ch.baseline_source != "file (loaded at start)") return;  // a window was accepted meanwhile
   ch.baseline.reset();
   ch.baseline_window.clear();
   ch.baseline_source = "none";
   ch.last_accepted_window.clear();
   ch.last_accepted_stamp.clear();
   ch.resume_state = "resumed file refused, not of this stream: " + reason;
+  ch.resume_refused = true;
   ROS_WARN("%s: test '%s': the calibration resumed from %s is refused at the stream's first sample: %s",
            node_name_.c_str(), ch.settings.name.c_str(), ch.settings.calibration_file.c_str(), reason.c_str());
 }

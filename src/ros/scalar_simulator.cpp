@@ -61,8 +61,7 @@ ScalarSimulator::ScalarSimulator(ros::NodeHandle nh, ros::NodeHandle private_nh)
   m.seed = base.seed + 500;  // the scalar's own noise, not the pair's
   m.period_s = settings_.period_s;
   m.white_nT = settings_.white_nT;
-  try {
-    m.validate();
+  try {  // validates m
     record_ = simulate_scalar_magnetometer(simulate_pair(s), m);
   } catch (const InputError& e) {
     throw ParameterError(e.where(), e.problem());

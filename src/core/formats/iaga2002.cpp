@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_steps.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -316,10 +317,7 @@ std::vector<std::string> wrap_words(const std::string& text, std::size_t width) 
 
 std::string default_interval_type(const std::vector<double>& times) {
   if (times.size() < 2) return std::string();
-  std::vector<double> steps(times.size() - 1);
-  for (std::size_t i = 0; i + 1 < times.size(); ++i) steps[i] = times[i + 1] - times[i];
-  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-  const double step_s = std::round(steps[steps.size() / 2] * 1e6) / 1e6;  // to the microsecond
+  const double step_s = std::round(median_time_step(times) * 1e6) / 1e6;  // to the microsecond
   if (std::fabs(step_s - 1.0) < 1e-6) return "1-second";
   if (std::fabs(step_s - 60.0) < 1e-6) return "1-minute";
   if (std::fabs(step_s - 3600.0) < 1e-6) return "1-hour";

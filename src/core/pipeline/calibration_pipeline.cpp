@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_steps.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
@@ -42,10 +43,7 @@ void CalibrationSettings::validate() const {
 
 double median_sample_period(const VectorRecord& record) {
   if (record.size() < 2) throw InputError(record.source, "fewer than two samples");
-  std::vector<double> steps(record.size() - 1);
-  for (std::size_t i = 1; i < record.size(); ++i) steps[i - 1] = record.time_s[i] - record.time_s[i - 1];
-  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-  return steps[steps.size() / 2];
+  return median_time_step(record.time_s);
 }
 
 namespace {

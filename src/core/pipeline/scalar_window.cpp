@@ -1,6 +1,7 @@
 // The scalar check of one window: see scalar_window.hpp.
 #include "magnetometer_insitu_calibration/pipeline/scalar_window.hpp"
 
+#include "magnetometer_insitu_calibration/common/time_steps.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
 
@@ -22,11 +23,7 @@ double scalar_period(const ScalarRecord& s, double low_s, double high_s, std::ve
   const auto hi = std::upper_bound(lo, s.time_s.end(), high_s);
   times.assign(lo, hi);
   values.assign(s.value_nT.begin() + (lo - s.time_s.begin()), s.value_nT.begin() + (hi - s.time_s.begin()));
-  if (times.size() < 2) return 0.0;
-  std::vector<double> steps(times.size() - 1);
-  for (std::size_t i = 0; i + 1 < times.size(); ++i) steps[i] = times[i + 1] - times[i];
-  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
-  return steps[steps.size() / 2];
+  return median_time_step(times);
 }
 
 /// The reference at times `at` by linear interpolation on its regular grid (first epoch t0).

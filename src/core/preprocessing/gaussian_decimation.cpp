@@ -1,6 +1,7 @@
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_steps.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -149,12 +150,7 @@ VectorRecord decimate(const VectorRecord& input, const DecimationSettings& setti
 
 ScalarRecord decimate_scalar(const ScalarRecord& input, const DecimationSettings& settings) {
   const std::size_t n = input.size();
-  if (n < 2) return input;
-  std::vector<double> steps(n - 1);
-  for (std::size_t i = 0; i + 1 < n; ++i) steps[i] = input.time_s[i + 1] - input.time_s[i];
-  const auto middle = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
-  std::nth_element(steps.begin(), middle, steps.end());
-  if (*middle > kGapFactor * settings.output_period_s) return input;
+  if (n < 2 || median_time_step(input.time_s) > kGapFactor * settings.output_period_s) return input;
   VectorRecord v;
   v.source = input.source;
   v.time_s = input.time_s;
