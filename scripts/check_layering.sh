@@ -7,7 +7,7 @@
 #   instrument     common, formats
 #   preprocessing  common
 #   estimation     common                      (estimation never includes formats)
-#   simulation     common, estimation
+#   simulation     common, preprocessing, estimation
 #   pipeline       common, preprocessing, estimation
 # and no core file includes ROS (<ros/...>, <sensor_msgs/...>, the package's ros/ headers).
 # Prints each violation as file:line and exits 1 if there is any.
@@ -19,7 +19,7 @@ declare -A allowed=(
   [instrument]="common formats instrument"
   [preprocessing]="common preprocessing"
   [estimation]="common estimation"
-  [simulation]="common estimation simulation"
+  [simulation]="common preprocessing estimation simulation"
   [pipeline]="common preprocessing estimation pipeline"
 )
 violations=0

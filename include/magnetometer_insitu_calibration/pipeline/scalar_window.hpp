@@ -2,14 +2,16 @@
 // magnetometer regressed on the window's reference, with the estimator the window's n has.
 //
 // The grid: the window's own epochs when the scalar samples at least as often as 1.5 times the
-// window's period (its F put on them by linear interpolation: a 1 s scalar off whole seconds, as
-// the GP20S3, loses at most 0.05 % of its amplitude at 0.01 Hz that way); else the scalar's own
-// times (a scalar every 30 s: the reference interpolated to them, both then sampled alike, so
-// that what aliases does so in both). Epochs without F are filled by straight lines in F and the
-// reference alike (which keeps F = R c). Then the estimator of the window (default: robust,
-// with its screen, weights, jackknife, and a delay fitted between the scalar and the reference)
-// with F as each of the three test columns (so that n's three columns are c), and the window's
-// reference noise model for the errors-in-variables correction.
+// window's period (its F put on them by a cubic: a straight line would lose 0.05 % of a 1 s
+// scalar's amplitude at 0.01 Hz 0.37 s off whole seconds, as the GP20S3 is); else the scalar's
+// own samples from its first in the window (a scalar every 30 s), the reference put at them by
+// windowed sinc so that it folds the same field into the band as F does
+// (band_limited_interpolation.hpp), and the window's reference noise model as the fit there sees
+// it (white through the interpolation, 1/f folded in). Epochs without F are filled by straight
+// lines in F and the reference alike (which keeps F = R c). Then the estimator of the window
+// (default: robust, with its screen, weights, jackknife, and a delay fitted between the scalar
+// and the reference) with F as each of the three test columns (so that n's three columns are c),
+// and the reference noise model for the errors-in-variables correction.
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"

@@ -4,6 +4,7 @@
 #include "magnetometer_insitu_calibration/common/time_steps.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/band_limited_interpolation.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -26,17 +27,20 @@ double scalar_period(const ScalarRecord& s, double low_s, double high_s, std::ve
   return median_time_step(times);
 }
 
-/// The reference at times `at` by linear interpolation on its regular grid (first epoch t0).
-Readings reference_at(const PairedRecord& w, double period_s, const std::vector<double>& at) {
-  Readings out(static_cast<Eigen::Index>(at.size()), 3);
-  const auto last = static_cast<double>(w.size() - 1);
-  for (std::size_t k = 0; k < at.size(); ++k) {
-    const double x = std::clamp((at[k] - w.time_s.front()) / period_s, 0.0, last);
-    const auto i = static_cast<Eigen::Index>(std::min(std::floor(x), std::max(0.0, last - 1.0)));
-    const double f = x - static_cast<double>(i);
-    out.row(static_cast<Eigen::Index>(k)) = (1.0 - f) * w.reference_nT.row(i) + f * w.reference_nT.row(std::min<Eigen::Index>(i + 1, w.reference_nT.rows() - 1));
+/// The reference's noise as the fit on the scalar's own grid sees it (band_limited_interpolation.hpp):
+/// white of variance w^2 white_variance + p^2 pink_alias per point, 1/f unchanged; the levels'
+/// covariance through the same linear map of (w^2, p^2).
+ReferenceNoiseModel noise_on_scalar_grid(ReferenceNoiseModel model, const InterpolatedNoise& passed) {
+  Eigen::Matrix2d map;
+  map << passed.white_variance, passed.pink_alias, 0.0, 1.0;
+  for (int c = 0; c < 3; ++c) {
+    const double w2 = model.spectrum.white_nT(c) * model.spectrum.white_nT(c);
+    const double p2 = model.spectrum.pink_nT_per_sqrt_hz(c) * model.spectrum.pink_nT_per_sqrt_hz(c);
+    model.spectrum.white_nT(c) = std::sqrt(passed.white_variance * w2 + passed.pink_alias * p2);
+    auto& covariance = model.level_covariance[static_cast<std::size_t>(c)];
+    covariance = map * covariance * map.transpose();
   }
-  return out;
+  return model;
 }
 
 }  // namespace
@@ -71,26 +75,34 @@ ScalarCheck check_scalar(const ScalarRecord& scalar, const PairedRecord& window,
   const bool own_grid = step > 1.5 * period_s;
   const double dt = own_grid ? step : period_s;
   std::vector<double> grid;
-  if (own_grid) {
-    for (double t = std::max(times.front(), window.time_s.front()); t <= window.time_s.back(); t += dt) grid.push_back(t);
+  if (own_grid) {  // from the scalar's first instant in the window, so that F stays on its own samples
+    const auto first = std::lower_bound(times.begin(), times.end(), window.time_s.front());
+    for (double t = first != times.end() ? *first : window.time_s.back() + dt; t <= window.time_s.back(); t += dt) {
+      grid.push_back(t);
+    }
   } else {
     grid = window.time_s;
   }
   // F on the grid (NaN across its own gaps), the reference on the same times; F thrice as the
   // "test", so that the estimator's three columns of n are each c.
   // On the window's epochs, from samples off them (a GP20S3 0.37 s off the whole seconds), a
-  // straight line's loss between samples would be read as the reference's scale: cubic.
+  // straight line's loss between samples would be read as the reference's scale: cubic. On the
+  // scalar's own grid F stays on its samples and the reference goes to them band-limited.
   const Eigen::VectorXd f = interpolate_channel(times, values, grid, 2.5 * step,
                                                 own_grid ? ChannelInterpolation::kLinear : ChannelInterpolation::kCubic);
   PairedRecord paired;
   paired.time_s = grid;
-  paired.reference_nT = own_grid ? reference_at(window, period_s, grid) : window.reference_nT;
+  paired.reference_nT = own_grid ? interpolate_regular(window.reference_nT, window.time_s.front(), period_s, grid)
+                                  : window.reference_nT;
   paired.test_nT = f.replicate(1, 3);
   for (Eigen::Index i = 0; i < f.size(); ++i) {
     if (!std::isfinite(f(i))) paired.reference_nT.row(i).setConstant(std::numeric_limits<double>::quiet_NaN());
   }
   WindowInputs scalar_inputs;
-  scalar_inputs.reference_noise = inputs.reference_noise;
+  scalar_inputs.reference_noise =
+      own_grid && inputs.reference_noise.has_noise()
+          ? noise_on_scalar_grid(inputs.reference_noise, interpolated_noise(window.time_s.front(), period_s, grid, dt))
+          : inputs.reference_noise;
   if (!own_grid && estimate.remote.used) {  // the remote's instruments serve F's fit too
     scalar_inputs.remote_nT = inputs.remote_nT;
     scalar_inputs.remote_name = inputs.remote_name;

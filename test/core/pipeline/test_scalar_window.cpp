@@ -59,6 +59,33 @@ TEST(ScalarCheck, RecoversTheReferencesScaleAlongTheFieldFromA1sAndA30sScalar) {
   }
 }
 
+// Windows that start between a 30 s scalar's samples (here at :15 and :45 of each minute): the
+// fit's grid starts at the scalar's first sample in the window, so that F stays on its own
+// samples; a grid from the window's start put F half-way between them by a straight line, which
+// took a third of its amplitude at 0.01 Hz, and the windows read scales several half-widths high.
+TEST(ScalarCheck, A30sScalarInWindowsThatStartBetweenItsSamples) {
+  mic::SimulationSettings s;
+  s.seed = 64;
+  s.keep_clean_field = true;
+  mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::ScalarMagnetometerSettings sm;
+  sm.seed = 564;
+  sm.period_s = 30.0;
+  sm.offset_s = 15.0;
+  const mic::ScalarRecord scalar = mic::simulate_scalar_magnetometer(pair, sm);
+  pair.reference.values_nT *= 1.003;
+  mic::CalibrationSettings settings;
+  settings.windows.window_s = 6 * 3600.0;
+  settings.windows.step_s = 6 * 3600.0;
+  const mic::PairCalibration c = mic::calibrate_records(pair.reference, pair.test, settings, {nullptr, nullptr, &scalar});
+  ASSERT_GE(c.windows.size(), 4u);
+  for (const auto& w : c.windows) {
+    ASSERT_TRUE(w.scalar.assessed) << w.label << ": " << w.scalar.text;
+    std::printf("%s: reference scale %.5f +- %.5f\n", w.label.c_str(), w.scalar.reference_scale, w.scalar.reference_scale_ci95);
+    EXPECT_LT(std::abs(w.scalar.reference_scale - 1.003), 1.5 * w.scalar.reference_scale_ci95) << w.label;
+  }
+}
+
 TEST(ScalarCheck, ARightReferenceIsNotFlagged) {
   const Day d = day(62, 1.0, 1.0);
   const mic::PairCalibration c = mic::calibrate_records(d.pair.reference, d.pair.test, {}, {nullptr, nullptr, &d.scalar});
