@@ -17,7 +17,8 @@
 // cycling and a response mismatch. "quiet": the simulator's defaults. The remote (remote_observatory.hpp) sees
 // the field but none of the local disturbances: MC_REMOTE_INCOHERENT (0.2) of its variations'
 // variance its own, its own noise (simulator defaults), orientation and Z response, and
-// MC_REMOTE_GAPS (1) gaps of 10 min per day. Each record is one window.
+// MC_REMOTE_GAPS (1) gaps of 10 min per day. Each record is one window. MC_PAIR_NOISE=0: the
+// reference's noise not identified from the pair (calibrate_records --no-pair-noise).
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary table follows.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
@@ -116,6 +117,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
     r.gap_count = static_cast<int>(knob("MC_REMOTE_GAPS", 1.0) * days);
     const mic::VectorRecord remote = mic::simulate_remote_observatory(s, pair, r);
     mic::CalibrationSettings settings;
+    if (knob("MC_PAIR_NOISE", 1.0) == 0.0) settings.window.pair_noise = false;  // calibrate_records --no-pair-noise
     const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
     const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);
     for (int m = 0; m < kMethods; ++m) {
