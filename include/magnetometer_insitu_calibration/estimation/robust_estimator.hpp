@@ -9,12 +9,14 @@
 // the ratio of the disturbance's in-band power to the weak (vertical) signal's.
 //
 // What this estimator does (units nT, s, Hz; R in the reference frame, T in the test frame):
-//  1. Residual screen (time domain). n0 from Eq. 2 on the window; the residual
-//     e(t) = T(t) - R(t) n0 (test frame) is high-passed by subtracting a running median of
-//     screen_baseline_s (slow drift, tilt and the trend are not outliers; taken over the
+//  1. Residual screen (time domain). n0 from Eq. 2 on the window (on its pair averages where
+//     the band and the delay's frequencies allow: pair_averages.hpp); the
+//     residual e(t) = T(t) - R(t) n0 (test frame) is high-passed by subtracting a running median
+//     of screen_baseline_s (slow drift, tilt and the trend are not outliers; taken over the
 //     window's 10-sample block means at 1 Hz, every tenth of the window, interpolated linearly
 //     between), and every sample
-//     whose high-passed residual exceeds screen_threshold robust sigmas (1.4826 MAD) in any
+//     whose high-passed residual exceeds screen_threshold robust sigmas (1.4826 MAD, the centre
+//     and the MAD from about 8200 evenly spaced values of the window) in any
 //     component is flagged, widened by screen_margin_s. Flagged runs are replaced in BOTH
 //     records by straight lines between the good samples on either side: the same linear
 //     operation on R and T keeps T = R n + d (only d changes), so the masking cannot bias n;

@@ -112,8 +112,18 @@ void subtract_running_median(const Eigen::VectorXd& x, std::size_t window, std::
 /// one length allocates (and page-faults) once.
 struct ScreenScratch {
   Eigen::VectorXd e, hp;
-  std::vector<double> abs_dev;
+  std::vector<double> sample;
 };
+
+/// Values of the residual the screen's centre and MAD are taken from (every stride-th).
+constexpr std::size_t kScreenMedianSample = 8192;
+
+/// The median of v (upper middle of an even count); v is reordered.
+double middle_value(std::vector<double>& v) {
+  const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), middle, v.end());
+  return *middle;
+}
 
 }  // namespace
 
@@ -129,23 +139,30 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   const std::size_t margin = static_cast<std::size_t>(std::llround(settings.screen_margin_s / sample_period_s));
   std::vector<char> flag(length, 0);
   bool any = false;
-  detail::BracketedMedian selector;
   for (int c = 0; c < 3; ++c) {
     Eigen::VectorXd& e = scratch.e;
     Eigen::VectorXd& hp = scratch.hp;
     e.noalias() = test_nT.col(c) - reference_nT * n.col(c);  // residual T - R n, nT
     subtract_running_median(e, window, step, decimation, hp);
-    std::vector<double>& abs_dev = scratch.abs_dev;
-    abs_dev.resize(length);
-    const double centre = detail::subsampled_median(hp.data(), length, selector);
-    Eigen::Map<Eigen::VectorXd> deviation(abs_dev.data(), static_cast<Eigen::Index>(length));
-    deviation = (hp.array() - centre).abs();
-    const double sigma = 1.4826 * detail::subsampled_median(abs_dev.data(), length, selector);
+    // The centre and the MAD from every stride-th value (about 8200 of them): the threshold is
+    // then within about 1.3 % of the exact medians'; one pass flags.
+    const std::size_t stride = std::max<std::size_t>(1, length / kScreenMedianSample);
+    std::vector<double>& sample = scratch.sample;
+    sample.clear();
+    for (std::size_t i = 0; i < length; i += stride) sample.push_back(hp(static_cast<Eigen::Index>(i)));
+    const double centre = middle_value(sample);
+    for (double& v : sample) v = std::abs(v - centre);
+    const double sigma = 1.4826 * middle_value(sample);
     if (!(sigma > 0.0)) continue;
     const double limit = settings.screen_threshold * sigma;
-    if ((deviation.array() > limit).count() == 0) continue;  // the usual case: nothing to flag
-    for (std::size_t i = 0; i < length; ++i) flag[i] |= abs_dev[i] > limit;
-    any = true;
+    const double* h = hp.data();
+    bool column_flags = false;
+    for (std::size_t i = 0; i < length; ++i) {
+      const bool out = std::abs(h[i] - centre) > limit;
+      flag[i] |= out;
+      column_flags |= out;
+    }
+    any |= column_flags;
   }
   if (!any) return mask;
   // Widen each flagged sample by the margin (a transient's tails are below the threshold).

@@ -8,6 +8,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "delay_spectra.hpp"
 #include "failed_window_estimate.hpp"
+#include "pair_averages.hpp"
 #include "robust_sections.hpp"
 #include "section_trend.hpp"
 #include "spectral_tools.hpp"
@@ -30,6 +31,7 @@ struct RobustFdEstimator::Impl {
   detail::RealDft dft;
   FdWlseEstimator plain;
   Readings screened_reference, screened_test;  ///< nT, the records with the masked runs filled
+  Readings paired_reference, paired_test;      ///< nT, the records in use averaged in pairs of samples
 };
 
 namespace {
@@ -104,6 +106,9 @@ class RobustFdEstimator::Window {
   }
   const NoiseSpectrum* eiv_spectrum() const { return eiv_.noise != nullptr ? &eiv_.noise->spectrum : nullptr; }
 
+  /// Eq. 2 on whole records (fits_on_pairs: on their pair averages, its samples and period
+  /// those of the window); the plain estimator's spectra are then the averages'.
+  WindowEstimate plain_fit(const Eigen::Ref<const Readings>& reference, const Eigen::Ref<const Readings>& test);
   void use_mask(const std::vector<char>& mask);
   void screen(const WindowEstimate& initial);
   SectionLayout plan_sections();
@@ -127,6 +132,7 @@ class RobustFdEstimator::Window {
   const EivPlan eiv_;
   const WindowInputs& inputs_;
   ScreenedWindow screened_;
+  bool pairs_ = false;  ///< the last plain_fit was on pair averages (Impl::paired_*)
   SectionLayout sections_;
   Regression regression_;  ///< least squares with the EIV plan's noise, or the remote's instruments
 };
@@ -145,7 +151,7 @@ WindowEstimate RobustFdEstimator::estimate(const Eigen::Ref<const Readings>& ref
 
 WindowEstimate RobustFdEstimator::Window::estimate() {
   // Step 1: n0 from Eq. 2 and the residual screen.
-  WindowEstimate initial = impl_.plain.estimate(reference_nT_, test_nT_, period_s_);
+  WindowEstimate initial = plain_fit(reference_nT_, test_nT_);
   initial.method = "robust";
   initial.eiv = eiv_.without;
   initial.eiv_noise = inputs_.reference_noise;
@@ -187,7 +193,7 @@ WindowEstimate RobustFdEstimator::Window::estimate() {
   // Eq. 2 on the screened records, for the trend, unless already fitted; its whole-window
   // transforms are the delay's.
   if (!screened_.fit) {
-    screened_.fit = impl_.plain.estimate(reference(), test(), period_s_);
+    screened_.fit = plain_fit(reference(), test());
     screened_.plain_spectra_current = true;
   }
   remove_delay(cells, fit, bins, result);  // step 4
@@ -201,6 +207,18 @@ WindowEstimate RobustFdEstimator::Window::estimate() {
   }
   finish(cells, fit, bins, result);  // step 6, trend, quality
   return result;
+}
+
+WindowEstimate RobustFdEstimator::Window::plain_fit(const Eigen::Ref<const Readings>& reference,
+                                                    const Eigen::Ref<const Readings>& test) {
+  pairs_ = detail::fits_on_pairs(length_, period_s_, settings_);
+  if (!pairs_) return impl_.plain.estimate(reference, test, period_s_);
+  detail::average_pairs(reference, impl_.paired_reference);
+  detail::average_pairs(test, impl_.paired_test);
+  WindowEstimate e = impl_.plain.estimate(impl_.paired_reference, impl_.paired_test, 2.0 * period_s_);
+  e.samples = length_;
+  e.sample_period_s = period_s_;
+  return e;
 }
 
 void RobustFdEstimator::Window::use_mask(const std::vector<char>& mask) {
@@ -222,7 +240,7 @@ void RobustFdEstimator::Window::screen(const WindowEstimate& initial) {
   if (!rs_.screen) return;
   std::vector<char> mask = screen_residual(reference_nT_, test_nT_, initial.n, period_s_, rs_);
   use_mask(mask);
-  if (screened_.masked) screened_.fit = impl_.plain.estimate(impl_.screened_reference, impl_.screened_test, period_s_);
+  if (screened_.masked) screened_.fit = plain_fit(impl_.screened_reference, impl_.screened_test);
   screened_.plain_spectra_current = true;  // of the screened records, or no mask: of the records themselves
   const Eigen::Matrix3d n0 = screened_.fit->n.allFinite() ? screened_.fit->n : initial.n;
   if (n0 != initial.n) {
@@ -347,14 +365,16 @@ void RobustFdEstimator::Window::remove_delay(std::vector<Cell>& cells, IrlsResul
   const Eigen::Ref<const Readings> r = reference(), t = test();
   try {
     detail::WholeWindowSpectra whole;
-    whole.length = length_;
+    const Eigen::Ref<const Readings> spectra_r = pairs_ ? Eigen::Ref<const Readings>(impl_.paired_reference) : r;
+    const Eigen::Ref<const Readings> spectra_t = pairs_ ? Eigen::Ref<const Readings>(impl_.paired_test) : t;
+    whole.length = static_cast<std::size_t>(spectra_r.rows());
     for (int c = 0; c < 6; ++c) {
       whole.bins[static_cast<std::size_t>(c)] = impl_.plain.last_spectrum(c);
-      whole.ends[static_cast<std::size_t>(c)] = detail::column_ends(c < 3 ? r.col(c) : t.col(c - 3));
+      whole.ends[static_cast<std::size_t>(c)] = detail::column_ends(c < 3 ? spectra_r.col(c) : spectra_t.col(c - 3));
     }
     const bool have_spectra = screened_.plain_spectra_current &&
                               std::all_of(whole.bins.begin(), whole.bins.end(), [](const auto* b) { return b != nullptr; });
-    diagnostics_.delay = have_spectra ? detail::estimate_delay_from_spectra(whole, fit.n, period_s_, ds)
+    diagnostics_.delay = have_spectra ? detail::estimate_delay_from_spectra(whole, fit.n, pairs_ ? 2.0 * period_s_ : period_s_, ds)
                                       : estimate_delay(r, t, fit.n, period_s_, ds);
   } catch (const InputError&) {
     diagnostics_.delay = DelayEstimate{};

@@ -43,6 +43,23 @@ TEST(DelayEstimation, ReportedPerWindowByTheRobustEstimator) {
   EXPECT_TRUE(estimator.robust_diagnostics()->delay_corrected);
 }
 
+// The robust estimator's whole-window Eq. 2 fits (n0, trend, the delay's spectra) are made on the
+// records averaged in pairs of samples (pair_averages.hpp), an odd last sample left out: the
+// delay keeps its value in seconds on even and odd windows alike.
+TEST(DelayEstimation, TheWholeWindowFitsOnPairAveragesKeepTheDelay) {
+  const mic::SimulatedPair pair = mic::simulate_pair(station(26, 0.030));
+  for (const Eigen::Index rows : {Eigen::Index{86400}, Eigen::Index{86399}, Eigen::Index{43201}}) {
+    mic::WindowEstimator estimator(mic::EstimatorSettings{});
+    const mic::WindowEstimate e =
+        estimator.estimate(pair.reference.values_nT.topRows(rows), pair.test.values_nT.topRows(rows), 1.0);
+    ASSERT_EQ(e.quality, mic::Quality::kOk) << rows << ": " << e.quality_text;
+    EXPECT_EQ(e.samples, static_cast<std::size_t>(rows)) << "the window's own samples, not the averages'";
+    EXPECT_DOUBLE_EQ(e.sample_period_s, 1.0);
+    EXPECT_NEAR(e.delay_s, 0.030, 0.003) << rows;  // a period or length mixed up would double or halve it
+    EXPECT_LT(std::abs(e.delay_s - 0.030), 4.0 * e.delay_ci95_s / 1.96) << rows;
+  }
+}
+
 TEST(DelayEstimation, UnrelatedRecordsGiveNoDelay) {
   const mic::SimulatedPair a = mic::simulate_pair(station(23, 0.0));
   const mic::SimulatedPair b = mic::simulate_pair(station(24, 0.0));
