@@ -118,13 +118,6 @@ struct ScreenScratch {
 /// Values of the residual the screen's centre and MAD are taken from (every stride-th).
 constexpr std::size_t kScreenMedianSample = 8192;
 
-/// The median of v (upper middle of an even count); v is reordered.
-double middle_value(std::vector<double>& v) {
-  const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), middle, v.end());
-  return *middle;
-}
-
 }  // namespace
 
 std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
@@ -150,9 +143,9 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
     std::vector<double>& sample = scratch.sample;
     sample.clear();
     for (std::size_t i = 0; i < length; i += stride) sample.push_back(hp(static_cast<Eigen::Index>(i)));
-    const double centre = middle_value(sample);
+    const double centre = detail::median(sample);
     for (double& v : sample) v = std::abs(v - centre);
-    const double sigma = 1.4826 * middle_value(sample);
+    const double sigma = 1.4826 * detail::median(sample);
     if (!(sigma > 0.0)) continue;
     const double limit = settings.screen_threshold * sigma;
     const double* h = hp.data();
