@@ -18,7 +18,9 @@
 // the field but none of the local disturbances: MC_REMOTE_INCOHERENT (0.2) of its variations'
 // variance its own, its own noise (simulator defaults), orientation and Z response, and
 // MC_REMOTE_GAPS (1) gaps of 10 min per day. Each record is one window. MC_PAIR_NOISE=0: the
-// reference's noise not identified from the pair (calibrate_records --no-pair-noise).
+// reference's noise not identified from the pair (calibrate_records --no-pair-noise). Without a
+// remote the default's two checks of the pair alone are counted: the band split and the
+// local-event check (records flagged, the coverage of the others, misses neither flagged).
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary table follows.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
@@ -51,6 +53,9 @@ struct Tally {
   // Without a remote: windows whose band halves differ (not vouched for), and the coverage of
   // the others.
   int split_flagged = 0, unflagged_covered = 0, unflagged_checked = 0, missed_unflagged = 0;
+  // Without a remote: windows where the local-event check saw events (not vouched for), the
+  // coverage of the others, and windows missing a parameter that neither check flagged.
+  int events_seen = 0, events_assessed = 0, unseen_covered = 0, unseen_checked = 0, missed_unseen = 0, missed_unflagged_either = 0;
   // The relative response against the true filter (kind "filter"): gain and phase values inside
   // their intervals, bands up to the estimation band's top and up to 0.05 Hz.
   int response_inside[2] = {0, 0}, response_checked[2] = {0, 0};
@@ -105,7 +110,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
               static_cast<unsigned long long>(first_seed), days);
   std::printf("# remote: %.0f %% of its variations' variance its own, %.0f gaps of 10 min per day\n",
               100.0 * knob("MC_REMOTE_INCOHERENT", 0.2), knob("MC_REMOTE_GAPS", 1.0));
-  std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased  band_halves_differ\n");
+  std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased  band_halves_differ  local_events_z\n");
   Tally tally[kMethods];
   for (int k = 0; k < seeds; ++k) {
     const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
@@ -144,9 +149,19 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
           tally[m].unflagged_checked += 9;
           tally[m].missed_unflagged += covered < 9;
         }
+        const mic::LocalEventCheck& events = w.estimate.local_events;
+        tally[m].events_assessed += events.assessed;
+        tally[m].events_seen += events.seen;
+        if (!events.seen) {
+          tally[m].unseen_covered += covered;
+          tally[m].unseen_checked += 9;
+          tally[m].missed_unseen += covered < 9;
+        }
+        tally[m].missed_unflagged_either += covered < 9 && !events.seen && !differs;
       }
-      std::printf("seed %5llu %d %9.4f %9.4f %d %7.0f %d %d%s%s\n", static_cast<unsigned long long>(seed), m, scale,
+      std::printf("seed %5llu %d %9.4f %9.4f %d %7.0f %d %d %6.2f%s%s\n", static_cast<unsigned long long>(seed), m, scale,
                   angle, covered, rr.strength, rr.pair_biased ? 1 : 0, w.estimate.band_split.differs ? 1 : 0,
+                  w.estimate.local_events.z,
                   m == 2 && !rr.used ? " " : "", m == 2 && !rr.used ? rr.text.c_str() : "");
       if (knob("MC_DEBUG", 0) > 0) {
         const mic::CalibrationParameters t = mic::decompose(pair.n_true);
@@ -177,19 +192,27 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
                 m == 2 ? (std::to_string(t.flagged) + " of " + std::to_string(t.used) + " used").c_str() : "",
                 t.seconds / std::max(1, seeds));
     if (kind == "filter") {
-      char line[256];
+      char line[512];
       std::snprintf(line, sizeof line, "# %s: relative response inside its 95 %% intervals: %.1f %% to 0.01 Hz, %.1f %% to 0.05 Hz\n",
                     kMethodNames[m], 100.0 * t.response_inside[0] / std::max(1, t.response_checked[0]),
                     100.0 * t.response_inside[1] / std::max(1, t.response_checked[1]));
       split_lines += line;
     }
     if (m == 1) {
-      char line[256];
+      char line[512];
       std::snprintf(line, sizeof line,
                     "# %s: band halves differ in %d of %d records; coverage of the others %.1f %%, %d of them miss "
                     "a parameter\n",
                     kMethodNames[m], t.split_flagged, seeds, 100.0 * t.unflagged_covered / std::max(1, t.unflagged_checked),
                     t.missed_unflagged);
+      split_lines += line;
+      char others[64] = "none";
+      if (t.unseen_checked > 0) std::snprintf(others, sizeof others, "%.1f %%", 100.0 * t.unseen_covered / t.unseen_checked);
+      std::snprintf(line, sizeof line,
+                    "# %s: local events seen in %d of %d records (%d assessed); coverage of the others %s, %d of "
+                    "them miss a parameter; %d records miss a parameter with neither check flagging\n",
+                    kMethodNames[m], t.events_seen, seeds, t.events_assessed, others, t.missed_unseen,
+                    t.missed_unflagged_either);
       split_lines += line;
     }
   }

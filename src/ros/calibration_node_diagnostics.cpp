@@ -87,6 +87,7 @@ void describe_window(const CalibrationWindow& w, DiagnosticStatusWrapper& status
   status.add("response model (last window)", w.response_model.text);
   status.add("remote reference (last window)", e.remote.given ? e.remote.text : std::string("none"));
   status.add("band split (last window)", e.remote.used ? std::string("not needed (remote)") : e.band_split.text);
+  status.add("local events (last window)", e.remote.used ? std::string("not needed (remote)") : e.local_events.text);
   if (!w.scalar.text.empty()) describe_scalar(w.scalar, status);
   // Relative frequency response of the test against R n over the band used (relative_response.hpp).
   if (w.response.bands > 0) {
@@ -251,6 +252,10 @@ void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& sta
     problems.emplace_back(DiagnosticStatus::WARN, ch.last->estimate.remote.pair_biased
                                                       ? "the pair alone is biased (a remote sees it)"
                                                       : "the band's halves disagree: not vouched for");
+  }
+  if (ch.last && ch.last->estimate.local_events.seen) {
+    problems.emplace_back(DiagnosticStatus::WARN, "local events the test does not follow (traffic?): not vouched for; "
+                                                  "give a remote reference");
   }
   if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
   if (ch.last && ch.last->scalar.reference_off) {

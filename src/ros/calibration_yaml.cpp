@@ -189,6 +189,10 @@ void fill_older_format(MagnetometerCalibration& c, long long version) {
       a->fill(nan);
     }
   }
+  if (version < 7) {  // no local-event check
+    c.local_events_p_value = nan;
+    c.local_events_seen = false;
+  }
   if (version < 6) {  // no remote reference
     c.remote_used = false;
     c.pair_biased = false;

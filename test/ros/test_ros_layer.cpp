@@ -167,7 +167,7 @@ TEST(CalibrationYaml, EveryFieldIsRequiredByTheFormatsThatHaveIt) {
     for (const Field& f : table) {
       if (f.since > version) old = without(old, f.name);
     }
-    old.replace(old.find("format_version: 6\n"), 17, "format_version: " + std::to_string(version));
+    old.replace(old.find("format_version: 7\n"), 17, "format_version: " + std::to_string(version));
     EXPECT_NO_THROW(mic::calibration_from_yaml(old, "old.yaml")) << "format " << version;
     for (const Field& f : table) {
       if (f.since > version) continue;
@@ -193,7 +193,7 @@ TEST(CalibrationYaml, Format1LoadsAsPlainWithoutDelayOrOffset) {
   for (std::size_t line = text.find("\ntemperature_"); line != std::string::npos; line = text.find("\ntemperature_")) {
     text.erase(line + 1, text.find('\n', line + 1) - line);
   }
-  text.replace(text.find("format_version: 6\n"), 17, "format_version: 1");
+  text.replace(text.find("format_version: 7\n"), 17, "format_version: 1");
   const mic::MagnetometerCalibration c = mic::calibration_from_yaml(text, "v1.yaml");
   EXPECT_EQ(c.method, "plain");
   EXPECT_EQ(c.band_used_low_hz, c.band_low_hz);
@@ -221,7 +221,7 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   // A format-2 file (before reference_mean_nT): loads, with the mean 0 (the whole-field
   // propagation correction_node used before); a format it does not know is refused.
   std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
-  const std::size_t version = text.find("format_version: 6\n");
+  const std::size_t version = text.find("format_version: 7\n");
   ASSERT_NE(version, std::string::npos) << text;
   const std::size_t mean_line = text.find("reference_mean_nT: ");
   ASSERT_NE(mean_line, std::string::npos);
@@ -236,7 +236,7 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   cut.erase(mean_line, cut.find('\n', mean_line) + 1 - mean_line);
   EXPECT_THROW(mic::calibration_from_yaml(cut, "cut.yaml"), mic::CalibrationFileError);
   std::string future = text;
-  future.replace(version, 17, "format_version: 7");
+  future.replace(version, 17, "format_version: 8");
   EXPECT_THROW(mic::calibration_from_yaml(future, "future.yaml"), mic::CalibrationFileError);
 }
 
@@ -250,7 +250,7 @@ TEST(CalibrationYaml, Format3LoadsWithoutTemperatureTerms) {
     old.erase(line + 1, old.find('\n', line + 1) - line);
   }
   ASSERT_EQ(old.find("temperature"), std::string::npos) << old;
-  const std::size_t version = old.find("format_version: 6\n");
+  const std::size_t version = old.find("format_version: 7\n");
   ASSERT_NE(version, std::string::npos);
   old.replace(version, 17, "format_version: 3");
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v3.yaml");
@@ -294,7 +294,7 @@ TEST(CalibrationYaml, Format4LoadsAsACovarianceTakenAsKnown) {
   };
   std::string old = without(without(text, "covariance_cells"), "interval_quantile");
   ASSERT_EQ(old.find("interval_quantile"), std::string::npos);
-  const std::size_t version = old.find("format_version: 6\n");
+  const std::size_t version = old.find("format_version: 7\n");
   ASSERT_NE(version, std::string::npos);
   old.replace(version, 17, "format_version: 4");
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v4.yaml");

@@ -4,6 +4,7 @@
 
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
+#include "magnetometer_insitu_calibration/estimation/local_event_check.hpp"
 #include "magnetometer_insitu_calibration/estimation/remote_reference.hpp"
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
@@ -138,6 +139,8 @@ struct WindowEstimate {
   RemoteReference remote;
   /// Without a remote (robust estimator): n of the band's two halves compared.
   BandSplitCheck band_split;
+  /// Without a remote (robust estimator): events above the band the test does not follow.
+  LocalEventCheck local_events;
 
   /// Standard errors of the nine entries of n (row-major), sqrt of the covariance diagonal.
   Eigen::Matrix3d n_stderr() const;

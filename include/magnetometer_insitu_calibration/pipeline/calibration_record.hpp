@@ -113,10 +113,12 @@ using Matrix81 = std::array<double, 81>;      ///< 9 x 9 row-major (JSON: rows)
   F(Vector3, direction_cosines_ci95, 6, "")                                                                        \
   F(Real, test_scale_along_field, 6, "the test's scale along the field through n")                                 \
   F(Real, test_scale_along_field_ci95, 6, "")                                                                      \
-  F(Flag, reference_needs_calibration, 6, "the reference's scale departs from 1 beyond its interval")
+  F(Flag, reference_needs_calibration, 6, "the reference's scale departs from 1 beyond its interval")         \
+  F(Real, local_events_p_value, 7, "without a remote: events above the band the test does not follow, p-value")    \
+  F(Flag, local_events_seen, 7, "such events seen: the pair-only window is not vouched for")
 
 /// The calibration file's format: the largest `since` of the table.
-constexpr int kCalibrationFileFormat = 6;
+constexpr int kCalibrationFileFormat = 7;
 
 /// One window's calibration, every field of MIC_CALIBRATION_FIELDS, plus the header's stamp and
 /// frame_id (the time the estimate was made, the reference frame).

@@ -435,6 +435,7 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   } else {
     result.band_split = band_split_check(cells, fit, sections_.count, bins, fit.eiv_applied ? eiv_.noise : nullptr,
                                          as_solved);
+    result.local_events = check_local_events(reference(), test(), period_s_, sections_.band_high_hz, result.delay_s);
   }
 }
 

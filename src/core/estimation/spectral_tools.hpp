@@ -155,8 +155,8 @@ void detrend_columns(double* const* x, std::size_t length) {
   for (int c = 0; c < K; ++c) subtract_line(x[c], length, mean[c], slope[c], x[c]);
 }
 
-/// Median of a copy (empty: NaN).
-inline double median(std::vector<double> v) {
+/// Median of v, reordering it (empty: NaN).
+inline double median_in_place(std::vector<double>& v) {
   if (v.empty()) return std::nan("");
   const std::size_t mid = v.size() / 2;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
@@ -166,6 +166,9 @@ inline double median(std::vector<double> v) {
   }
   return m;
 }
+
+/// Median of a copy (empty: NaN).
+inline double median(std::vector<double> v) { return median_in_place(v); }
 
 /// Replaces every run of masked samples, in every column of both R and T, by the straight line
 /// between the means of the unmasked samples on either side, each taken over as many samples as

@@ -121,6 +121,8 @@ CalibrationRecord make_calibration_record(const CalibrationWindow& w, const Reco
   fill_remote(r, e.remote);
   r.band_split_p_value = e.band_split.p_value;
   r.band_split_differs = e.band_split.differs;
+  r.local_events_p_value = e.local_events.p_value;
+  r.local_events_seen = e.local_events.seen;
   const ScalarCheck& s = w.scalar;
   r.scalar_text = s.text;
   r.reference_scale_along_field = s.reference_scale;

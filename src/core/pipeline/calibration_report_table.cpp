@@ -209,11 +209,14 @@ void write_quality_rows(const WindowColumns& table) {
 }
 
 /// What the pair alone is worth: against the remote's estimate when one was used (remote
-/// reference), else its band's halves against each other (remote_reference.hpp).
+/// reference), else its band's halves against each other (remote_reference.hpp) and the events
+/// above the band (local_event_check.hpp).
 std::string pair_alone(const WindowEstimate& e) {
   if (e.remote.used) return e.remote.pair_biased ? "biased (remote)" : "agrees (remote)";
-  if (!e.band_split.assessed) return "-";
-  return e.band_split.differs ? "halves differ" : "halves agree";
+  std::string text;
+  if (e.band_split.assessed) text = e.band_split.differs ? "halves differ" : "halves agree";
+  if (e.local_events.assessed) text += std::string(text.empty() ? "" : ", ") + (e.local_events.seen ? "events" : "no events");
+  return text.empty() ? "-" : text;
 }
 
 /// Rows of the remote reference (when any window has a remote) and of the pair-only checks.
@@ -266,6 +269,7 @@ void write_window_notes(std::ostream& out, const PairCalibration& c) {
     if (!w.reference_noise.text.empty()) notes.add(w.label, w.reference_noise.text);
     if (w.estimate.remote.given) notes.add(w.label, w.estimate.remote.text);
     if (w.estimate.band_split.differs) notes.add(w.label, "band split: " + w.estimate.band_split.text);
+    if (w.estimate.local_events.seen) notes.add(w.label, "local events: " + w.estimate.local_events.text);
     if (!w.scalar.text.empty()) notes.add(w.label, "scalar: " + w.scalar.text);
   }
   for (const auto& w : c.windows) {
