@@ -4,6 +4,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 
 #include <gtest/gtest.h>
 
@@ -199,6 +200,42 @@ TEST(CalibrationPipeline, SlidingWindowsAndJsonReport) {
   ASSERT_EQ(disjoint.windows.size(), 2u);
   EXPECT_EQ(mic::disjoint_window_estimates(disjoint.windows).size(), 2u);
   EXPECT_EQ(mic::calibration_to_json(disjoint, settings, {"ref", "test"})["window_agreement"]["joint_dof"], 9);
+}
+
+TEST(CalibrationPipeline, LocalEventsReachTheReportAndTheJson) {
+  // Two days beside a busy road (600 vehicles a day at 60 m, one in ten parking), no remote:
+  // the local-event check of the default flags the whole-record window, and says so in the
+  // report's "pair alone" row, its notes and the JSON; a quiet pair's window says "no events".
+  mic::SimulationSettings s;
+  s.seed = 61700;
+  s.duration_s = 2 * 86400.0;
+  s.keep_clean_field = false;
+  const mic::SimulatedPair quiet = mic::simulate_pair(s);
+  mic::SimulatedPair road = quiet;
+  mic::StationDisturbanceSettings d;
+  d.seed = s.seed;
+  d.vehicles_per_day = 600;
+  d.road_distance_m = 60.0;
+  d.parking_probability = 0.1;
+  mic::add_station_disturbances(road, d);
+  const mic::CalibrationSettings settings;
+  for (const bool by_road : {true, false}) {
+    const auto result = mic::calibrate_records(by_road ? road.reference : quiet.reference,
+                                               by_road ? road.test : quiet.test, settings);
+    ASSERT_EQ(result.windows.size(), 1u);
+    const mic::LocalEventCheck& c = result.windows[0].estimate.local_events;
+    ASSERT_TRUE(c.assessed) << c.text;
+    EXPECT_EQ(c.seen, by_road) << c.text;
+    const nlohmann::json w = mic::calibration_to_json(result, settings, {"ref", "test"})["windows"][0];
+    EXPECT_EQ(w["local_events_seen"].get<bool>(), by_road);
+    EXPECT_DOUBLE_EQ(w["local_events_p_value"].get<double>(), c.p_value);
+    const std::string table = mic::format_calibration_table(result, {"ref", "test"});
+    const std::size_t row = table.find("pair alone");
+    ASSERT_NE(row, std::string::npos) << table;
+    const std::string line = table.substr(row, table.find('\n', row) - row);
+    EXPECT_NE(line.find(by_road ? ", events" : ", no events"), std::string::npos) << line;
+    EXPECT_EQ(table.find("local events: events at") != std::string::npos, by_road) << table;
+  }
 }
 
 TEST(CalibrationPipeline, ImpossibleLayoutsAreRejectedByName) {
