@@ -60,6 +60,23 @@ void write_correction(std::ostream& out, const CalibrationWindow& w) {
       << "  live: correction_node applies the calibration_node's latest calibration (n and d)\n";
 }
 
+/// What the verdicts rest on, when the window's own checks doubt it (remote_reference.hpp,
+/// local_event_check.hpp): nothing is written for a window they vouch for.
+void write_trust(std::ostream& out, const WindowEstimate& e) {
+  if (e.remote.used) {
+    if (e.remote.pair_biased) {
+      out << "The pair alone would have been biased (the remote sees a local disturbance); n rests on the remote.\n";
+    }
+    return;
+  }
+  std::string why;
+  if (e.local_events.seen) why = "local events above the band that the test does not follow (traffic?)";
+  if (e.band_split.differs) why += std::string(why.empty() ? "" : "; ") + "the band's halves differ";
+  if (why.empty()) return;
+  out << "Not vouched for: " << why << ". A disturbance both sensors see biases n beyond its intervals and "
+      << "the verdicts with it; give a remote observatory's record (--remote, ~remote_topic).\n";
+}
+
 }  // namespace
 
 const CalibrationWindow* summary_window(const PairCalibration& c) {
@@ -87,6 +104,7 @@ std::string format_calibration_summary(const PairCalibration& c, const Tolerance
     out << "Record needed, if the values stay where they are: intervals narrow as " << w->narrowing.text << "\n";
   }
   if (w->estimate.quality != Quality::kOk) out << "The window is flagged: " << w->estimate.quality_text << "\n";
+  write_trust(out, w->estimate);
   write_correction(out, *w);
   out << "\n";
   return out.str();

@@ -3,6 +3,7 @@
 #include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 
@@ -235,6 +236,9 @@ TEST(CalibrationPipeline, LocalEventsReachTheReportAndTheJson) {
     const std::string line = table.substr(row, table.find('\n', row) - row);
     EXPECT_NE(line.find(by_road ? ", events" : ", no events"), std::string::npos) << line;
     EXPECT_EQ(table.find("local events: events at") != std::string::npos, by_road) << table;
+    // The summary an engineer reads first says the verdicts are not vouched for.
+    const std::string summary = mic::format_calibration_summary(result, settings.window.tolerances);
+    EXPECT_EQ(summary.find("Not vouched for: local events") != std::string::npos, by_road) << summary;
   }
 }
 
