@@ -5,6 +5,7 @@
 
 #include "calibration_node_channel.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
 #include <cmath>
@@ -284,6 +285,8 @@ void CalibrationNode::diagnose_tolerances(std::size_t index, DiagnosticStatusWra
     if (g.worst == Verdict::kUndecided) status.mergeSummary(DiagnosticStatus::WARN, g.name + " undecided");
   }
   status.add("intervals narrow (last window)", ch.last->narrowing.text);
+  const std::string doubt = not_vouched_for(ch.last->estimate);
+  if (!doubt.empty()) status.mergeSummary(DiagnosticStatus::WARN, "verdicts not vouched for: " + doubt);
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -60,24 +60,27 @@ void write_correction(std::ostream& out, const CalibrationWindow& w) {
       << "  live: correction_node applies the calibration_node's latest calibration (n and d)\n";
 }
 
-/// What the verdicts rest on, when the window's own checks doubt it (remote_reference.hpp,
-/// local_event_check.hpp): nothing is written for a window they vouch for.
+/// What the verdicts rest on, when the window's own checks doubt it: nothing is written for a
+/// window they vouch for.
 void write_trust(std::ostream& out, const WindowEstimate& e) {
-  if (e.remote.used) {
-    if (e.remote.pair_biased) {
-      out << "The pair alone would have been biased (the remote sees a local disturbance); n rests on the remote.\n";
-    }
-    return;
+  if (e.remote.used && e.remote.pair_biased) {
+    out << "The pair alone would have been biased (the remote sees a local disturbance); n rests on the remote.\n";
   }
-  std::string why;
-  if (e.local_events.seen) why = "local events above the band that the test does not follow (traffic?)";
-  if (e.band_split.differs) why += std::string(why.empty() ? "" : "; ") + "the band's halves differ";
+  const std::string why = not_vouched_for(e);
   if (why.empty()) return;
   out << "Not vouched for: " << why << ". A disturbance both sensors see biases n beyond its intervals and "
       << "the verdicts with it; give a remote observatory's record (--remote, ~remote_topic).\n";
 }
 
 }  // namespace
+
+std::string not_vouched_for(const WindowEstimate& e) {
+  if (e.remote.used) return "";
+  std::string why;
+  if (e.local_events.seen) why = "local events above the band that the test does not follow (traffic?)";
+  if (e.band_split.differs) why += std::string(why.empty() ? "" : "; ") + "the band's halves differ";
+  return why;
+}
 
 const CalibrationWindow* summary_window(const PairCalibration& c) {
   if (c.windows.empty()) return nullptr;
