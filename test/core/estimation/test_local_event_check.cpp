@@ -7,8 +7,9 @@
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
 #include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
-#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
+
+#include "busy_road.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,24 +22,10 @@ namespace {
 constexpr double kBandTopHz = 0.01;  // the default band's top: event band 0.02-0.2 Hz at 1 s
 
 mic::SimulationSettings station(std::uint64_t seed, double days = 1.0) {
-  mic::SimulationSettings s;
-  s.seed = seed;
-  s.duration_s = days * 86400.0;
-  s.keep_clean_field = false;
-  return s;
+  return mic::test::quiet_station(seed, days * 86400.0);
 }
 
-/// The busy road of the remote-reference Monte Carlo: 600 vehicles a day 60 m away, one in ten
-/// parking for 2 min to 1 h; each seen by both sensors (5 m apart) with different gains.
-mic::StationDisturbanceReport add_busy_road(mic::SimulatedPair& pair, std::uint64_t seed) {
-  mic::StationDisturbanceSettings d;
-  d.seed = seed;
-  d.vehicles_per_day = 600;
-  d.road_distance_m = 60.0;
-  d.parking_probability = 0.1;
-  d.small_spikes_per_day = 0;
-  return mic::add_station_disturbances(pair, d);
-}
+using mic::test::add_busy_road;
 
 mic::LocalEventCheck check(const mic::SimulatedPair& pair, double delay_s = std::nan("")) {
   return mic::check_local_events(pair.reference.values_nT, pair.test.values_nT, 1.0, kBandTopHz, delay_s);

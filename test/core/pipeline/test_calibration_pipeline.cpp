@@ -5,7 +5,8 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_report.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
-#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
+
+#include "busy_road.hpp"
 
 #include <gtest/gtest.h>
 
@@ -170,11 +171,7 @@ TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
 }
 
 TEST(CalibrationPipeline, SlidingWindowsAndJsonReport) {
-  mic::SimulationSettings s;
-  s.seed = 3;
-  s.duration_s = 12 * 3600.0;
-  s.keep_clean_field = false;
-  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  const mic::SimulatedPair pair = mic::simulate_pair(mic::test::quiet_station(3, 12 * 3600.0));
   mic::CalibrationSettings settings;
   settings.windows.window_s = 6 * 3600.0;
   settings.windows.step_s = 3 * 3600.0;
@@ -207,18 +204,9 @@ TEST(CalibrationPipeline, LocalEventsReachTheReportAndTheJson) {
   // Two days beside a busy road (600 vehicles a day at 60 m, one in ten parking), no remote:
   // the local-event check of the default flags the whole-record window, and says so in the
   // report's "pair alone" row, its notes and the JSON; a quiet pair's window says "no events".
-  mic::SimulationSettings s;
-  s.seed = 61700;
-  s.duration_s = 2 * 86400.0;
-  s.keep_clean_field = false;
-  const mic::SimulatedPair quiet = mic::simulate_pair(s);
+  const mic::SimulatedPair quiet = mic::simulate_pair(mic::test::quiet_station(61700, 2 * 86400.0));
   mic::SimulatedPair road = quiet;
-  mic::StationDisturbanceSettings d;
-  d.seed = s.seed;
-  d.vehicles_per_day = 600;
-  d.road_distance_m = 60.0;
-  d.parking_probability = 0.1;
-  mic::add_station_disturbances(road, d);
+  mic::test::add_busy_road(road, 61700);
   const mic::CalibrationSettings settings;
   for (const bool by_road : {true, false}) {
     const auto result = mic::calibrate_records(by_road ? road.reference : quiet.reference,
