@@ -192,14 +192,15 @@ LocalEventCheck check_local_events(const Eigen::Ref<const Readings>& reference_n
   int length = 8;
   while (length * dt < kBlockPeriods / out.low_hz) length *= 2;
   const double df = 1.0 / (length * dt);
-  const int first = static_cast<int>(std::ceil(out.low_hz / df - 1e-9)), last = static_cast<int>(std::floor(out.high_hz / df + 1e-9));
+  const int first = static_cast<int>(std::ceil(out.low_hz / df - 1e-9));
+  const int last = static_cast<int>(std::floor(out.high_hz / df + 1e-9));
   const int shift = std::isfinite(delay_s) ? static_cast<int>(std::lround(delay_s / dt)) : 0;
   const BlockSpectra s = block_spectra(r, t, length, shift, first, last, df);
   out.blocks = s.blocks;
   if (out.blocks < kMinBlocks) {
     std::ostringstream text;
-    text << "local events not assessed: " << out.blocks << " blocks of " << std::lround(length * dt) << " s without fills (fewer than "
-         << kMinBlocks << ")";
+    text << "local events not assessed: " << out.blocks << " blocks of " << std::lround(length * dt)
+         << " s without fills (fewer than " << kMinBlocks << ")";
     out.text = text.str();
     return out;
   }
@@ -243,7 +244,8 @@ LocalEventCheck check_local_events(const Eigen::Ref<const Readings>& reference_n
   std::ostringstream text;
   text.precision(2);
   text << "events at " << out.low_hz << "-" << out.high_hz << " Hz in the reference and in T - R H over "
-       << out.blocks << " blocks of " << std::lround(length * dt) << " s (" << s.skipped << " with fills left out): z " << out.z << ", p " << out.p_value
+       << out.blocks << " blocks of " << std::lround(length * dt) << " s (" << s.skipped
+       << " with fills left out): z " << out.z << ", p " << out.p_value
        << (out.seen ? ": local events the test does not follow as the field (traffic, a machine); not vouched for, "
                       "give a remote reference"
                     : ": none seen");
