@@ -249,14 +249,14 @@ void CalibrationNode::diagnose_results(Channel& ch, DiagnosticStatusWrapper& sta
   status.add("tf rotation angle (deg)", ch.tf_angle_deg);
   status.add("calibration file error", ch.file_error);
   if (ch.last_failed) problems.emplace_back(DiagnosticStatus::ERROR, "window failed: " + ch.last_failure);
-  if (ch.last && (ch.last->estimate.remote.pair_biased || ch.last->estimate.band_split.differs)) {
-    problems.emplace_back(DiagnosticStatus::WARN, ch.last->estimate.remote.pair_biased
-                                                      ? "the pair alone is biased (a remote sees it)"
-                                                      : "the band's halves disagree: not vouched for");
+  if (ch.last && ch.last->estimate.remote.pair_biased) {
+    problems.emplace_back(DiagnosticStatus::WARN, "the pair alone is biased (a remote sees it)");
   }
-  if (ch.last && ch.last->estimate.local_events.seen) {
-    problems.emplace_back(DiagnosticStatus::WARN, "local events the test does not follow (traffic?): not vouched for; "
-                                                  "give a remote reference");
+  if (ch.last) {
+    const std::string doubt = not_vouched_for(ch.last->estimate);
+    if (!doubt.empty()) {
+      problems.emplace_back(DiagnosticStatus::WARN, "not vouched for: " + doubt + "; give a remote reference");
+    }
   }
   if (!ch.file_error.empty()) problems.emplace_back(DiagnosticStatus::ERROR, "file not written: " + ch.file_error);
   if (ch.last && ch.last->scalar.reference_off) {

@@ -1,16 +1,13 @@
 // The local-event check of a window: see local_event_check.hpp.
 #include "magnetometer_insitu_calibration/estimation/local_event_check.hpp"
 
-#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"  // fftw_planner_lock
-#include "spectral_tools.hpp"                                      // detail::median_in_place
+#include "spectral_tools.hpp"  // detail::thread_real_dft, detail::median_in_place
 
 #include <Eigen/Dense>
-#include <fftw3.h>
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <mutex>
 #include <numeric>
 #include <sstream>
 #include <vector>
@@ -37,8 +34,8 @@ struct BlockSpectra {
   int skipped = 0;                   // blocks with a straight-line fill
 };
 
-/// A record as the check reads it: averaged in groups of `step` samples (1 or 2), so that the
-/// averages need no copy of the window.
+/// A record as the check reads it: averaged in groups of `step` samples (1 or 2), the values of
+/// detail::average_pairs (pair_averages.hpp) read in place, so that they need no copy of the window.
 struct SteppedRecord {
   const Eigen::Ref<const Readings>& x;
   int step;
@@ -76,14 +73,12 @@ bool has_straight_fill(const SteppedRecord& x, Eigen::Index from, Eigen::Index t
 BlockSpectra block_spectra(const SteppedRecord& r, const SteppedRecord& t, int length, int shift, int first_harmonic,
                            int last_harmonic, double df) {
   const Eigen::Index n = r.size();
-  Eigen::ArrayXd buffer(length), hann(length);
-  std::vector<fftw_complex> spectrum(static_cast<std::size_t>(length / 2 + 1));
+  detail::RealDft& dft = detail::thread_real_dft();  // this thread's plans, kept between windows
+  const std::size_t size = static_cast<std::size_t>(length);
+  Eigen::Map<Eigen::ArrayXd> buffer(dft.input(size), length);
+  Eigen::ArrayXd hann(length);
+  Eigen::VectorXcd spectrum;
   for (int i = 0; i < length; ++i) hann(i) = 0.5 - 0.5 * std::cos(2.0 * M_PI * (i + 0.5) / length);
-  fftw_plan plan;
-  {
-    std::lock_guard<std::mutex> lock(fftw_planner_lock());
-    plan = fftw_plan_dft_r2c_1d(length, buffer.data(), spectrum.data(), FFTW_ESTIMATE);
-  }
   BlockSpectra out;
   for (int j = first_harmonic; j <= last_harmonic; ++j) out.frequency_hz.push_back(j * df);
   const std::size_t harmonics = out.frequency_hz.size();
@@ -109,18 +104,13 @@ BlockSpectra block_spectra(const SteppedRecord& r, const SteppedRecord& t, int l
           previous = value;
         }
         buffer = (buffer - buffer.mean()) * hann;
-        fftw_execute(plan);
+        dft.execute(size, static_cast<std::size_t>(last_harmonic) + 1, spectrum);
         for (std::size_t j = 0; j < harmonics; ++j) {
-          const std::size_t k = static_cast<std::size_t>(first_harmonic) + j;
-          rows[j](c) = std::complex<double>(spectrum[k][0], spectrum[k][1]);
+          rows[j](c) = spectrum(first_harmonic + static_cast<Eigen::Index>(j));
         }
       }
     }
     ++out.blocks;
-  }
-  {
-    std::lock_guard<std::mutex> lock(fftw_planner_lock());
-    fftw_destroy_plan(plan);
   }
   return out;
 }
