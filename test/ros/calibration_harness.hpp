@@ -9,6 +9,7 @@
 #include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+#include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 #include <magnetometer_insitu_calibration/ScalarField.h>
@@ -107,6 +108,12 @@ class Harness {
   }
   const mic::HutTemperatureSettings& hut() const { return hut_; }
   std::size_t temperature_subscribers() const { return temperature_pub_.getNumSubscribers(); }
+
+  /// A station's disturbances (station_disturbances.hpp: vehicles on a road beside the hut, seen
+  /// by both sensors; spikes; steps) are added to the pair. Call before publishing.
+  mic::StationDisturbanceReport add_station_disturbances(const mic::StationDisturbanceSettings& disturbances) {
+    return mic::add_station_disturbances(pair_, disturbances);
+  }
 
   /// The reference reads `scale` times the field along every axis (a scale error). Call before
   /// publishing.

@@ -25,7 +25,8 @@ add_rostest_gtest(rostest_calibration test/ros/nominal.test test/ros/rostest_cal
   test/ros/rostest_calibration_nominal.cpp test/ros/rostest_calibration_streams.cpp
   test/ros/rostest_calibration_correction.cpp test/ros/rostest_calibration_parameters.cpp
   test/ros/rostest_calibration_lifecycle.cpp test/ros/rostest_calibration_tf.cpp
-  test/ros/rostest_calibration_temperature.cpp test/ros/rostest_calibration_scalar.cpp)
+  test/ros/rostest_calibration_temperature.cpp test/ros/rostest_calibration_scalar.cpp
+  test/ros/rostest_calibration_local_events.cpp)
 target_link_libraries(rostest_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS} ${tf2_msgs_INCLUDE_DIRS})
 target_compile_options(rostest_calibration PRIVATE -Wall -Wextra)
@@ -35,7 +36,7 @@ target_compile_definitions(rostest_calibration PRIVATE
   SCALAR_SIMULATOR_PATH="$<TARGET_FILE:scalar_simulator>")
 # add_rostest_gtest does not make the test depend on the nodes it launches.
 add_dependencies(rostest_calibration calibration_node correction_node scalar_simulator)
-foreach(rostest_file silent_topic time_jump decimation two_instruments three_cornered_hat correction_reload correction_stream bad_parameters temperature scalar)
+foreach(rostest_file silent_topic time_jump decimation two_instruments three_cornered_hat correction_reload correction_stream bad_parameters temperature scalar local_events)
   add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 endforeach()
 # ~publish_tf: the rotation part of n on /tf_static (and nothing from a node without it).
