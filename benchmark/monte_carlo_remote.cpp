@@ -18,7 +18,9 @@
 // the field but none of the local disturbances: MC_REMOTE_INCOHERENT (0.2) of its variations'
 // variance its own, its own noise (simulator defaults), orientation and Z response, and
 // MC_REMOTE_GAPS (1) gaps of 10 min per day. Each record is one window. MC_PAIR_NOISE=0: the
-// reference's noise not identified from the pair (calibrate_records --no-pair-noise). Without a
+// reference's noise not identified from the pair (calibrate_records --no-pair-noise).
+// MC_REMOTE_BAND_HIGH (Hz): the remote-reference estimate's band top (calibrate_records --band
+// 0.0002:F --remote ...), the others keeping the default's 0.01 Hz. Without a
 // remote the default's two checks of the pair alone are counted: the band split and the
 // local-event check (records flagged, the coverage of the others, misses neither flagged).
 //
@@ -110,6 +112,9 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
               static_cast<unsigned long long>(first_seed), days);
   std::printf("# remote: %.0f %% of its variations' variance its own, %.0f gaps of 10 min per day\n",
               100.0 * knob("MC_REMOTE_INCOHERENT", 0.2), knob("MC_REMOTE_GAPS", 1.0));
+  if (knob("MC_REMOTE_BAND_HIGH", 0.0) > 0.0) {
+    std::printf("# the remote-reference estimate's band: up to %g Hz\n", knob("MC_REMOTE_BAND_HIGH", 0.0));
+  }
   std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased  band_halves_differ  local_events_z\n");
   Tally tally[kMethods];
   for (int k = 0; k < seeds; ++k) {
@@ -131,6 +136,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
         cs.window.estimator.method = mic::EstimatorMethod::kPlain;
         cs.window.response_model = false;
       }
+      if (m == 2 && knob("MC_REMOTE_BAND_HIGH", 0.0) > 0.0) cs.window.estimator.band_high_hz = knob("MC_REMOTE_BAND_HIGH", 0.0);
       const auto start = std::chrono::steady_clock::now();
       const mic::CalibrationWindow w = mic::calibrate_prepared(prepared, cs, m == 2 ? &sides : nullptr).back();
       tally[m].seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
