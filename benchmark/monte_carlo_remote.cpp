@@ -17,8 +17,10 @@
 // cycling and a response mismatch. "quiet": the simulator's defaults. The remote (remote_observatory.hpp) sees
 // the field but none of the local disturbances: MC_REMOTE_INCOHERENT (0.2) of its variations'
 // variance its own, its own noise (simulator defaults), orientation and Z response, and
-// MC_REMOTE_GAPS (1) gaps of 10 min per day. Each record is one window. MC_PAIR_NOISE=0: the
-// reference's noise not identified from the pair (calibrate_records --no-pair-noise).
+// MC_REMOTE_GAPS (1) gaps of 10 min per day; MC_REMOTE_COHERENCE_HZ its coherence corner (its own
+// share rising with frequency, remote_observatory.hpp; unset: the same share at every frequency).
+// Each record is one window. MC_PAIR_NOISE=0: the reference's noise not identified from the pair
+// (calibrate_records --no-pair-noise).
 // MC_REMOTE_BAND_HIGH (Hz): the remote-reference estimate's band top (calibrate_records --band
 // 0.0002:F --remote ...), the others keeping the default's 0.01 Hz. Without a
 // remote the default's two checks of the pair alone are counted: the band split and the
@@ -38,6 +40,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -110,8 +113,10 @@ void score(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth, Tally& ta
 int run(const std::string& kind, int seeds, double days, std::uint64_t first_seed) {
   std::printf("# %s station: %d seeds from %llu, %.1f days at 1 Hz, whole record as one window\n", kind.c_str(), seeds,
               static_cast<unsigned long long>(first_seed), days);
-  std::printf("# remote: %.0f %% of its variations' variance its own, %.0f gaps of 10 min per day\n",
-              100.0 * knob("MC_REMOTE_INCOHERENT", 0.2), knob("MC_REMOTE_GAPS", 1.0));
+  std::printf("# remote: %.0f %% of its variations' variance its own (rising with frequency, corner %g Hz), %.0f gaps "
+              "of 10 min per day\n",
+              100.0 * knob("MC_REMOTE_INCOHERENT", 0.2), knob("MC_REMOTE_COHERENCE_HZ", std::numeric_limits<double>::infinity()),
+              knob("MC_REMOTE_GAPS", 1.0));
   if (knob("MC_REMOTE_BAND_HIGH", 0.0) > 0.0) {
     std::printf("# the remote-reference estimate's band: up to %g Hz\n", knob("MC_REMOTE_BAND_HIGH", 0.0));
   }
@@ -124,6 +129,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
     mic::RemoteObservatorySettings r;
     r.seed = seed + 7000;
     r.incoherent_fraction = knob("MC_REMOTE_INCOHERENT", 0.2);
+    r.coherence_corner_hz = knob("MC_REMOTE_COHERENCE_HZ", std::numeric_limits<double>::infinity());
     r.gap_count = static_cast<int>(knob("MC_REMOTE_GAPS", 1.0) * days);
     const mic::VectorRecord remote = mic::simulate_remote_observatory(s, pair, r);
     mic::CalibrationSettings settings;

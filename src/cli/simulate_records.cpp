@@ -194,6 +194,9 @@ void add_remote_options(CLI::App& app, Options& o) {
                                      "the local disturbances (its own axes, Z response and noise)");
   app.add_option("--remote-incoherent", o.remote_settings.incoherent_fraction,
                  "remote: share of its variations' variance that is its own, [0, 1)")->capture_default_str();
+  app.add_option("--remote-coherence-corner-hz", o.remote_settings.coherence_corner_hz,
+                 "remote: frequency at which its own share has risen to 1 - (1 - incoherent) / e, Hz (inf: the same "
+                 "share at every frequency)")->capture_default_str();
   app.add_option("--remote-gaps", o.remote_settings.gap_count, "remote: number of its own gaps")->capture_default_str();
   app.add_option("--remote-time-offset-s", o.remote_settings.time_offset_s,
                  "remote: its stamps minus the true times, s (a wrong time base)")->capture_default_str();
@@ -372,6 +375,7 @@ nlohmann::json write_remote(mic::VectorRecord& remote, const Options& o, const s
   const Eigen::Matrix3d q = mic::remote_mixing(r);
   return {{"file", path},
           {"incoherent_fraction", r.incoherent_fraction},
+          {"coherence_corner_hz", std::isinf(r.coherence_corner_hz) ? nlohmann::json() : nlohmann::json(r.coherence_corner_hz)},
           {"gap_count", r.gap_count},
           {"time_offset_s", r.time_offset_s},
           {"mixing_rows_are_samples", {{q(0, 0), q(0, 1), q(0, 2)}, {q(1, 0), q(1, 1), q(1, 2)}, {q(2, 0), q(2, 1), q(2, 2)}}}};

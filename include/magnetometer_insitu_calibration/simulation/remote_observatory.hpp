@@ -8,7 +8,12 @@
 //   F_remote = main + daily + sqrt(1 - incoherent_fraction) V + sqrt(incoherent_fraction) V'
 //   C = F_remote Q + noise,   Q = rotation(rotation_deg) diag(gain) + z_from_x e_x e_z^T
 // V the pair's variations (its clean field minus main field and daily variation), V' an
-// independent realisation with the same spectrum and correlations, Q any real 3 x 3 (the remote
+// independent realisation with the same spectrum and correlations. With a finite
+// coherence_corner_hz the remote's own share grows with frequency nu, as between real stations
+// (shorter periods, smaller source and induction scales): the mixing is made at each harmonic with
+// f(nu) = 1 - (1 - incoherent_fraction) exp(-nu / coherence_corner_hz) in place of
+// incoherent_fraction (at 0.05 Hz and a share of 0.2: 0.35 at 0.01 Hz, 0.46 at 0.02 Hz, 0.71 at
+// the corner). Q any real 3 x 3 (the remote
 // needs no calibration: n from it is exactly unchanged by Q). The remote's stamps are the pair's
 // plus time_offset_s (a wrong time base), its gaps NaN runs of its own. It sees none of the
 // pair's local disturbances.
@@ -20,6 +25,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 
 namespace magnetometer_insitu_calibration {
 
@@ -27,6 +33,9 @@ struct RemoteObservatorySettings {
   std::uint64_t seed = 1;
   /// Share of the variations' variance that is the remote's own, [0, 1).
   double incoherent_fraction = 0.2;
+  /// Frequency at which the remote's own share has risen to 1 - (1 - incoherent_fraction) / e, Hz;
+  /// infinite: the same share at every frequency.
+  double coherence_corner_hz = std::numeric_limits<double>::infinity();
   Eigen::Vector3d rotation_deg{0.0, 0.0, 25.0};  ///< rotation vector of its axes, degrees
   Eigen::Vector3d gain{1.0, 1.0, 0.7};           ///< per axis (its Z responds differently)
   double z_from_x = 0.1;                         ///< its Z also reads this share of x

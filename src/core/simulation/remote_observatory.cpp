@@ -3,10 +3,16 @@
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"  // fftw_planner_lock()
 #include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
 
+#include <fftw3.h>
+
 #include <cmath>
+#include <complex>
+#include <mutex>
 #include <string>
+#include <vector>
 
 namespace magnetometer_insitu_calibration {
 
@@ -25,6 +31,55 @@ SimulationSettings clean_field_settings(const SimulationSettings& local) {
   return s;
 }
 
+/// sqrt(1 - f(nu)) shared + sqrt(f(nu)) own, column by column, with the remote's own share
+/// f(nu) = 1 - (1 - f0) exp(-nu / corner_hz) at each harmonic nu of the record (nT, no NaN;
+/// dt in s). Each column less the line through its first and last values is mixed in the
+/// frequency domain (no jump where the transform wraps); the lines, the lowest frequencies, with f0.
+Readings mix_by_frequency(const Readings& shared, const Readings& own, double f0, double corner_hz, double dt) {
+  const Eigen::Index rows = shared.rows();
+  const std::size_t n = static_cast<std::size_t>(rows);
+  Readings out(rows, 3);
+  std::vector<double> x(n);
+  std::vector<std::complex<double>> spectrum(n / 2 + 1), shared_spectrum(n / 2 + 1);
+  fftw_plan forward, backward;
+  {
+    std::lock_guard<std::mutex> lock(fftw_planner_lock());
+    forward = fftw_plan_dft_r2c_1d(static_cast<int>(n), x.data(), reinterpret_cast<fftw_complex*>(spectrum.data()),
+                                   FFTW_ESTIMATE);
+    backward = fftw_plan_dft_c2r_1d(static_cast<int>(n), reinterpret_cast<fftw_complex*>(spectrum.data()), x.data(),
+                                    FFTW_ESTIMATE);
+  }
+  const double duration_s = static_cast<double>(n) * dt;
+  for (int c = 0; c < 3; ++c) {
+    Eigen::VectorXd lines = Eigen::VectorXd::Zero(rows);
+    for (int which = 0; which < 2; ++which) {  // the shared column, then the remote's own
+      const Readings& v = which == 0 ? shared : own;
+      const double first = v(0, c), slope = (v(rows - 1, c) - first) / static_cast<double>(n - 1);
+      const double weight = std::sqrt(which == 0 ? 1.0 - f0 : f0);
+      for (std::size_t k = 0; k < n; ++k) {
+        const double line = first + slope * static_cast<double>(k);
+        x[k] = v(static_cast<Eigen::Index>(k), c) - line;
+        lines(static_cast<Eigen::Index>(k)) += weight * line;
+      }
+      fftw_execute(forward);
+      if (which == 0) shared_spectrum = spectrum;
+    }
+    for (std::size_t k = 0; k < spectrum.size(); ++k) {
+      const double own_share = 1.0 - (1.0 - f0) * std::exp(-static_cast<double>(k) / duration_s / corner_hz);
+      spectrum[k] = (std::sqrt(1.0 - own_share) * shared_spectrum[k] + std::sqrt(own_share) * spectrum[k]) /
+                    static_cast<double>(n);
+    }
+    fftw_execute(backward);
+    for (std::size_t k = 0; k < n; ++k) {
+      out(static_cast<Eigen::Index>(k), c) = x[k] + lines(static_cast<Eigen::Index>(k));
+    }
+  }
+  std::lock_guard<std::mutex> lock(fftw_planner_lock());
+  fftw_destroy_plan(forward);
+  fftw_destroy_plan(backward);
+  return out;
+}
+
 }  // namespace
 
 void RemoteObservatorySettings::validate() const {
@@ -32,6 +87,7 @@ void RemoteObservatorySettings::validate() const {
     if (!ok) throw InputError(field, problem);
   };
   require(incoherent_fraction >= 0.0 && incoherent_fraction < 1.0, "incoherent_fraction", "must be in [0, 1)");
+  require(coherence_corner_hz > 0.0, "coherence_corner_hz", "must be > 0 Hz (infinite: the same share at every frequency)");
   require(rotation_deg.allFinite(), "rotation_deg", "must be finite");
   require(gain.allFinite() && (gain.array() != 0.0).all(), "gain", "must be finite and non-zero");
   require(std::isfinite(z_from_x), "z_from_x", "must be finite");
@@ -65,7 +121,10 @@ VectorRecord simulate_remote_observatory(const SimulationSettings& local, const 
   const Readings own = simulate_pair(other).field_nT - main_and_daily;
   const Readings shared = pair.field_nT - main_and_daily;
   const double f = settings.incoherent_fraction;
-  const Readings field = main_and_daily + std::sqrt(1.0 - f) * shared + std::sqrt(f) * own;
+  const Readings field = std::isinf(settings.coherence_corner_hz)
+                             ? Readings(main_and_daily + std::sqrt(1.0 - f) * shared + std::sqrt(f) * own)
+                             : Readings(main_and_daily + mix_by_frequency(shared, own, f, settings.coherence_corner_hz,
+                                                                          local.sample_period_s));
 
   VectorRecord out;
   out.values_nT = field * remote_mixing(settings);
