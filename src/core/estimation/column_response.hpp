@@ -2,8 +2,9 @@
 // domain, without a wrap-around step: the column's line through its first and last samples is
 // taken out, the rest transformed, each harmonic multiplied by the filter's response, transformed
 // back, and the line put back as the filter maps it (shifted in time by line_shift_s). Shared by
-// remove_modelled_filter (response_model.cpp) and advance_record (record_shift.cpp). Not
-// installed: src/core only.
+// remove_modelled_filter (response_model.cpp), advance_record (record_shift.cpp) and the
+// simulated remote observatory's frequency-dependent mixing (simulation/remote_observatory.cpp).
+// Not installed: src/core only.
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"  // fftw_planner_lock

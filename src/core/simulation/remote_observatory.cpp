@@ -3,16 +3,12 @@
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
-#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"  // fftw_planner_lock()
 #include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
 
-#include <fftw3.h>
+#include "../estimation/column_response.hpp"  // detail::ColumnResponse
 
 #include <cmath>
-#include <complex>
-#include <mutex>
 #include <string>
-#include <vector>
 
 namespace magnetometer_insitu_calibration {
 
@@ -33,50 +29,28 @@ SimulationSettings clean_field_settings(const SimulationSettings& local) {
 
 /// sqrt(1 - f(nu)) shared + sqrt(f(nu)) own, column by column, with the remote's own share
 /// f(nu) = 1 - (1 - f0) exp(-nu / corner_hz) at each harmonic nu of the record (nT, no NaN;
-/// dt in s). Each column less the line through its first and last values is mixed in the
-/// frequency domain (no jump where the transform wraps); the lines, the lowest frequencies, with f0.
+/// dt in s). Each column is filtered without a wrap-around step (column_response.hpp); its line
+/// through the first and last samples, the lowest frequencies, is weighted as at nu = 0.
 Readings mix_by_frequency(const Readings& shared, const Readings& own, double f0, double corner_hz, double dt) {
   const Eigen::Index rows = shared.rows();
-  const std::size_t n = static_cast<std::size_t>(rows);
+  auto own_share = [&](double nu) { return 1.0 - (1.0 - f0) * std::exp(-nu / corner_hz); };
+  detail::ColumnResponse filter(static_cast<std::size_t>(rows));
+  const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(rows, 0.0, 1.0);  // the line's abscissa
   Readings out(rows, 3);
-  std::vector<double> x(n);
-  std::vector<std::complex<double>> spectrum(n / 2 + 1), shared_spectrum(n / 2 + 1);
-  fftw_plan forward, backward;
-  {
-    std::lock_guard<std::mutex> lock(fftw_planner_lock());
-    forward = fftw_plan_dft_r2c_1d(static_cast<int>(n), x.data(), reinterpret_cast<fftw_complex*>(spectrum.data()),
-                                   FFTW_ESTIMATE);
-    backward = fftw_plan_dft_c2r_1d(static_cast<int>(n), reinterpret_cast<fftw_complex*>(spectrum.data()), x.data(),
-                                    FFTW_ESTIMATE);
-  }
-  const double duration_s = static_cast<double>(n) * dt;
+  Eigen::VectorXd part(rows);
   for (int c = 0; c < 3; ++c) {
-    Eigen::VectorXd lines = Eigen::VectorXd::Zero(rows);
-    for (int which = 0; which < 2; ++which) {  // the shared column, then the remote's own
-      const Readings& v = which == 0 ? shared : own;
-      const double first = v(0, c), slope = (v(rows - 1, c) - first) / static_cast<double>(n - 1);
-      const double weight = std::sqrt(which == 0 ? 1.0 - f0 : f0);
-      for (std::size_t k = 0; k < n; ++k) {
-        const double line = first + slope * static_cast<double>(k);
-        x[k] = v(static_cast<Eigen::Index>(k), c) - line;
-        lines(static_cast<Eigen::Index>(k)) += weight * line;
+    for (int which = 0; which < 2; ++which) {  // the pair's field, then the remote's own
+      const auto v = (which == 0 ? shared : own).col(c);
+      const auto weight = [&](double nu) { return std::sqrt(which == 0 ? 1.0 - own_share(nu) : own_share(nu)); };
+      filter.apply(v, dt, weight, 0.0, part);  // puts the line back whole: take off what it lacks of weight(0)
+      part -= (1.0 - weight(0.0)) * (v(0) + (v(rows - 1) - v(0)) * t.array()).matrix();
+      if (which == 0) {
+        out.col(c) = part;
+      } else {
+        out.col(c) += part;
       }
-      fftw_execute(forward);
-      if (which == 0) shared_spectrum = spectrum;
-    }
-    for (std::size_t k = 0; k < spectrum.size(); ++k) {
-      const double own_share = 1.0 - (1.0 - f0) * std::exp(-static_cast<double>(k) / duration_s / corner_hz);
-      spectrum[k] = (std::sqrt(1.0 - own_share) * shared_spectrum[k] + std::sqrt(own_share) * spectrum[k]) /
-                    static_cast<double>(n);
-    }
-    fftw_execute(backward);
-    for (std::size_t k = 0; k < n; ++k) {
-      out(static_cast<Eigen::Index>(k), c) = x[k] + lines(static_cast<Eigen::Index>(k));
     }
   }
-  std::lock_guard<std::mutex> lock(fftw_planner_lock());
-  fftw_destroy_plan(forward);
-  fftw_destroy_plan(backward);
   return out;
 }
 
