@@ -19,12 +19,12 @@
 // variance its own, its own noise (simulator defaults), orientation and Z response, and
 // MC_REMOTE_GAPS (1) gaps of 10 min per day; MC_REMOTE_COHERENCE_HZ its coherence corner (its own
 // share rising with frequency, remote_observatory.hpp; unset: the same share at every frequency).
-// Each record is one window. MC_PAIR_NOISE=0: the reference's noise not identified from the pair
-// (calibrate_records --no-pair-noise).
 // MC_REMOTE_BAND_HIGH (Hz): the remote-reference estimate's band top (calibrate_records --band
-// 0.0002:F --remote ...), the others keeping the default's 0.01 Hz. Without a
-// remote the default's two checks of the pair alone are counted: the band split and the
-// local-event check (records flagged, the coverage of the others, misses neither flagged).
+// 0.0002:F --remote ...), the other two estimators keeping the default's 0.01 Hz.
+// Each record is one window. MC_PAIR_NOISE=0: the reference's noise not identified from the pair
+// (calibrate_records --no-pair-noise). Without a remote the default's two checks of the pair
+// alone are counted: the band split and the local-event check (records flagged, the coverage of
+// the others, misses neither flagged).
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary table follows.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"

@@ -23,6 +23,9 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
+/// The line a file of the current format starts its version with (kCalibrationFileFormat).
+const std::string kCurrentFormatLine = "format_version: " + std::to_string(mic::kCalibrationFileFormat) + "\n";
+
 mic::MagnetometerCalibration filled_calibration() {
   std::mt19937_64 random(3);
   std::normal_distribution<double> normal;
@@ -167,7 +170,7 @@ TEST(CalibrationYaml, EveryFieldIsRequiredByTheFormatsThatHaveIt) {
     for (const Field& f : table) {
       if (f.since > version) old = without(old, f.name);
     }
-    old.replace(old.find("format_version: 7\n"), 17, "format_version: " + std::to_string(version));
+    old.replace(old.find(kCurrentFormatLine), kCurrentFormatLine.size() - 1, "format_version: " + std::to_string(version));
     EXPECT_NO_THROW(mic::calibration_from_yaml(old, "old.yaml")) << "format " << version;
     for (const Field& f : table) {
       if (f.since > version) continue;
@@ -193,7 +196,7 @@ TEST(CalibrationYaml, Format1LoadsAsPlainWithoutDelayOrOffset) {
   for (std::size_t line = text.find("\ntemperature_"); line != std::string::npos; line = text.find("\ntemperature_")) {
     text.erase(line + 1, text.find('\n', line + 1) - line);
   }
-  text.replace(text.find("format_version: 7\n"), 17, "format_version: 1");
+  text.replace(text.find(kCurrentFormatLine), kCurrentFormatLine.size() - 1, "format_version: 1");
   const mic::MagnetometerCalibration c = mic::calibration_from_yaml(text, "v1.yaml");
   EXPECT_EQ(c.method, "plain");
   EXPECT_EQ(c.band_used_low_hz, c.band_low_hz);
@@ -221,13 +224,13 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   // A format-2 file (before reference_mean_nT): loads, with the mean 0 (the whole-field
   // propagation correction_node used before); a format it does not know is refused.
   std::string text = mic::calibration_to_yaml(filled_calibration(), "/x");
-  const std::size_t version = text.find("format_version: 7\n");
+  const std::size_t version = text.find(kCurrentFormatLine);
   ASSERT_NE(version, std::string::npos) << text;
   const std::size_t mean_line = text.find("reference_mean_nT: ");
   ASSERT_NE(mean_line, std::string::npos);
   std::string old = text;
   old.erase(mean_line, old.find('\n', mean_line) + 1 - mean_line);
-  old.replace(version, 17, "format_version: 2");
+  old.replace(version, kCurrentFormatLine.size() - 1, "format_version: 2");
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "old.yaml");
   for (double v : loaded.reference_mean_nT) EXPECT_EQ(v, 0.0);
   EXPECT_EQ(loaded.offset_nT, filled_calibration().offset_nT);
@@ -236,7 +239,7 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   cut.erase(mean_line, cut.find('\n', mean_line) + 1 - mean_line);
   EXPECT_THROW(mic::calibration_from_yaml(cut, "cut.yaml"), mic::CalibrationFileError);
   std::string future = text;
-  future.replace(version, 17, "format_version: 8");
+  future.replace(version, kCurrentFormatLine.size() - 1, "format_version: " + std::to_string(mic::kCalibrationFileFormat + 1));
   EXPECT_THROW(mic::calibration_from_yaml(future, "future.yaml"), mic::CalibrationFileError);
 }
 
@@ -250,9 +253,9 @@ TEST(CalibrationYaml, Format3LoadsWithoutTemperatureTerms) {
     old.erase(line + 1, old.find('\n', line + 1) - line);
   }
   ASSERT_EQ(old.find("temperature"), std::string::npos) << old;
-  const std::size_t version = old.find("format_version: 7\n");
+  const std::size_t version = old.find(kCurrentFormatLine);
   ASSERT_NE(version, std::string::npos);
-  old.replace(version, 17, "format_version: 3");
+  old.replace(version, kCurrentFormatLine.size() - 1, "format_version: 3");
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v3.yaml");
   EXPECT_FALSE(loaded.temperature_fitted);
   EXPECT_EQ(loaded.temperature_text, "calibration file format 3 has no temperature terms");
@@ -294,9 +297,9 @@ TEST(CalibrationYaml, Format4LoadsAsACovarianceTakenAsKnown) {
   };
   std::string old = without(without(text, "covariance_cells"), "interval_quantile");
   ASSERT_EQ(old.find("interval_quantile"), std::string::npos);
-  const std::size_t version = old.find("format_version: 7\n");
+  const std::size_t version = old.find(kCurrentFormatLine);
   ASSERT_NE(version, std::string::npos);
-  old.replace(version, 17, "format_version: 4");
+  old.replace(version, kCurrentFormatLine.size() - 1, "format_version: 4");
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v4.yaml");
   EXPECT_TRUE(std::isinf(loaded.covariance_cells));
   EXPECT_NEAR(loaded.interval_quantile, 1.959964, 1e-6);
