@@ -4,6 +4,7 @@
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 
 #include "calibration_node_channel.hpp"
+#include "magnetometer_insitu_calibration/common/atomic_file.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
@@ -22,6 +23,17 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
       updater_(nh, private_nh, private_nh.getNamespace()) {
   for (const std::string& name : unknown_private_parameters(private_nh_, CalibrationNodeSettings::known_parameters())) {
     ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
+  }
+  // Each calibration file's directory is made (as mkdir -p) and tried now, not at the first
+  // accepted window a day later: a file that cannot be written is an impossible parameter.
+  for (std::size_t i = 0; i < settings_.tests.size(); ++i) {
+    try {
+      prepare_file_directory(settings_.tests[i].calibration_file);
+    } catch (const std::runtime_error& error) {
+      throw ParameterError(private_nh_.hasParam("tests") ? "tests[" + std::to_string(i) + "].calibration_file"
+                                                         : std::string("calibration_file"),
+                           error.what());
+    }
   }
   reference_.topic = settings_.reference_topic;
   if (settings_.publish_tf) tf_broadcaster_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();

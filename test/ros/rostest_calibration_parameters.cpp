@@ -45,6 +45,10 @@ TEST(Calibration, BadParameters) {
       {calibration + " __name:=bad_type" + ok + " _step:=ten", "parameter ~step: must be a number"},
       {calibration + " __name:=no_reference _test_topic:=/t _calibration_file:=/tmp/x.yaml", "parameter ~reference_topic: is required"},
       {calibration + " __name:=no_file _reference_topic:=/r _test_topic:=/t", "parameter ~calibration_file: is required"},
+      // A directory that cannot be made (inside a regular file): refused at start, not a day later.
+      {calibration + " __name:=unwritable_file _reference_topic:=/r _test_topic:=/t _calibration_file:=" + calibration +
+           "/mic/fge.yaml",
+       "parameter ~calibration_file: " + calibration + "/mic/fge.yaml: cannot create directory " + calibration + "/mic"},
       {calibration + " __name:=bad_tolerance" + ok + " _pairing_tolerance:=0.7", "parameter ~pairing_tolerance:"},
       {calibration + " __name:=bad_method" + ok + " _method:=fast", "parameter ~method:"},
       {calibration + " __name:=bad_eiv" + ok + " _eiv:=deming", "parameter ~eiv:"},

@@ -11,4 +11,10 @@ namespace magnetometer_insitu_calibration {
 /// Throws std::runtime_error naming the file and the system error.
 void write_file_atomically(const std::string& path, const std::string& text);
 
+/// Makes `path` writable by write_file_atomically before anything is to be written: creates its
+/// missing parent directories (mode 0755, as `mkdir -p`), then creates and removes the temporary
+/// file a write would use. Leaves an existing `path` untouched. Throws std::runtime_error naming
+/// the directory or file and the system error (for example a read-only or missing mount).
+void prepare_file_directory(const std::string& path);
+
 }  // namespace magnetometer_insitu_calibration

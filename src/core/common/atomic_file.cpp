@@ -10,11 +10,52 @@
 
 namespace magnetometer_insitu_calibration {
 
-void write_file_atomically(const std::string& path, const std::string& text) {
+namespace {
+
+/// The directory part of `path` ("." without a slash, "/" for a file at the root).
+std::string directory_of(const std::string& path) {
   const std::size_t slash = path.rfind('/');
-  const std::string directory = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+  return slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+}
+
+/// The temporary file write_file_atomically writes first, beside `path`.
+std::string temporary_of(const std::string& path) {
+  const std::size_t slash = path.rfind('/');
   const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
-  const std::string temporary = directory + "/." + base + ".tmp." + std::to_string(::getpid());
+  return directory_of(path) + "/." + base + ".tmp." + std::to_string(::getpid());
+}
+
+}  // namespace
+
+void prepare_file_directory(const std::string& path) {
+  if (path.empty() || path.back() == '/') throw std::runtime_error("'" + path + "': not a file name");
+  const std::string directory = directory_of(path);
+  // Each missing ancestor in turn, from the root down; one that exists is left as it is.
+  for (std::size_t next = directory.find('/', 1);; next = directory.find('/', next + 1)) {
+    const std::string part = directory.substr(0, next);
+    if (!part.empty() && ::mkdir(part.c_str(), 0755) != 0 && errno != EEXIST) {
+      const std::string reason = std::strerror(errno);
+      throw std::runtime_error(path + ": cannot create directory " + part + " (" + reason + ")");
+    }
+    if (next == std::string::npos) break;
+  }
+  struct stat info {};
+  if (::stat(directory.c_str(), &info) != 0 || !S_ISDIR(info.st_mode)) {
+    throw std::runtime_error(path + ": " + directory + " is not a directory");
+  }
+  const std::string temporary = temporary_of(path);
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    const std::string reason = std::strerror(errno);
+    throw std::runtime_error(path + ": cannot create a file in " + directory + " (" + reason + ")");
+  }
+  ::close(fd);
+  ::unlink(temporary.c_str());
+}
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  const std::string directory = directory_of(path);
+  const std::string temporary = temporary_of(path);
   auto fail = [&](const std::string& what) -> void {
     const std::string reason = std::strerror(errno);
     ::unlink(temporary.c_str());
