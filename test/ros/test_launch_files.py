@@ -6,7 +6,10 @@
 - replay.launch ends when calibration_node or rosbag play ends (required), so that a bag that
   does not open or an impossible parameter ends the launch with the node's message last, instead
   of idle nodes waiting for data;
-- calibration.launch passes remote_topic to calibration_node;
+- calibration.launch passes remote_topic to calibration_node, and so does station.launch; one
+  given in calibration_params is kept;
+- each run of simulated_station.launch writes its own calibration file (a second run does not
+  find the first one's, a calibration of later data);
 - every `rostopic echo` in the README's quick start names a topic that the roslaunch command
   before it (in the same code block, with the same arguments) publishes;
 - simulated_station.launch: a duration plays the record once and ends the launch (simulators
@@ -56,6 +59,26 @@ class LaunchFiles(unittest.TestCase):
         config = self.load("replay.launch", "bag:=pair.bag", "remote_topic:=/remote/magnetic_field")
         self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/remote/magnetic_field")
         self.assertIn("/remote/magnetic_field", self.node(config, "play").args.split())
+
+    def test_station_takes_a_remote_topic(self):
+        # The README's station command with a remote: the argument reaches the node (it was
+        # silently dropped), and a remote_topic in calibration_params is no longer overwritten.
+        config = self.load("station.launch", "remote_topic:=/remote/magnetic_field")
+        self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/remote/magnetic_field")
+        config = self.load("station.launch", "calibration_params:={input_period: 0.1, remote_topic: /obs2/field}")
+        self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/obs2/field")
+        config = self.load("station.launch")  # not set: the node's default, none
+        self.assertNotIn("/calibration_test/remote_topic", config.params)
+
+    def test_each_simulated_station_run_has_its_own_calibration_file(self):
+        # A second run of the simulated station must not find the first run's file (a
+        # calibration of later data, refused by the correction node with an error).
+        files = [self.load("simulated_station.launch", "duration:=3000").params["/calibration_test/calibration_file"].value
+                 for _ in range(2)]
+        self.assertNotEqual(files[0], files[1])
+        config = self.load("simulated_station.launch", "calibration_file:=/data/fge.yaml")
+        self.assertEqual(config.params["/calibration_test/calibration_file"].value, "/data/fge.yaml")
+        self.assertEqual(config.params["/correction_test/calibration_file"].value, "/data/fge.yaml")
 
     def published_topics(self, config):
         """Topics the launched nodes publish: each driver's magnetic_field in its namespace,
