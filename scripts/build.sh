@@ -7,4 +7,4 @@ cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON \
   -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 >/dev/null \
   || { mkdir -p build; cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON \
        -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3; }
-make -C build -j"$(nproc)" "$@"
+make -C build --no-print-directory -j"$(nproc)" "$@"

@@ -468,12 +468,19 @@ int main(int argc, char** argv) {
     mic::SimulatedPair pair = simulate(o, &remote, &scalar);
     const RecordPaths paths = write_records(pair, o, dir);
     nlohmann::json truth = truth_json(o, pair, paths, argc, argv);
-    if (o.remote) truth["remote"] = write_remote(remote, o, dir);
-    if (o.scalar) truth["scalar"] = write_scalar(scalar, o, dir);
+    std::string also;  // the optional records, named in the summary line too
+    if (o.remote) {
+      truth["remote"] = write_remote(remote, o, dir);
+      also += ", " + truth["remote"]["file"].get<std::string>();
+    }
+    if (o.scalar) {
+      truth["scalar"] = write_scalar(scalar, o, dir);
+      also += ", " + truth["scalar"]["file"].get<std::string>();
+    }
     truth["reference_scale"] = o.reference_scale;
     const std::string truth_path = write_truth(truth, dir);
     std::cout << "wrote " << paths.reference << ", " << paths.test << " (" << pair.reference.size()
-              << " samples each) and " << truth_path << "\n";
+              << " samples each)" << also << " and " << truth_path << "\n";
   } catch (const mic::InputError& e) {
     std::cerr << "simulate_records: " << e.what() << "\n";
     return 1;
