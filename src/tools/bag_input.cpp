@@ -15,8 +15,9 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 /// The test's sensor temperature from the bag, if it has one beside the field topic
-/// ("/ns/magnetic_field" -> "/ns/sensor_temperature" as records_to_bag writes it, or
-/// "/ns/temperature/sensor" as the live driver publishes it), attached to the record as the
+/// ("/ns/magnetic_field" -> "/ns/temperature/sensor", as the live driver publishes it and
+/// records_to_bag writes it, or "/ns/sensor_temperature", records_to_bag's name for it in bags
+/// written before), attached to the record as the
 /// auxiliary channel "sensor_temperature": each sample takes the latest reading at or before
 /// it, not older than 2 s (a LEMI packet's temperature belongs to its ten readings, as the LEMI
 /// file readers attach it), NaN otherwise.

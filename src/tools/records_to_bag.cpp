@@ -209,8 +209,8 @@ int main(int argc, char** argv) {
   app.add_option("--test-frame", test_frame, "header.frame_id of the test")->capture_default_str();
   app.add_option("--compression", compression, "bag chunk compression: none, bz2, lz4")->capture_default_str();
   app.add_flag("--no-temperatures", no_temperatures,
-               "do not write the LEMI or CDF temperatures (<topic namespace>/sensor_temperature, "
-               ".../electronics_temperature)");
+               "do not write the LEMI or CDF temperatures (<topic namespace>/temperature/sensor, "
+               ".../temperature/electronics, as lemi025_driver publishes them)");
   app.add_flag("--lemi-variation", variation, "LEMI formats: variation relative to the bias field, not the full field");
   app.add_option("--lemi-checksum", checksum, "LEMI packets: checksum none, sum8, xor8")->capture_default_str();
   app.add_option("--lemi-time-shift", time_shift_s, "LEMI formats: seconds added to the GPS time of the readings")
@@ -264,9 +264,9 @@ int main(int argc, char** argv) {
                                                                                           {&test, &fields[1]}};
       for (const auto& [record, field] : inputs) {
         if (record->temperatures.empty()) continue;
-        temperatures.push_back({mic::bag_sibling_topic(field->topic, "sensor_temperature"), field->frame_id,
+        temperatures.push_back({mic::bag_sibling_topic(field->topic, "temperature/sensor"), field->frame_id,
                                 record->temperatures.time_s, record->temperatures.sensor_C});
-        temperatures.push_back({mic::bag_sibling_topic(field->topic, "electronics_temperature"), field->frame_id,
+        temperatures.push_back({mic::bag_sibling_topic(field->topic, "temperature/electronics"), field->frame_id,
                                 record->temperatures.time_s, record->temperatures.electronics_C});
       }
     }

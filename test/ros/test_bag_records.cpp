@@ -266,13 +266,13 @@ TEST(RecordsToBag, LemiFormatsWithDamageTemperaturesAndTheSameCalibration) {
   EXPECT_TRUE(has(r.output, dir + "/test.raw byte " + std::to_string(5001 * 153 + 37) + ": skipped")) << r.output;
   EXPECT_TRUE(has(r.output, "skipped records: 0 in the reference, 2 in the test")) << r.output;
   EXPECT_TRUE(has(r.output, "writing " + dir + "/lemi.bag")) << "progress shown: " << r.output;
-  EXPECT_TRUE(has(r.output, "/lemi/test/sensor_temperature: 14400")) << r.output;
-  EXPECT_TRUE(has(r.output, "/lemi/ref/electronics_temperature: 14400")) << r.output;
+  EXPECT_TRUE(has(r.output, "/lemi/test/temperature/sensor: 14400")) << r.output;
+  EXPECT_TRUE(has(r.output, "/lemi/ref/temperature/electronics: 14400")) << r.output;
 
   const auto records = mic::read_bag_records(dir + "/lemi.bag", {"/lemi/ref/magnetic_field", "/lemi/test/magnetic_field"});
   expect_same_record_to_one_ulp(records[0], mic::read_record(dir + "/reference.bin"));
   expect_same_record_to_one_ulp(records[1], mic::read_record(dir + "/test_clean.raw"));  // nothing good lost
-  const mic::BagTemperatureStream sensor = mic::read_bag_temperatures(dir + "/lemi.bag", "/lemi/test/sensor_temperature");
+  const mic::BagTemperatureStream sensor = mic::read_bag_temperatures(dir + "/lemi.bag", "/lemi/test/temperature/sensor");
   ASSERT_EQ(sensor.celsius.size(), 14400u);
   for (std::size_t j = 0; j < 14400; j += 997) {
     EXPECT_DOUBLE_EQ(sensor.time_s[j], t0 + static_cast<double>(j) - 0.3);
@@ -428,7 +428,7 @@ TEST(RecordsToBag, CdfDaySplitIntoTwoFilesGivesTheSingleFileBag) {
   const auto records = mic::read_bag_records(dir + "/split.bag", {"/reference/magnetic_field", "/test/magnetic_field"});
   expect_same_record_to_one_ulp(records[0], day);
   expect_same_record_to_one_ulp(records[1], mic::read_record(fge));
-  const mic::BagTemperatureStream t = mic::read_bag_temperatures(dir + "/split.bag", "/reference/sensor_temperature");
+  const mic::BagTemperatureStream t = mic::read_bag_temperatures(dir + "/split.bag", "/reference/temperature/sensor");
   EXPECT_EQ(t.time_s, day.time_s);
   EXPECT_EQ(t.celsius, day.auxiliary[0].values);
 }

@@ -8,6 +8,7 @@
   of idle nodes waiting for data;
 - calibration.launch passes remote_topic to calibration_node, and so does station.launch; one
   given in calibration_params is kept;
+- replay.launch plays the test's temperature and gives it to both nodes;
 - each run of simulated_station.launch writes its own calibration file (a second run does not
   find the first one's, a calibration of later data);
 - every `rostopic echo` in the README's quick start names a topic that the roslaunch command
@@ -59,6 +60,14 @@ class LaunchFiles(unittest.TestCase):
         config = self.load("replay.launch", "bag:=pair.bag", "remote_topic:=/remote/magnetic_field")
         self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/remote/magnetic_field")
         self.assertIn("/remote/magnetic_field", self.node(config, "play").args.split())
+
+    def test_replay_plays_the_test_temperature(self):
+        # records_to_bag writes the driver's topic names: a station's bag and an archive's replay
+        # alike, the temperature reaching both nodes and played by rosbag play.
+        config = self.load("replay.launch", "bag:=pair.bag", "temperature_topic:=/test/temperature/sensor")
+        self.assertEqual(config.params["/calibration_test/temperature_topic"].value, "/test/temperature/sensor")
+        self.assertEqual(config.params["/correction_test/temperature_topic"].value, "/test/temperature/sensor")
+        self.assertIn("/test/temperature/sensor", self.node(config, "play").args.split())
 
     def test_station_takes_a_remote_topic(self):
         # The README's station command with a remote: the argument reaches the node (it was
