@@ -93,10 +93,14 @@ std::string format_calibration_summary(const PairCalibration& c, const Tolerance
   std::ostringstream out;
   const CalibrationWindow* w = summary_window(c);
   if (w == nullptr) return "";
-  char head[256];
-  std::snprintf(head, sizeof head, "Summary of '%s' (%s to %s, %.1f h), quality %s\n", w->label.c_str(),
+  // Without a whole-record window (sliding windows) the summary is of the latest one: said so.
+  const std::string which = w->label == kWholeRecordLabel || c.windows.size() < 2
+                                ? std::string()
+                                : ", the latest of " + std::to_string(c.windows.size()) + " windows";
+  char head[320];
+  std::snprintf(head, sizeof head, "Summary of '%s' (%s to %s, %.1f h%s), quality %s\n", w->label.c_str(),
                 format_iso8601(w->start_s, 0).c_str(), format_iso8601(w->end_s, 0).c_str(),
-                (w->end_s - w->start_s) / 3600.0, quality_name(w->estimate.quality));
+                (w->end_s - w->start_s) / 3600.0, which.c_str(), quality_name(w->estimate.quality));
   out << head << "Tolerances: " << tolerances.source << "\n";
   char columns[256];
   std::snprintf(columns, sizeof columns, "  %-34s %-24s %-12s %-10s %s\n", "parameter", "value ± 95 %", "tolerance",

@@ -230,6 +230,26 @@ TEST(CalibrationPipeline, LocalEventsReachTheReportAndTheJson) {
   }
 }
 
+TEST(CalibrationPipeline, SummaryOfSlidingWindowsSaysItIsTheLatest) {
+  // Sliding windows have no whole-record window: the summary is the latest window's, and says so;
+  // the paper's layout summarises the whole record and says nothing more.
+  const mic::SimulatedPair pair = mic::simulate_pair(mic::test::quiet_station(61800, 12 * 3600.0));
+  mic::CalibrationSettings settings;
+  settings.windows.window_s = 6 * 3600.0;
+  settings.windows.step_s = 6 * 3600.0;
+  const auto sliding = mic::calibrate_records(pair.reference, pair.test, settings);
+  ASSERT_EQ(sliding.windows.size(), 2u);
+  std::string summary = mic::format_calibration_summary(sliding, settings.window.tolerances);
+  EXPECT_EQ(summary.rfind("Summary of '" + sliding.windows[1].label + "' (", 0), 0u) << summary;
+  EXPECT_NE(summary.substr(0, summary.find('\n')).find("6.0 h, the latest of 2 windows)"), std::string::npos) << summary;
+  settings.windows = mic::WindowLayout{};
+  settings.windows.intervals = 2;
+  const auto paper = mic::calibrate_records(pair.reference, pair.test, settings);
+  summary = mic::format_calibration_summary(paper, settings.window.tolerances);
+  EXPECT_EQ(summary.rfind("Summary of 'whole record' (", 0), 0u) << summary;
+  EXPECT_EQ(summary.find("the latest of"), std::string::npos) << summary;
+}
+
 TEST(CalibrationPipeline, ImpossibleLayoutsAreRejectedByName) {
   mic::WindowLayout layout;
   layout.window_s = 3600;
