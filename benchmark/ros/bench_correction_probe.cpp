@@ -126,8 +126,9 @@ struct Samples {
   Clock::time_point t_ref;
 };
 
-/// A valid accepted calibration of a one-day window ending just before start: small
-/// scale/orientation differences, offsets of a few nT, tiny covariance.
+/// A valid accepted calibration of a one-day window ending before the first (priming) sample,
+/// stamped start - 5 s: correction_node refuses a calibration of later data than its stream's
+/// first sample. Small scale/orientation differences, offsets of a few nT, tiny covariance.
 magnetometer_insitu_calibration::MagnetometerCalibration probe_calibration(const std::string& frame, ros::Time start) {
   magnetometer_insitu_calibration::MagnetometerCalibration c;
   c.header.stamp = ros::Time::now();
@@ -136,7 +137,7 @@ magnetometer_insitu_calibration::MagnetometerCalibration probe_calibration(const
   c.reference_frame_id = "probe_reference";
   c.test_frame_id = frame;
   c.window_start = start - ros::Duration(86400.0);
-  c.window_end = start - ros::Duration(1.0);
+  c.window_end = start - ros::Duration(10.0);
   c.sample_period = 1.0;
   c.samples = 86400;
   c.band_low_hz = 0.0002;

@@ -368,6 +368,41 @@ TEST(CalibrateRecordsBag, BadBagRequestsAreNamed) {
   EXPECT_TRUE(has(no_topic.output, "--reference-topic")) << no_topic.output;
 }
 
+TEST(CalibrateRecordsBag, TemperatureUnderTheEarlierTopicNameIsStillRead) {
+  // records_to_bag now writes <ns>/temperature/sensor, as the driver publishes it; a bag written
+  // before has <ns>/sensor_temperature, and calibrate_records --bag still takes it as the test's
+  // sensor temperature (and without any, the window has none).
+  const std::string dir = make_temp_dir("bag_old_temperature");
+  mic::SimulationSettings s;
+  s.duration_s = 6 * 3600.0;
+  s.start_time_s = 1747180800.0;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::BagTemperatureStream temperature{"/test/sensor_temperature", "t", {}, {}};
+  for (double t : pair.test.time_s) {
+    temperature.time_s.push_back(t);
+    temperature.celsius.push_back(20.0 + 0.5 * std::sin(t / 3600.0));
+  }
+  const std::vector<mic::BagFieldStream> fields = {{"/reference/magnetic_field", "r", &pair.reference},
+                                                   {"/test/magnetic_field", "t", &pair.test}};
+  mic::write_records_bag(dir + "/old.bag", fields, {temperature});
+  mic::write_records_bag(dir + "/none.bag", fields, {});
+  for (const std::string name : {"old", "none"}) {
+    SCOPED_TRACE(name);
+    const ProgramRun r = run_program(CALIBRATE_RECORDS_BIN, "--bag " + dir + "/" + name + ".bag --reference-topic "
+                                     "/reference/magnetic_field --test-topic /test/magnetic_field --json " + dir + "/" +
+                                     name + ".json");
+    ASSERT_EQ(r.status, 0) << r.output;
+    const nlohmann::json report = read_json(dir + "/" + name + ".json");
+    if (name == "old") {
+      EXPECT_EQ(report["preprocessing"]["temperature_channel"], "sensor_temperature") << report["preprocessing"];
+    } else {
+      EXPECT_TRUE(report["preprocessing"]["temperature_channel"].is_null() ||
+                  report["preprocessing"]["temperature_channel"] == "")
+          << report["preprocessing"];
+    }
+  }
+}
+
 // ---- export_corrected from a bag, with calibration_node's YAML ----------------------------------
 
 TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
