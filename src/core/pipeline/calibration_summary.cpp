@@ -111,6 +111,9 @@ std::string format_calibration_summary(const PairCalibration& c, const Tolerance
     out << "Record needed, if the values stay where they are: intervals narrow as " << w->narrowing.text << "\n";
   }
   if (w->estimate.quality != Quality::kOk) out << "The window is flagged: " << w->estimate.quality_text << "\n";
+  // The reference itself, when a scalar magnetometer checked it: a reference that departs from 1
+  // makes every verdict above one against a wrong reference.
+  if (w->scalar.assessed) out << "Against the scalar magnetometer: " << w->scalar.text << "\n";
   write_trust(out, w->estimate);
   write_correction(out, *w);
   out << "\n";

@@ -172,6 +172,7 @@ TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
   const std::string summary = mic::format_calibration_summary(result, settings.window.tolerances);
   EXPECT_EQ(summary.rfind("Summary of 'whole record' (", 0), 0u) << summary;
   EXPECT_EQ(summary.find("the latest of"), std::string::npos) << summary;
+  EXPECT_EQ(summary.find("Against the scalar magnetometer"), std::string::npos) << summary;  // none given
 }
 
 TEST(CalibrationPipeline, SlidingWindowsAndJsonReport) {

@@ -5,6 +5,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/simulation/scalar_magnetometer.hpp"
 
 #include <gtest/gtest.h>
@@ -56,6 +57,9 @@ TEST(ScalarCheck, RecoversTheReferencesScaleAlongTheFieldFromA1sAndA30sScalar) {
     // Its stamps are off whole seconds but true: put on the grid, F shows no delay.
     EXPECT_LT(std::abs(s.delay_s), 0.1) << period;
     EXPECT_NE(s.text.find(period == 1.0 ? "window's 1 s grid" : "scalar's own 30 s grid"), std::string::npos) << s.text;
+    // The summary an engineer reads first says what the scalar found of the reference.
+    const std::string summary = mic::format_calibration_summary(c, settings.window.tolerances);
+    EXPECT_NE(summary.find("Against the scalar magnetometer: " + s.text), std::string::npos) << summary;
   }
 }
 
