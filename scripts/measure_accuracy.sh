@@ -46,9 +46,6 @@ runs=(
   "record_length|-|monte_carlo_record_length 100 2 6 2 52000"
 )
 
-make -C "$build" benchmarks >/dev/null
-mkdir -p "$out"
-
 selected=()
 for entry in "${runs[@]}"; do
   name=${entry%%|*}
@@ -58,6 +55,8 @@ if [[ ${#selected[@]} -eq 0 ]]; then
   echo "measure_accuracy: no run named '$*'; names: $(printf '%s ' "${runs[@]%%|*}")" >&2
   exit 2
 fi
+make -C "$build" benchmarks >/dev/null
+mkdir -p "$out"
 
 run_one() {  # entry -> OUT/<name>.txt, its wall time in OUT/<name>.time
   local name=${1%%|*} rest=${1#*|}

@@ -21,6 +21,7 @@
 #include <rosbag/bag.h>
 #include <sensor_msgs/MagneticField.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -395,6 +396,11 @@ TEST(CalibrateRecordsBag, TemperatureUnderTheEarlierTopicNameIsStillRead) {
     const nlohmann::json report = read_json(dir + "/" + name + ".json");
     if (name == "old") {
       EXPECT_EQ(report["preprocessing"]["temperature_channel"], "sensor_temperature") << report["preprocessing"];
+      // The values themselves arrived: the window's temperature range is the written series'.
+      const auto [low, high] = std::minmax_element(temperature.celsius.begin(), temperature.celsius.end());
+      const nlohmann::json& w = report["windows"].back();
+      ASSERT_TRUE(w["temperature_fitted"].get<bool>()) << w["temperature_text"];
+      EXPECT_NEAR(w["temperature_range_C"].get<double>(), *high - *low, 0.01) << w["temperature_text"];
     } else {
       EXPECT_TRUE(report["preprocessing"]["temperature_channel"].is_null() ||
                   report["preprocessing"]["temperature_channel"] == "")

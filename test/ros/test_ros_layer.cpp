@@ -26,6 +26,13 @@ namespace {
 /// The line a file of the current format starts its version with (kCalibrationFileFormat).
 const std::string kCurrentFormatLine = "format_version: " + std::to_string(mic::kCalibrationFileFormat) + "\n";
 
+/// `text` (a file of the current format) with its version line saying `version` instead.
+std::string with_format_version(std::string text, int version) {
+  const std::size_t line = text.find(kCurrentFormatLine);
+  if (line == std::string::npos) throw std::runtime_error("no '" + kCurrentFormatLine + "' line");
+  return text.replace(line, kCurrentFormatLine.size() - 1, "format_version: " + std::to_string(version));
+}
+
 mic::MagnetometerCalibration filled_calibration() {
   std::mt19937_64 random(3);
   std::normal_distribution<double> normal;
@@ -170,7 +177,7 @@ TEST(CalibrationYaml, EveryFieldIsRequiredByTheFormatsThatHaveIt) {
     for (const Field& f : table) {
       if (f.since > version) old = without(old, f.name);
     }
-    old.replace(old.find(kCurrentFormatLine), kCurrentFormatLine.size() - 1, "format_version: " + std::to_string(version));
+    old = with_format_version(old, version);
     EXPECT_NO_THROW(mic::calibration_from_yaml(old, "old.yaml")) << "format " << version;
     for (const Field& f : table) {
       if (f.since > version) continue;
@@ -196,7 +203,7 @@ TEST(CalibrationYaml, Format1LoadsAsPlainWithoutDelayOrOffset) {
   for (std::size_t line = text.find("\ntemperature_"); line != std::string::npos; line = text.find("\ntemperature_")) {
     text.erase(line + 1, text.find('\n', line + 1) - line);
   }
-  text.replace(text.find(kCurrentFormatLine), kCurrentFormatLine.size() - 1, "format_version: 1");
+  text = with_format_version(text, 1);
   const mic::MagnetometerCalibration c = mic::calibration_from_yaml(text, "v1.yaml");
   EXPECT_EQ(c.method, "plain");
   EXPECT_EQ(c.band_used_low_hz, c.band_low_hz);
@@ -230,7 +237,7 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   ASSERT_NE(mean_line, std::string::npos);
   std::string old = text;
   old.erase(mean_line, old.find('\n', mean_line) + 1 - mean_line);
-  old.replace(version, kCurrentFormatLine.size() - 1, "format_version: 2");
+  old = with_format_version(old, 2);
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "old.yaml");
   for (double v : loaded.reference_mean_nT) EXPECT_EQ(v, 0.0);
   EXPECT_EQ(loaded.offset_nT, filled_calibration().offset_nT);
@@ -239,7 +246,7 @@ TEST(CalibrationYaml, Format2LoadsWithoutReferenceMean) {
   cut.erase(mean_line, cut.find('\n', mean_line) + 1 - mean_line);
   EXPECT_THROW(mic::calibration_from_yaml(cut, "cut.yaml"), mic::CalibrationFileError);
   std::string future = text;
-  future.replace(version, kCurrentFormatLine.size() - 1, "format_version: " + std::to_string(mic::kCalibrationFileFormat + 1));
+  future = with_format_version(future, mic::kCalibrationFileFormat + 1);
   EXPECT_THROW(mic::calibration_from_yaml(future, "future.yaml"), mic::CalibrationFileError);
 }
 
@@ -255,7 +262,7 @@ TEST(CalibrationYaml, Format3LoadsWithoutTemperatureTerms) {
   ASSERT_EQ(old.find("temperature"), std::string::npos) << old;
   const std::size_t version = old.find(kCurrentFormatLine);
   ASSERT_NE(version, std::string::npos);
-  old.replace(version, kCurrentFormatLine.size() - 1, "format_version: 3");
+  old = with_format_version(old, 3);
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v3.yaml");
   EXPECT_FALSE(loaded.temperature_fitted);
   EXPECT_EQ(loaded.temperature_text, "calibration file format 3 has no temperature terms");
@@ -299,7 +306,7 @@ TEST(CalibrationYaml, Format4LoadsAsACovarianceTakenAsKnown) {
   ASSERT_EQ(old.find("interval_quantile"), std::string::npos);
   const std::size_t version = old.find(kCurrentFormatLine);
   ASSERT_NE(version, std::string::npos);
-  old.replace(version, kCurrentFormatLine.size() - 1, "format_version: 4");
+  old = with_format_version(old, 4);
   const mic::MagnetometerCalibration loaded = mic::calibration_from_yaml(old, "v4.yaml");
   EXPECT_TRUE(std::isinf(loaded.covariance_cells));
   EXPECT_NEAR(loaded.interval_quantile, 1.959964, 1e-6);
