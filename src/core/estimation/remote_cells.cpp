@@ -17,49 +17,38 @@ namespace {
 
 using Vector9 = Eigen::Matrix<double, 9, 1>;
 
-/// Row-major vec(n_pair - n_remote) of two frozen-weight solves; false when either is singular.
-bool difference(const std::vector<Cell>& cells, const std::vector<double>& weight, const Regression& pair,
-                const Regression& iv, int exclude, Vector9& out) {
-  const WeightedSolution a = solve_frozen(cells, weight, pair, exclude);
-  const WeightedSolution b = solve_frozen(cells, weight, iv, exclude);
-  if (!a.ok || !b.ok) return false;
-  for (int k = 0; k < 9; ++k) out(k) = a.n(k / 3, k % 3) - b.n(k / 3, k % 3);
-  return true;
-}
-
-/// Delete-one-group jackknife of the difference over the groups n's own covariance uses: the
-/// weighted sections, or interleaved frequency groups when there are too few.
+/// Delete-one-group jackknife of row-major vec(n_pair - n_remote) over the groups n's own
+/// covariance uses: the weighted sections, or interleaved frequency groups when there are too few.
 JackknifeResult difference_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                      std::size_t k_sections, const Regression& pair, const Regression& iv) {
-  std::vector<Vector9> leave_out;
   std::vector<double> section_weight(k_sections, 0.0);
   for (std::size_t i = 0; i < cells.size(); ++i) section_weight[static_cast<std::size_t>(cells[i].section)] += weight[i];
   const bool by_section =
       static_cast<std::size_t>(std::count_if(section_weight.begin(), section_weight.end(),
                                              [](double w) { return w > 0.0; })) >= kMinJackknifeSections;
-  Vector9 d;
+  std::vector<int> group(cells.size());
+  std::size_t groups = k_sections;
   if (by_section) {
-    for (std::size_t s = 0; s < k_sections; ++s) {
-      if (!(section_weight[s] > 0.0)) continue;
-      if (!difference(cells, weight, pair, iv, static_cast<int>(s), d)) return JackknifeResult{};
-      leave_out.push_back(d);
-    }
+    for (std::size_t i = 0; i < cells.size(); ++i) group[i] = cells[i].section;
   } else {
     std::vector<std::size_t> order(cells.size());
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(),
                      [&](std::size_t a, std::size_t b) { return cells[a].frequency_hz < cells[b].frequency_hz; });
-    for (std::size_t g = 0; g < kFrequencyGroups; ++g) {
-      std::vector<double> w = weight;
-      double removed = 0.0;
-      for (std::size_t r = g; r < order.size(); r += kFrequencyGroups) {
-        removed += w[order[r]];
-        w[order[r]] = 0.0;
-      }
-      if (!(removed > 0.0)) continue;
-      if (!difference(cells, w, pair, iv, -1, d)) return JackknifeResult{};
-      leave_out.push_back(d);
-    }
+    for (std::size_t r = 0; r < order.size(); ++r) group[order[r]] = static_cast<int>(r % kFrequencyGroups);
+    groups = kFrequencyGroups;
+  }
+  const GroupedNormalEquations pair_sums(cells, weight, pair, group, groups), iv_sums(cells, weight, iv, group, groups);
+  std::vector<Vector9> leave_out;
+  for (std::size_t g = 0; g < groups; ++g) {
+    if (!(pair_sums.weight(g) > 0.0)) continue;  // a group of rejected cells: deleting it changes nothing
+    const NormalEquations pair_others = pair_sums.without(g), iv_others = iv_sums.without(g);
+    const WeightedSolution a = solve_weighted(pair_others, pair_others.given_noise);
+    const WeightedSolution b = solve_weighted(iv_others, iv_others.given_noise);
+    if (!a.ok || !b.ok) return JackknifeResult{};
+    Vector9 d;
+    for (int k = 0; k < 9; ++k) d(k) = a.n(k / 3, k % 3) - b.n(k / 3, k % 3);
+    leave_out.push_back(d);
   }
   JackknifeResult out = jackknife_statistic(leave_out);
   out.frequency_groups = !by_section;

@@ -96,6 +96,22 @@ struct JackknifeResult {
 // weighted_eiv_solve.cpp.
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                           const Regression& regression, int exclude);
+/// The weighted sums of each group of cells (group[i] in [0, groups); -1: in none), made in one
+/// pass, so that a delete-one-group jackknife adds the others' sums instead of summing every
+/// cell again per deletion. without(g) equals weighted_normal_equations over the cells outside
+/// group g but for the order of the additions (rounding).
+class GroupedNormalEquations {
+ public:
+  GroupedNormalEquations(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                         const Regression& regression, const std::vector<int>& group, std::size_t groups);
+  NormalEquations without(std::size_t left_out) const;
+  /// The sum of the group's cell weights (without g): zero for a group of rejected cells.
+  double weight(std::size_t group) const { return weight_[group]; }
+
+ private:
+  std::vector<NormalEquations> parts_;
+  std::vector<double> weight_;
+};
 WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise);
 /// n for frozen cell weights: the last step of the IRLS, and each refit of the jackknife
 /// (exclude = a section; -1 for none).

@@ -35,12 +35,14 @@ Eigen::Matrix<double, 9, 1> row_major(const Eigen::Matrix3d& n) {
 
 JackknifeResult section_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                   std::size_t k_sections, const Regression& regression) {
-  std::vector<double> section_weight(k_sections, 0.0);
-  for (std::size_t i = 0; i < cells.size(); ++i) section_weight[static_cast<std::size_t>(cells[i].section)] += weight[i];
+  std::vector<int> group(cells.size());
+  for (std::size_t i = 0; i < cells.size(); ++i) group[i] = cells[i].section;
+  const GroupedNormalEquations sums(cells, weight, regression, group, k_sections);
   std::vector<Eigen::Matrix<double, 9, 1>> leave_out;
   for (std::size_t s = 0; s < k_sections; ++s) {
-    if (!(section_weight[s] > 0.0)) continue;  // a rejected section: deleting it changes nothing
-    const WeightedSolution f = solve_frozen(cells, weight, regression, static_cast<int>(s));
+    if (!(sums.weight(s) > 0.0)) continue;  // a rejected section: deleting it changes nothing
+    const NormalEquations others = sums.without(s);
+    const WeightedSolution f = solve_weighted(others, others.given_noise);
     if (!f.ok) return JackknifeResult{};  // one section held the whole signal of a direction: no jackknife
     leave_out.push_back(row_major(f.n));
   }
@@ -76,17 +78,14 @@ JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const 
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return cells[a].frequency_hz < cells[b].frequency_hz; });
+  std::vector<int> group(cells.size());
+  for (std::size_t r = 0; r < order.size(); ++r) group[order[r]] = static_cast<int>(r % groups);
+  const GroupedNormalEquations sums(cells, fit_weight, regression, group, groups);
   std::vector<Eigen::Matrix<double, 9, 1>> leave_out;
-  std::vector<double> weight;
   for (std::size_t g = 0; g < groups; ++g) {
-    weight = fit_weight;
-    double removed = 0.0;
-    for (std::size_t r = g; r < order.size(); r += groups) {
-      removed += weight[order[r]];
-      weight[order[r]] = 0.0;
-    }
-    if (!(removed > 0.0)) continue;  // a group of rejected cells: deleting it changes nothing
-    const WeightedSolution f = solve_frozen(cells, weight, regression, -1);
+    if (!(sums.weight(g) > 0.0)) continue;  // a group of rejected cells: deleting it changes nothing
+    const NormalEquations others = sums.without(g);
+    const WeightedSolution f = solve_weighted(others, others.given_noise);
     if (!f.ok) return JackknifeResult{};  // one group held the whole signal of a direction
     leave_out.push_back(row_major(f.n));
   }

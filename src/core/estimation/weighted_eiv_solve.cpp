@@ -11,22 +11,58 @@
 
 namespace magnetometer_insitu_calibration::detail::robust {
 
+namespace {
+
+/// One cell's terms of the weighted sums, added to `sums` (wg: its weight times g).
+void add_cell(NormalEquations& sums, const Cell& cell, double wg, const Regression& regression,
+              const NoiseSpectrum* noise) {
+  const Eigen::Vector3cd& z = regression.instrument(cell);
+  sums.a.noalias() += wg * (z * cell.x.adjoint()).real();
+  sums.c.noalias() += wg * (z * cell.y.adjoint()).real();
+  if (noise != nullptr) {
+    sums.given_noise.diagonal() +=
+        wg * noise->expected_periodogram(cell.frequency_hz, regression.sample_period_s, cell.length);
+  }
+}
+
+}  // namespace
+
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                           const Regression& regression, int exclude) {
   NormalEquations out;
   out.instrumental = regression.remote;
   const NoiseSpectrum* noise = regression.remote ? nullptr : regression.noise;
   for (std::size_t i = 0; i < cells.size(); ++i) {
-    const Cell& cell = cells[i];
-    const double wg = weight[i] * cell.g;
-    if (wg == 0.0 || cell.section == exclude) continue;
-    const Eigen::Vector3cd& z = regression.instrument(cell);
-    out.a.noalias() += wg * (z * cell.x.adjoint()).real();
-    out.c.noalias() += wg * (z * cell.y.adjoint()).real();
-    if (noise != nullptr) {
-      out.given_noise.diagonal() +=
-          wg * noise->expected_periodogram(cell.frequency_hz, regression.sample_period_s, cell.length);
-    }
+    const double wg = weight[i] * cells[i].g;
+    if (wg == 0.0 || cells[i].section == exclude) continue;
+    add_cell(out, cells[i], wg, regression, noise);
+  }
+  return out;
+}
+
+GroupedNormalEquations::GroupedNormalEquations(const std::vector<Cell>& cells, const std::vector<double>& weight,
+                                               const Regression& regression, const std::vector<int>& group,
+                                               std::size_t groups)
+    : parts_(groups), weight_(groups, 0.0) {
+  const NoiseSpectrum* noise = regression.remote ? nullptr : regression.noise;
+  for (NormalEquations& part : parts_) part.instrumental = regression.remote;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const double wg = weight[i] * cells[i].g;
+    if (group[i] < 0) continue;
+    const std::size_t g = static_cast<std::size_t>(group[i]);
+    weight_[g] += weight[i];
+    if (wg != 0.0) add_cell(parts_[g], cells[i], wg, regression, noise);
+  }
+}
+
+NormalEquations GroupedNormalEquations::without(std::size_t left_out) const {
+  NormalEquations out;
+  out.instrumental = parts_.empty() ? false : parts_.front().instrumental;
+  for (std::size_t g = 0; g < parts_.size(); ++g) {
+    if (g == left_out) continue;
+    out.a += parts_[g].a;
+    out.c += parts_[g].c;
+    out.given_noise += parts_[g].given_noise;
   }
   return out;
 }
