@@ -25,6 +25,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <array>
+#include <cctype>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -40,6 +42,9 @@ struct Applied {
   std::string quality;       ///< "ok", ...
   std::string inputs;        ///< "reference X, test Y"
   std::string parameters;    ///< scale ratios, non-orthogonality
+  /// The test record's components n was estimated on (a JSON report's preprocessing), empty when
+  /// the calibration does not say (a YAML file, an earlier report).
+  std::vector<std::string> test_components;
 };
 
 std::string fixed(double v, int decimals) {
@@ -58,6 +63,9 @@ Applied from_json(const std::string& path, const std::string& which) {
   if (report.contains("settings")) {
     const nlohmann::json& s = report["settings"];
     a.inputs = "reference " + s.value("reference", std::string("?")) + ", test " + s.value("test", std::string("?"));
+  }
+  if (report.contains("preprocessing") && report["preprocessing"].contains("test_components")) {
+    for (const nlohmann::json& c : report["preprocessing"]["test_components"]) a.test_components.push_back(c.get<std::string>());
   }
   const nlohmann::json& j = w.json;
   try {
@@ -94,6 +102,32 @@ Applied from_yaml(const std::string& path) {
                  fixed(c.nonorthogonality_deg[0], 4) + " " + fixed(c.nonorthogonality_deg[1], 4) + " " +
                  fixed(c.nonorthogonality_deg[2], 4) + " deg.";
   return a;
+}
+
+std::string upper(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return text;
+}
+
+/// Refuses a record whose components are not those n was estimated on (letter case aside): n
+/// maps the calibrated axes, and a record of another orientation (H, D, Z against X, Y, Z) or
+/// another instrument would be corrected into nonsense without a word.
+void check_components(const Applied& applied, const mic::VectorRecord& record, const std::string& record_name,
+                      const std::string& calibration_path) {
+  if (applied.test_components.empty()) return;
+  std::string calibrated, recorded;
+  bool same = applied.test_components.size() == 3;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const std::string c = k < applied.test_components.size() ? applied.test_components[k] : std::string("?");
+    calibrated += (k ? "," : "") + c;
+    recorded += (k ? "," : "") + record.components[k];
+    same = same && upper(c) == upper(record.components[k]);
+  }
+  if (!same) {
+    throw mic::InputError(record_name, "components " + recorded + ", but " + calibration_path +
+                                           " was estimated on a test record of components " + calibrated +
+                                           ": its n maps those axes, not these (another orientation or instrument?)");
+  }
 }
 
 bool ends_with(const std::string& text, const std::string& suffix) {
@@ -175,6 +209,7 @@ int main(int argc, char** argv) {
       record = mic::read_records(test_paths, &warnings);
       for (const std::string& w : warnings) std::cerr << "export_corrected: warning: " << w << "\n";
     }
+    check_components(applied, record, test_name, calibration_path);
     const std::array<std::string, 3> names = components.empty() ? record.components : split_components(components);
     const mic::VectorRecord corrected = mic::correct_record(record, applied.n, names, max_condition);
 

@@ -9,6 +9,7 @@
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -66,6 +67,8 @@ struct PreprocessReport {
   std::size_t missing_samples = 0;  ///< of those, without a complete pair (the windows fill them)
   std::size_t long_gaps = 0;        ///< runs of missing epochs longer than the gap rule's max_fill_s
   std::string temperature_channel;  ///< the test's channel used as its temperature, "" if none
+  /// The records' component names (VectorRecord::components): what n's rows and columns are.
+  std::array<std::string, 3> reference_components, test_components;
 };
 
 /// The paired record on the regular estimation grid.

@@ -90,6 +90,8 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
   rep.test_samples = test.size();
   rep.reference_period_s = median_sample_period(reference);
   rep.test_period_s = median_sample_period(test);
+  rep.reference_components = reference.components;
+  rep.test_components = test.components;
   for (const VectorRecord* r : {&reference, &test}) {
     if (!r->values_nT.array().isFinite().rowwise().all().any()) {
       throw InputError(r->source, "no sample has three finite components (all missing or NaN)");

@@ -183,7 +183,9 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
         {"grid_samples", r.grid_samples},
         {"missing_samples", r.missing_samples},
         {"long_gaps", r.long_gaps},
-        {"temperature_channel", r.temperature_channel.empty() ? json(nullptr) : json(r.temperature_channel)}}},
+        {"temperature_channel", r.temperature_channel.empty() ? json(nullptr) : json(r.temperature_channel)},
+        {"reference_components", r.reference_components},
+        {"test_components", r.test_components}}},
       {"windows", windows},
       {"window_agreement", window_agreement_to_json(c.windows)},
   };

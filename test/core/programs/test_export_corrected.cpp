@@ -1,6 +1,7 @@
 // export_corrected as a user runs it: the simulated test record corrected into the reference
 // frame equals the clean field within the noise; the IAGA-2002 it writes reads back equal to
 // r = t n^-1 (to the 0.01 nT of the format); header and comments; refusals; the real WIC pair.
+#include "magnetometer_insitu_calibration/formats/csv_record.hpp"
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
@@ -234,6 +235,40 @@ TEST_F(ExportCorrected, FlaggedWindowsAndBadRequestsAreRefusedWithTheReason) {
   r = export_corrected("--test " + dir_ + "/nope.sec --calibration " + dir_ + "/report.json -o " + dir_ + "/f.sec");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("nope.sec"), std::string::npos) << r.output;
+}
+
+TEST_F(ExportCorrected, ARecordOfOtherComponentsThanTheCalibratedOnesIsRefused) {
+  // The report names the test components n was estimated on (X, Y, Z here); the same record
+  // written as H, D, Z is refused, naming both, and nothing is written. Names differing only in
+  // letter case (a CSV's x, y, z) are the same axes.
+  const nlohmann::json report = read_json(dir_ + "/report.json");
+  ASSERT_EQ(report["preprocessing"]["test_components"], nlohmann::json::array({"X", "Y", "Z"}));
+  ASSERT_EQ(report["preprocessing"]["reference_components"], nlohmann::json::array({"X", "Y", "Z"}));
+  mic::VectorRecord hdz = test_read_;
+  hdz.components = {"H", "D", "Z"};
+  const std::string hdz_path = dir_ + "/test_hdz.sec", out = dir_ + "/hdz_corrected.sec";
+  mic::write_iaga2002(hdz_path, hdz, mic::Iaga2002WriteOptions{});
+  ASSERT_EQ(mic::read_iaga2002(hdz_path).components, hdz.components);
+  std::remove(out.c_str());
+  ProgramRun r = export_corrected("--test " + hdz_path + " --calibration " + dir_ + "/report.json -o " + out);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find(hdz_path + ": components H,D,Z, but " + dir_ + "/report.json was estimated on a test record of "
+                          "components X,Y,Z"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::ifstream(out).good()) << out << " written from a refused record";
+  // Lower-case names of the same axes (a CSV header's x, y, z) pass, with the same correction.
+  const std::string csv = dir_ + "/test_lower.csv";
+  mic::VectorRecord lower = test_read_;
+  lower.components = {"x", "y", "z"};
+  mic::write_csv_record(csv, lower);
+  r = export_corrected("--test " + csv + " --calibration " + dir_ + "/truth_report.json -o " + dir_ + "/lower.sec");
+  ASSERT_EQ(r.status, 0) << r.output;
+  expect_rounded_correction(mic::read_iaga2002(dir_ + "/lower.sec"), test_read_, pair_.n_true);
+  // A report written before it named the components is applied as before.
+  nlohmann::json earlier = report;
+  earlier["preprocessing"].erase("test_components");
+  write_json(dir_ + "/earlier.json", earlier);
+  r = export_corrected("--test " + hdz_path + " --calibration " + dir_ + "/earlier.json -o " + out);
+  EXPECT_EQ(r.status, 0) << r.output;
 }
 
 TEST_F(ExportCorrected, ADamagedCsvLineIsRefusedAsCalibrateRecordsRefusesItAndNothingIsWritten) {
