@@ -64,7 +64,8 @@ Applied from_json(const std::string& path, const std::string& which) {
     const nlohmann::json& s = report["settings"];
     a.inputs = "reference " + s.value("reference", std::string("?")) + ", test " + s.value("test", std::string("?"));
   }
-  if (report.contains("preprocessing") && report["preprocessing"].contains("test_components")) {
+  if (report.contains("preprocessing") && report["preprocessing"].contains("test_components") &&
+      report["preprocessing"]["test_components"].is_array()) {
     for (const nlohmann::json& c : report["preprocessing"]["test_components"]) a.test_components.push_back(c.get<std::string>());
   }
   const nlohmann::json& j = w.json;
@@ -111,7 +112,8 @@ std::string upper(std::string text) {
 
 /// Refuses a record whose components are not those n was estimated on (letter case aside): n
 /// maps the calibrated axes, and a record of another orientation (H, D, Z against X, Y, Z) or
-/// another instrument would be corrected into nonsense without a word.
+/// another instrument would be corrected into nonsense without a word. Records from bags are not
+/// checked: a MagneticField names no components.
 void check_components(const Applied& applied, const mic::VectorRecord& record, const std::string& record_name,
                       const std::string& calibration_path) {
   if (applied.test_components.empty()) return;
@@ -209,7 +211,7 @@ int main(int argc, char** argv) {
       record = mic::read_records(test_paths, &warnings);
       for (const std::string& w : warnings) std::cerr << "export_corrected: warning: " << w << "\n";
     }
-    check_components(applied, record, test_name, calibration_path);
+    if (bag_path.empty()) check_components(applied, record, test_name, calibration_path);  // a bag names none
     const std::array<std::string, 3> names = components.empty() ? record.components : split_components(components);
     const mic::VectorRecord corrected = mic::correct_record(record, applied.n, names, max_condition);
 
