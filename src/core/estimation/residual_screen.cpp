@@ -80,13 +80,14 @@ struct Baseline {
   }
 };
 
-/// The three residuals' baselines as one piecewise-linear schedule: the samples [begin, end)
-/// of piece p (before the first centre, between two centres, after the last) and each
-/// residual's baseline there, value + (i - centre) * slope.
+/// The three residuals' baselines as one piecewise-linear schedule (their blocks and centres
+/// are the same): the samples [begin, end) of a piece (before the first centre, between two
+/// centres, after the last) and each residual's baseline there, value + (i - centre) * slope.
 struct BaselinePieces {
   struct Piece {
     int begin = 0, end = 0;
-    double value[3] = {0, 0, 0}, centre[3] = {0, 0, 0}, slope[3] = {0, 0, 0};
+    double centre = 0.0;  ///< sample index
+    double value[3] = {0, 0, 0}, slope[3] = {0, 0, 0};
   };
   std::vector<Piece> pieces;
 
@@ -104,9 +105,9 @@ struct BaselinePieces {
       Piece p;
       p.begin = pieces.back().end;
       p.end = upto(centres[k + 1]);
+      p.centre = centres[k];
       for (int c = 0; c < 3; ++c) {
         p.value[c] = b[c].values[k];
-        p.centre[c] = centres[k];
         p.slope[c] = (b[c].values[k + 1] - b[c].values[k]) / (centres[k + 1] - centres[k]);
       }
       pieces.push_back(p);
@@ -175,7 +176,7 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
     for (const BaselinePieces::Piece& p : pieces.pieces) {
       std::size_t i = (static_cast<std::size_t>(p.begin) + stride - 1) / stride * stride;
       for (; i < static_cast<std::size_t>(p.end); i += stride) {
-        sample.push_back(residual(i, c) - (p.value[c] + (static_cast<double>(i) - p.centre[c]) * p.slope[c]));
+        sample.push_back(residual(i, c) - (p.value[c] + (static_cast<double>(i) - p.centre) * p.slope[c]));
       }
     }
     centre[c] = detail::median(sample);
@@ -200,7 +201,7 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   char any = 0;
   for (const BaselinePieces::Piece& p : pieces.pieces) {
     const double v0 = p.value[0], v1 = p.value[1], v2 = p.value[2];
-    const double s0 = p.slope[0], s1 = p.slope[1], s2 = p.slope[2], x0 = p.centre[0];
+    const double s0 = p.slope[0], s1 = p.slope[1], s2 = p.slope[2], x0 = p.centre;
     const double c0 = centre[0], c1 = centre[1], c2 = centre[2], l0 = limit[0], l1 = limit[1], l2 = limit[2];
     const int begin = p.begin, end = p.end;
     char piece_any = 0;
