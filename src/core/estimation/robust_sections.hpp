@@ -105,7 +105,8 @@ class GroupedNormalEquations {
   GroupedNormalEquations(const std::vector<Cell>& cells, const std::vector<double>& weight,
                          const Regression& regression, const std::vector<int>& group, std::size_t groups);
   NormalEquations without(std::size_t left_out) const;
-  /// The sum of the group's cell weights (without g): zero for a group of rejected cells.
+  /// The sum of the group's cell weights (the IRLS weights, without lambda^gamma): zero for a
+  /// group of rejected cells.
   double weight(std::size_t group) const { return weight_[group]; }
 
  private:
