@@ -244,15 +244,7 @@ int main(int argc, char** argv) {
     if (!o.json_path.empty()) {
       std::ofstream out(o.json_path);
       if (!out) throw mic::InputError(o.json_path, "cannot write the JSON report");
-      nlohmann::json report = mic::calibration_to_json(result, settings, inputs);
-      if (bag->from_bag()) {
-        // A MagneticField names no components: its x, y, z are its frame's axes, whatever a file
-        // of the same instrument calls them. The report claims no names (export_corrected then
-        // has none to check).
-        report["preprocessing"]["reference_components"] = nullptr;
-        report["preprocessing"]["test_components"] = nullptr;
-      }
-      out << report.dump(2) << "\n";
+      out << mic::calibration_to_json(result, settings, inputs).dump(2) << "\n";
       if (!out) throw mic::InputError(o.json_path, "write failed");
     }
   } catch (const mic::InputError& e) {

@@ -130,7 +130,9 @@ ReportInputs BagInputOptions::inputs(const std::vector<std::string>& reference_p
 
 ReportInputs BagInputOptions::inputs(const std::string& reference_path, const std::string& test_path) const {
   if (bag_.empty()) return {reference_path, test_path, ""};
-  return {bag_ + ":" + bag_topic_name(reference_topic_), bag_ + ":" + bag_topic_name(test_topic_), ""};
+  // A MagneticField names no components: the report claims none (export_corrected then has none
+  // to check against a file of the instrument).
+  return {bag_ + ":" + bag_topic_name(reference_topic_), bag_ + ":" + bag_topic_name(test_topic_), "", false};
 }
 
 }  // namespace magnetometer_insitu_calibration

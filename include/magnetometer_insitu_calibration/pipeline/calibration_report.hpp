@@ -15,6 +15,9 @@ struct ReportInputs {
   std::string reference;  ///< file, bag topic, ...
   std::string test;
   std::string remote;     ///< the remote observatory's record, "" without one
+  /// False when the records' component names are not their own (a bag: a MagneticField names
+  /// none, its x, y, z being its frame's axes): the report then gives them as null.
+  bool components_named = true;
 };
 
 /// One window of the report: its calibration record (calibration_record.hpp: every field of

@@ -26,18 +26,8 @@ JackknifeResult difference_jackknife(const std::vector<Cell>& cells, const std::
   const bool by_section =
       static_cast<std::size_t>(std::count_if(section_weight.begin(), section_weight.end(),
                                              [](double w) { return w > 0.0; })) >= kMinJackknifeSections;
-  std::vector<int> group(cells.size());
-  std::size_t groups = k_sections;
-  if (by_section) {
-    for (std::size_t i = 0; i < cells.size(); ++i) group[i] = cells[i].section;
-  } else {
-    std::vector<std::size_t> order(cells.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::size_t a, std::size_t b) { return cells[a].frequency_hz < cells[b].frequency_hz; });
-    for (std::size_t r = 0; r < order.size(); ++r) group[order[r]] = static_cast<int>(r % kFrequencyGroups);
-    groups = kFrequencyGroups;
-  }
+  const std::size_t groups = by_section ? k_sections : kFrequencyGroups;
+  const std::vector<int> group = by_section ? section_groups(cells) : interleaved_frequency_groups(cells, groups);
   const GroupedNormalEquations pair_sums(cells, weight, pair, group, groups), iv_sums(cells, weight, iv, group, groups);
   std::vector<Vector9> leave_out;
   for (std::size_t g = 0; g < groups; ++g) {
@@ -78,7 +68,7 @@ void assess_cells_remote_strength(RemoteReference& remote, const std::vector<Cel
 void assess_cells_pair_difference(RemoteReference& remote, const std::vector<Cell>& cells, const IrlsResult& fit,
                                   std::size_t k_sections, const Regression& pair, const Regression& iv,
                                   const ReferenceNoiseModel* noise, double covariance_cells) {
-  const WeightedSolution ls = solve_frozen(cells, fit.weight, pair, -1);
+  const WeightedSolution ls = solve_frozen(cells, fit.weight, pair);
   if (!ls.ok) {
     remote.text += "; the pair alone is singular on these cells";
     return;
@@ -135,7 +125,7 @@ BandSplitCheck band_split_check(const std::vector<Cell>& cells, const IrlsResult
     for (std::size_t i = 0; i < cells.size(); ++i) {
       if ((cells[i].frequency_hz < split_hz) != (h == 0)) part.weight[i] = 0.0;
     }
-    const WeightedSolution solved = solve_frozen(cells, part.weight, regression, -1);
+    const WeightedSolution solved = solve_frozen(cells, part.weight, regression);
     if (!solved.ok) {
       out.text = "band split not assessed: a half has no signal in some direction";
       return out;

@@ -168,8 +168,7 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
   // Each residual's centre and MAD, less its baseline, from every stride-th value (about 8200
   // of them): the threshold is then within about 1.3 % of the exact medians'.
   const std::size_t stride = std::max<std::size_t>(1, length / kScreenMedianSample);
-  double centre[3], limit[3];
-  bool usable[3];
+  double centre[3], limit[3];  // nT; a residual whose MAD is zero flags nothing: its limit is infinite
   for (int c = 0; c < 3; ++c) {
     std::vector<double>& sample = scratch.sample;
     sample.clear();
@@ -182,13 +181,7 @@ std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT
     centre[c] = detail::median(sample);
     for (double& v : sample) v = std::abs(v - centre[c]);
     const double sigma = 1.4826 * detail::median(sample);
-    usable[c] = sigma > 0.0;
-    limit[c] = settings.screen_threshold * sigma;
-  }
-  if (!usable[0] && !usable[1] && !usable[2]) return mask;
-  // A residual whose MAD is zero flags nothing: its limit is infinite.
-  for (int c = 0; c < 3; ++c) {
-    if (!usable[c]) limit[c] = std::numeric_limits<double>::infinity();
+    limit[c] = sigma > 0.0 ? settings.screen_threshold * sigma : std::numeric_limits<double>::infinity();
   }
   // The flag pass, in locals: the char stores would otherwise make the compiler reload n and
   // the piece's values at every sample.

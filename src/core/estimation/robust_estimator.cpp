@@ -202,7 +202,7 @@ WindowEstimate RobustFdEstimator::Window::estimate() {
   // The last step with the final weights frozen, so that n, the sandwich and the jackknife all
   // belong to the same weighted estimating equation.
   {
-    const WeightedSolution last = solve_frozen(cells, fit.weight, regression_, -1);
+    const WeightedSolution last = solve_frozen(cells, fit.weight, regression_);
     if (last.ok) static_cast<WeightedSolution&>(fit) = last;
   }
   finish(cells, fit, bins, result);  // step 6, trend, quality
@@ -428,7 +428,7 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   result.coherence = cov.coherence;
   result.residual_rms_nT = cov.residual_rms_nT;
   // The condition of the reference's own weighted sums (the IV sums are not symmetric).
-  apply_quality_rules(result, weighted_normal_equations(cells, fit.weight, Regression{}, -1).a,
+  apply_quality_rules(result, weighted_normal_equations(cells, fit.weight, Regression{}).a,
                       static_cast<long>(cells.size()), "section harmonics", settings_);
   if (regression_.remote) {
     compare_with_pair(cells, fit, cov.cells, result);

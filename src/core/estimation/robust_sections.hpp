@@ -95,7 +95,7 @@ struct JackknifeResult {
 
 // weighted_eiv_solve.cpp.
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                                          const Regression& regression, int exclude);
+                                          const Regression& regression);
 /// The weighted sums of each group of cells (group[i] in [0, groups); -1: in none), made in one
 /// pass, so that a delete-one-group jackknife adds the others' sums instead of summing every
 /// cell again per deletion. without(g) equals weighted_normal_equations over the cells outside
@@ -114,10 +114,10 @@ class GroupedNormalEquations {
   std::vector<double> weight_;
 };
 WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix3d& noise);
-/// n for frozen cell weights: the last step of the IRLS, and each refit of the jackknife
-/// (exclude = a section; -1 for none).
+/// n for frozen cell weights: the last step of the IRLS, the band split's halves, the pair-only
+/// estimate beside the remote's (the jackknife's refits add GroupedNormalEquations instead).
 WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                              const Regression& regression, int exclude);
+                              const Regression& regression);
 /// Step 6d: the covariance of row-major vec(n) that the uncertainty of the noise model's levels
 /// (ReferenceNoiseModel::level_covariance) carries through the correction; zero unless the
 /// correction was applied.
@@ -146,6 +146,10 @@ JackknifeResult section_jackknife(const std::vector<Cell>& cells, const std::vec
 /// (step 6b for windows of fewer than kMinJackknifeSections weighted sections).
 JackknifeResult frequency_group_jackknife(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                           std::size_t groups, const Regression& regression);
+/// The jackknife's groups of the cells (for GroupedNormalEquations): each cell's section, or its
+/// interleaved frequency group (the cells in frequency order, every groups-th in one group).
+std::vector<int> section_groups(const std::vector<Cell>& cells);
+std::vector<int> interleaved_frequency_groups(const std::vector<Cell>& cells, std::size_t groups);
 Matrix9d combine_covariances(const Matrix9d& sandwich, const JackknifeResult& jack);
 /// J = (G-1)/G sum (v_g - mean)(v_g - mean)^T of leave-one-group-out values of row-major vec(n).
 JackknifeResult jackknife_statistic(const std::vector<Eigen::Matrix<double, 9, 1>>& leave_out);

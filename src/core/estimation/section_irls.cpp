@@ -30,7 +30,7 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);
   std::vector<double> r2(m, 0.0);
   for (int it = 0; it < rs.iterations; ++it) {
-    const NormalEquations sums = weighted_normal_equations(cells, out.weight, regression, -1);
+    const NormalEquations sums = weighted_normal_equations(cells, out.weight, regression);
     // N is zero without a noise to correct for: Eq. 2 with the weights.
     const WeightedSolution solved = solve_weighted(sums, sums.given_noise);
     if (!solved.ok) return out;

@@ -28,13 +28,13 @@ void add_cell(NormalEquations& sums, const Cell& cell, double wg, const Regressi
 }  // namespace
 
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                                          const Regression& regression, int exclude) {
+                                          const Regression& regression) {
   NormalEquations out;
   out.instrumental = regression.remote;
   const NoiseSpectrum* noise = regression.remote ? nullptr : regression.noise;
   for (std::size_t i = 0; i < cells.size(); ++i) {
     const double wg = weight[i] * cells[i].g;
-    if (wg == 0.0 || cells[i].section == exclude) continue;
+    if (wg == 0.0) continue;
     add_cell(out, cells[i], wg, regression, noise);
   }
   return out;
@@ -110,8 +110,8 @@ WeightedSolution solve_weighted(const NormalEquations& sums, const Eigen::Matrix
 }
 
 WeightedSolution solve_frozen(const std::vector<Cell>& cells, const std::vector<double>& weight,
-                              const Regression& regression, int exclude) {
-  const NormalEquations sums = weighted_normal_equations(cells, weight, regression, exclude);
+                              const Regression& regression) {
+  const NormalEquations sums = weighted_normal_equations(cells, weight, regression);
   return solve_weighted(sums, sums.given_noise);
 }
 

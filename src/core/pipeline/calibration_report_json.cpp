@@ -184,8 +184,8 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
         {"missing_samples", r.missing_samples},
         {"long_gaps", r.long_gaps},
         {"temperature_channel", r.temperature_channel.empty() ? json(nullptr) : json(r.temperature_channel)},
-        {"reference_components", r.reference_components},
-        {"test_components", r.test_components}}},
+        {"reference_components", inputs.components_named ? json(r.reference_components) : json(nullptr)},
+        {"test_components", inputs.components_named ? json(r.test_components) : json(nullptr)}}},
       {"windows", windows},
       {"window_agreement", window_agreement_to_json(c.windows)},
   };

@@ -18,6 +18,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -173,27 +174,41 @@ TEST(SectionJackknife, SumsWithoutAGroupAreTheSumsOverTheOtherCells) {
   remote.remote = true;
   remote.noise = &noise;  // ignored on a remote's instruments
   for (const robust::Regression* regression : {&least_squares, &corrected, &remote}) {
-    // Sections.
-    std::vector<int> group(cells.size());
-    for (std::size_t i = 0; i < cells.size(); ++i) group[i] = cells[i].section;
-    const robust::GroupedNormalEquations by_section(cells, weight, *regression, group, 6);
+    // Sections: the section's cells given weight 0 instead.
+    const std::vector<int> sections = robust::section_groups(cells);
+    const robust::GroupedNormalEquations by_section(cells, weight, *regression, sections, 6);
     for (std::size_t s = 0; s < 6; ++s) {
-      expect_equal_sums(by_section.without(s),
-                        robust::weighted_normal_equations(cells, weight, *regression, static_cast<int>(s)), "section");
+      std::vector<double> others = weight;
       double section_weight = 0.0;
-      for (std::size_t i = 0; i < cells.size(); ++i) section_weight += cells[i].section == static_cast<int>(s) ? weight[i] : 0.0;
+      for (std::size_t i = 0; i < cells.size(); ++i) {
+        if (cells[i].section != static_cast<int>(s)) continue;
+        section_weight += weight[i];
+        others[i] = 0.0;
+      }
+      expect_equal_sums(by_section.without(s), robust::weighted_normal_equations(cells, others, *regression), "section");
       EXPECT_NEAR(by_section.weight(s), section_weight, 1e-12 * section_weight);
     }
-    // Interleaved groups: the group's cells given weight 0 instead.
-    for (std::size_t i = 0; i < cells.size(); ++i) group[i] = static_cast<int>(i % 5);
-    const robust::GroupedNormalEquations interleaved(cells, weight, *regression, group, 5);
+    // Interleaved frequency groups: each holds a fifth of the cells, spread over the whole band.
+    const std::vector<int> interleaved_group = robust::interleaved_frequency_groups(cells, 5);
+    const robust::GroupedNormalEquations interleaved(cells, weight, *regression, interleaved_group, 5);
     for (std::size_t g = 0; g < 5; ++g) {
       std::vector<double> others = weight;
-      for (std::size_t i = g; i < cells.size(); i += 5) others[i] = 0.0;
-      expect_equal_sums(interleaved.without(g), robust::weighted_normal_equations(cells, others, *regression, -1),
+      std::size_t members = 0;
+      double lowest = 1e9, highest = 0.0;
+      for (std::size_t i = 0; i < cells.size(); ++i) {
+        if (interleaved_group[i] != static_cast<int>(g)) continue;
+        others[i] = 0.0;
+        ++members;
+        lowest = std::min(lowest, cells[i].frequency_hz);
+        highest = std::max(highest, cells[i].frequency_hz);
+      }
+      EXPECT_NEAR(static_cast<double>(members), static_cast<double>(cells.size()) / 5.0, 1.0) << g;
+      EXPECT_LT(lowest, 7.0 / 21600.0) << g;   // the band is harmonics 5-216 of 21600 s
+      EXPECT_GT(highest, 214.0 / 21600.0) << g;
+      expect_equal_sums(interleaved.without(g), robust::weighted_normal_equations(cells, others, *regression),
                         "interleaved");
     }
   }
   // The correction's noise term is there to be compared.
-  EXPECT_GT(robust::weighted_normal_equations(cells, weight, corrected, -1).given_noise.norm(), 0.0);
+  EXPECT_GT(robust::weighted_normal_equations(cells, weight, corrected).given_noise.norm(), 0.0);
 }
