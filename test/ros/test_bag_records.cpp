@@ -16,6 +16,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/LU>
+
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <rosbag/bag.h>
@@ -247,8 +249,17 @@ TEST(RecordsToBag, WicDayBagGivesTheSameCalibrationAsTheFiles) {
   // The bag's calibration applies to the instrument's file (H, E, Z): a bag names no components,
   // so export_corrected has none to hold against the file's.
   r = run_program(EXPORT_CORRECTED_BIN, "--test " + fge + " --calibration " + dir + "/bag.json -o " + dir + "/fge.sec");
-  EXPECT_EQ(r.status, 0) << r.output;
-  EXPECT_EQ(mic::read_iaga2002(dir + "/fge.sec").size(), 86400u);
+  ASSERT_EQ(r.status, 0) << r.output;
+  // Written: t n^-1 with the bag's whole-record n, to the 0.01 nT of the format.
+  Eigen::Matrix3d n;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) n(i, j) = bag["windows"][4]["matrix"][i][j];
+  }
+  ASSERT_EQ(bag["windows"][4]["label"], "whole record");
+  const mic::VectorRecord test = mic::read_record(fge), corrected = mic::read_iaga2002(dir + "/fge.sec");
+  ASSERT_EQ(corrected.size(), 86400u);
+  const mic::Readings exact = test.values_nT * n.inverse();
+  EXPECT_LE((corrected.values_nT - exact).cwiseAbs().maxCoeff(), 0.005 + 1e-9);
 }
 
 // A simulated 10 Hz LEMI-025 pair: the reference as LemiBin, the test as a raw serial capture
