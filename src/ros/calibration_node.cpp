@@ -154,7 +154,7 @@ void CalibrationNode::on_remote(const sensor_msgs::MagneticField::ConstPtr& mess
 void CalibrationNode::on_scalar(const ScalarField::ConstPtr& message) {
   const double t = message->header.stamp.toSec();
   scalar_.observe(t, ros::Time::now().toSec(), message->header.frame_id, settings_.time_jump_threshold_s);
-  streams_->push_scalar(t, calibration_node_detail::kNanoteslaPerTesla * message->field);
+  streams_->push_scalar(t, kNanoteslaPerTesla * message->field);
 }
 
 void CalibrationNode::on_temperature(std::size_t index, const sensor_msgs::Temperature::ConstPtr& message) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
+#include "magnetometer_insitu_calibration/ros/si_units.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 
 #include <atomic>
@@ -15,8 +16,6 @@
 
 namespace magnetometer_insitu_calibration {
 namespace calibration_node_detail {
-
-constexpr double kNanoteslaPerTesla = 1e9;
 
 /// The message's field (tesla, its frame) in nT.
 inline Eigen::Vector3d nanotesla(const sensor_msgs::MagneticField& message) {

@@ -18,7 +18,7 @@ namespace magnetometer_insitu_calibration {
 namespace {
 
 // Every private parameter of the node (others draw a start-up warning).
-const std::vector<std::string> kKnownParameters = {
+const std::vector<std::string> kCalibrationNodeParameters = {
     "reference_topic", "test_topic", "test_name", "calibration_topic", "calibration_file", "tests",
     "input_period", "output_period", "decimation_sigma", "decimation_half_width", "pairing_tolerance",
     "pairing_max_wait", "window", "step", "max_filled_fraction", "max_fill", "band_low", "band_high",
@@ -69,7 +69,7 @@ void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s);
 
 }  // namespace
 
-const std::vector<std::string>& CalibrationNodeSettings::known_parameters() { return kKnownParameters; }
+const std::vector<std::string>& CalibrationNodeSettings::known_parameters() { return kCalibrationNodeParameters; }
 
 std::string CalibrationNodeSettings::noise_model_state() const {
   if (window.estimator.method != EstimatorMethod::kRobust) return "none (~method plain: Eq. 2 as printed)";

@@ -6,6 +6,7 @@
 
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
+#include "magnetometer_insitu_calibration/ros/si_units.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <ros/names.h>
@@ -24,7 +25,7 @@ namespace {
 using diagnostic_msgs::DiagnosticStatus;
 using diagnostic_updater::DiagnosticStatusWrapper;
 
-const std::vector<std::string> kKnownParameters = {
+const std::vector<std::string> kCorrectionNodeParameters = {
     "test_topic", "test_name", "corrected_topic", "calibration_topic", "calibration_file", "reload_period", "queue_size",
     "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
     "max_matrix_condition", "diagnostic_period", "apply_offset", "temperature_topic", "temperature_max_age", "temperature_model"};
@@ -87,7 +88,7 @@ CorrectionNode::CorrectionNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
       settings_(CorrectionNodeSettings::load(private_nh)),
       node_name_(private_nh.getNamespace()),  // the node's name; a nodelet's own name in a manager
       updater_(nh, private_nh, private_nh.getNamespace()) {
-  for (const std::string& name : unknown_private_parameters(private_nh_, kKnownParameters)) {
+  for (const std::string& name : unknown_private_parameters(private_nh_, kCorrectionNodeParameters)) {
     ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
   }
   updater_.setHardwareID("test " + nh_.resolveName(settings_.test_topic));
@@ -138,8 +139,8 @@ std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::s
       // (CorrectionModel); without it, from the whole field.
       Eigen::Vector3d offset = Eigen::Vector3d::Zero(), anchor = Eigen::Vector3d::Zero();
       if (settings_.apply_offset) {
-        offset = 1e-9 * Eigen::Vector3d(c.offset_nT[0], c.offset_nT[1], c.offset_nT[2]);
-        anchor = 1e-9 * Eigen::Vector3d(c.reference_mean_nT[0], c.reference_mean_nT[1], c.reference_mean_nT[2]);
+        offset = kTeslaPerNanotesla * Eigen::Vector3d(c.offset_nT[0], c.offset_nT[1], c.offset_nT[2]);
+        anchor = kTeslaPerNanotesla * Eigen::Vector3d(c.reference_mean_nT[0], c.reference_mean_nT[1], c.reference_mean_nT[2]);
       }
       model = std::make_unique<CorrectionModel>(n, covariance, settings_.max_matrix_condition, offset, anchor);
       if (c.temperature_fitted) {  // c in nT/degC -> T/degC; s in ppm/degC -> 1/degC
@@ -148,15 +149,15 @@ std::string CorrectionNode::adopt(const MagnetometerCalibration& c, const std::s
         };
         const bool full = settings_.temperature_model == "full";
         if (full) {
-          model->set_temperature(c.temperature_reference_C, vector(c.temperature_offset_nT_per_C, 1e-9),
+          model->set_temperature(c.temperature_reference_C, vector(c.temperature_offset_nT_per_C, kTeslaPerNanotesla),
                                  vector(c.temperature_scale_ppm_per_C, 1e-6));
         } else {  // apparent: a u, no scale term
-          model->set_temperature(c.temperature_reference_C, vector(c.temperature_apparent_nT_per_C, 1e-9),
+          model->set_temperature(c.temperature_reference_C, vector(c.temperature_apparent_nT_per_C, kTeslaPerNanotesla),
                                  Eigen::Vector3d::Zero());
         }
         // Standard errors (ci95 / 1.96) in T/degC and 1/degC; F = n^T m + d, the window's mean
         // test field (0 without the offset: the scale term's lever is then the whole field).
-        model->set_temperature_uncertainty(vector(c.temperature_apparent_ci95_nT_per_C, 1e-9 / kNormalQuantile95),
+        model->set_temperature_uncertainty(vector(c.temperature_apparent_ci95_nT_per_C, kTeslaPerNanotesla / kNormalQuantile95),
                                            full ? vector(c.temperature_scale_ci95_ppm_per_C, 1e-6 / kNormalQuantile95)
                                                 : Eigen::Vector3d::Zero(),
                                            n.transpose() * anchor + offset);

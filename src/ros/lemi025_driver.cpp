@@ -14,7 +14,7 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-const std::vector<std::string> kKnownParameters = {
+const std::vector<std::string> kDriverParameters = {
     "source", "device", "baud", "file", "rate", "checksum", "field", "frame_id", "noise_nT", "reopen_interval",
     "gps_required", "expected_packet_rate", "min_supply", "publisher_queue_size", "diagnostic_period",
     "wait_for_subscribers"};
@@ -90,7 +90,7 @@ Lemi025Driver::Lemi025Driver(ros::NodeHandle nh, ros::NodeHandle private_nh)
       settings_(Lemi025DriverSettings::load(private_nh)),
       node_name_(private_nh.getNamespace()),  // the node's name; a nodelet's own name in a manager
       updater_(nh, private_nh, private_nh.getNamespace()) {
-  for (const std::string& name : unknown_private_parameters(private_nh_, kKnownParameters)) {
+  for (const std::string& name : unknown_private_parameters(private_nh_, kDriverParameters)) {
     ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
   }
   const Lemi025DriverSettings& s = settings_;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "magnetometer_insitu_calibration/ros/si_units.hpp"
 
 #include <ros/ros.h>
 
@@ -17,7 +18,6 @@
 namespace magnetometer_insitu_calibration {
 namespace lemi025_driver_detail {
 
-constexpr double kTeslaPerNanotesla = 1e-9;
 constexpr double kBytesPerPacketSecond = static_cast<double>(kLemi025PacketSize);  // 1 packet/s live
 constexpr double kBiasChangeWarningHold_s = 60.0;  // wall s a bias change stays a WARN
 constexpr double kReadTimeout_s = 0.2;             // s, bounds the shutdown delay

@@ -60,6 +60,10 @@ add_library(${PROJECT_NAME}_nodelets
 target_link_libraries(${PROJECT_NAME}_nodelets ${PROJECT_NAME}_nodes ${catkin_LIBRARIES})
 target_compile_options(${PROJECT_NAME}_nodelets PRIVATE -Wall -Wextra)
 
+foreach(_mic_target ${PROJECT_NAME}_ros ${PROJECT_NAME}_nodes ${PROJECT_NAME}_nodelets)
+  mic_unity_build(${_mic_target})
+endforeach()
+
 install(TARGETS ${PROJECT_NAME}_nodelets ${PROJECT_NAME}_nodes ${PROJECT_NAME}_ros
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}

@@ -1,5 +1,6 @@
 // scalar_simulator: see include/magnetometer_insitu_calibration/ros/scalar_simulator.hpp.
 #include "magnetometer_insitu_calibration/ros/scalar_simulator.hpp"
+#include "magnetometer_insitu_calibration/ros/si_units.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
@@ -15,8 +16,6 @@
 namespace magnetometer_insitu_calibration {
 
 namespace {
-
-constexpr double kTeslaPerNanotesla = 1e-9;
 
 }  // namespace
 

@@ -2,6 +2,7 @@
 #include "bag_records.hpp"  // src/tools
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/ros/si_units.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <rosbag/bag.h>
@@ -21,8 +22,6 @@
 namespace magnetometer_insitu_calibration {
 
 namespace {
-
-constexpr double kNanoteslaPerTesla = 1e9;
 
 const std::string kMagneticFieldType = ros::message_traits::DataType<sensor_msgs::MagneticField>::value();
 const std::string kTemperatureType = ros::message_traits::DataType<sensor_msgs::Temperature>::value();

@@ -40,6 +40,9 @@ foreach(program records_to_bag export_corrected benchmark_bag_read)
 endforeach()
 
 # calibrate_records --bag FILE --reference-topic T --test-topic T.
+mic_unity_build(${PROJECT_NAME}_archive)
+mic_unity_build(${PROJECT_NAME}_bag)
+
 if(TARGET calibrate_records)
   target_link_libraries(calibrate_records ${PROJECT_NAME}_bag)
 endif()

@@ -16,12 +16,12 @@ namespace {
 // 6 h 20 min of pairs: windows of 6 h every 10 min -> windows starting at t0 and t0 + 600 s.
 // The check needs at least 64 blocks of 128 s (2.3 h); 6 h gives about 150 outside the
 // screened passes.
-constexpr std::size_t kPairedSamples = 22800;
+constexpr std::size_t kLocalEventSamples = 22800;
 
 }  // namespace
 
 TEST(Calibration, LocalEvents) {
-  Harness h(simulation(static_cast<double>(kPairedSamples), 41));
+  Harness h(simulation(static_cast<double>(kLocalEventSamples), 41));
   mic::StationDisturbanceSettings road;
   road.seed = 141;
   road.vehicles_per_day = 3000;
@@ -30,7 +30,7 @@ TEST(Calibration, LocalEvents) {
   const mic::StationDisturbanceReport report = h.add_station_disturbances(road);
   ASSERT_GT(report.vehicles, 500u);
   ASSERT_TRUE(h.wait_for_connections(1, 2)) << "nodes did not connect";
-  h.publish(0, kPairedSamples, true, true);
+  h.publish(0, kLocalEventSamples, true, true);
   ASSERT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 60.0)) << "timed out waiting for the calibrations";
   const std::string main_status = "calibration_sim: sim", tolerances_status = "calibration_sim: sim tolerances";
   ASSERT_TRUE(h.wait_fresh_diagnostics({main_status, tolerances_status}, 20.0)) << "no diagnostics after the windows";

@@ -14,12 +14,12 @@ namespace {
 
 constexpr double kReferenceScale = 1.003;  // the reference's scale error along every axis
 // 3 h 20 min of pairs: windows of 3 h every 10 min -> windows starting at t0 and t0 + 600 s.
-constexpr std::size_t kPairedSamples = 12000;
+constexpr std::size_t kScalarSamples = 12000;
 
 }  // namespace
 
 TEST(Calibration, ScalarTopic) {
-  mic::SimulationSettings sim = simulation(static_cast<double>(kPairedSamples), 41);
+  mic::SimulationSettings sim = simulation(static_cast<double>(kScalarSamples), 41);
   Harness h(sim);
   mic::ScalarMagnetometerSettings sm;
   sm.seed = 43;
@@ -30,7 +30,7 @@ TEST(Calibration, ScalarTopic) {
   // The direction the node was given is the simulated main field's.
   const mic::FieldDirection given = mic::parse_field_direction(param("field_direction"));
   EXPECT_LT(std::acos(std::min(1.0, given.unit().dot(sim.main_field_nT.normalized()))) * 180.0 / M_PI, 1e-3);
-  h.publish(0, kPairedSamples, true, true);
+  h.publish(0, kScalarSamples, true, true);
   ASSERT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 60.0)) << "timed out waiting for the calibrations";
   const bool diagnosed = h.wait_ticking([&] {
     const DiagnosticRecord* d = h.latest_diagnostic("calibration_sim: sim");

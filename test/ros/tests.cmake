@@ -82,10 +82,12 @@ add_dependencies(test_faults_calibration calibration_node)
 # Archived records: bags, records_to_bag, calibrate_records --bag, export_corrected, replay, plots.
 include(${CMAKE_CURRENT_SOURCE_DIR}/test/ros/archive_tests.cmake)
 
-# Precompiled roscpp/message/Eigen headers (cmake/precompiled_headers.cmake).
+# Precompiled roscpp/message/Eigen headers, and the sources of each test one translation unit
+# (cmake/precompiled_headers.cmake).
 foreach(_mic_test test_ros_layer rostest_calibration test_lemi025_driver test_faults_driver test_faults_calibration test_nodelet_device_error)
   if(TARGET ${_mic_test})
     mic_use_precompiled_headers(${_mic_test} EXE_ROS)
+    mic_unity_build(${_mic_test})
   endif()
 endforeach()
 

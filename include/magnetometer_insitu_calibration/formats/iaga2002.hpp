@@ -11,6 +11,10 @@
 
 namespace magnetometer_insitu_calibration {
 
+/// IAGA-2002's missing-value convention: a value of 88888 nT or more (88888.00 "not recorded",
+/// 99999.00 "missing") is not a reading. The CSV reader follows it too.
+constexpr double kIagaMissingFrom_nT = 88888.0;
+
 /// Reads an IAGA-2002 file, plain or gzip-compressed (detected from the content).
 /// - components: the first three element columns of the column header, the station code
 ///   removed ("WICH WICE WICZ WICF" with IAGA code WIC -> "H", "E", "Z"); the 4th (F or G)

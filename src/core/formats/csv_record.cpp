@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/formats/csv_record.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
@@ -18,8 +19,7 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-constexpr double kSentinelThreshold_nT = 88888.0;  // this and above: missing (IAGA convention)
-constexpr std::size_t kColumns = 4;                // time and three components; more: auxiliary
+constexpr std::size_t kColumns = 4;  // time and three components; more: auxiliary
 
 /// Unit of an auxiliary column, from its name: temperatures are in deg C, others unknown.
 std::string auxiliary_unit(const std::string& name) {
@@ -170,7 +170,7 @@ VectorRecord read_csv_record(const std::string& path) {
         if (!parse_number(text, value) || std::isinf(value)) {
           throw InputError(path, n, column(i) + ": '" + text + "' is not a number");
         }
-        if (value >= kSentinelThreshold_nT) value = std::numeric_limits<double>::quiet_NaN();
+        if (value >= kIagaMissingFrom_nT) value = std::numeric_limits<double>::quiet_NaN();
       }
       row[i - 1] = value;
     }
@@ -314,7 +314,7 @@ void write_csv_record(const std::string& path, const VectorRecord& record, bool 
       double back = 0.0;
       if (std::isinf(value) || length <= 0 || length >= static_cast<int>(sizeof buffer) ||
           !parse_number(std::string(buffer, static_cast<std::size_t>(length)), back) ||
-          back >= kSentinelThreshold_nT) {
+          back >= kIagaMissingFrom_nT) {
         throw InputError(path, "sample " + std::to_string(r) + ", component " +
                                    record.components[c] + ": value " + std::to_string(value) +
                                    " nT cannot be written (infinite, or would read back as "

@@ -22,7 +22,6 @@ constexpr std::size_t kRecordWidth = 70;     // characters per record, without C
 constexpr std::size_t kLabelWidth = 23;      // header label in columns 2..24
 constexpr std::size_t kValueWidth = 45;      // header value in columns 25..69
 constexpr std::size_t kCommentWidth = 66;    // comment text in columns 4..69
-constexpr double kSentinelThreshold_nT = 88888.0;  // this and above: missing / not recorded
 constexpr const char* kMissing = "  99999.00";
 constexpr const char* kNotRecorded = "  88888.00";
 
@@ -174,7 +173,7 @@ void parse_data_line(const std::string& path, std::size_t line_number, const std
       throw InputError(path, line_number,
                        layout.names[i] + " field: '" + text + "' is not a number");
     }
-    if (std::isnan(value) || value >= kSentinelThreshold_nT) {
+    if (std::isnan(value) || value >= kIagaMissingFrom_nT) {
       value = std::numeric_limits<double>::quiet_NaN();
     }
     if (i < 3) row[i] = value;  // the 4th (F or G) column is not part of the vector
@@ -447,7 +446,7 @@ void append_data_record(std::string& text, const std::string& path, const Vector
       continue;
     }
     // Values that round to 88888.00 or more would read back as missing.
-    if (!(value < kSentinelThreshold_nT - 0.005 && value > -999999.995)) {
+    if (!(value < kIagaMissingFrom_nT - 0.005 && value > -999999.995)) {
       throw InputError(path, "sample " + std::to_string(r) + " at " + stamp + ", component " +
                                  record.components[c] + ": " + std::to_string(value) +
                                  " nT cannot be written in IAGA-2002 (must be between "

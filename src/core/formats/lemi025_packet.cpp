@@ -47,10 +47,7 @@ std::int64_t days_from_civil(std::int64_t y, unsigned m, unsigned d) {
 }
 
 std::int16_t checked_int16(double value, const char* what) {
-  const double rounded = std::round(value);
-  if (!(rounded >= -32768.0 && rounded <= 32767.0))
-    throw InputError("LEMI-025 packet", std::string(what) + " does not fit its int16 field");
-  return static_cast<std::int16_t>(rounded);
+  return lemi_detail::checked_int16(value, "LEMI-025 packet", what);
 }
 
 std::uint8_t checked_uint8(double value, const char* what) {

@@ -1,8 +1,12 @@
 // Private to the LEMI sources: little-endian field access independent of the host byte order.
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+
+#include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <string>
 
 namespace magnetometer_insitu_calibration::lemi_detail {
 
@@ -36,6 +40,14 @@ inline void write_f32(std::uint8_t* p, float value) {
   std::uint32_t bits;
   std::memcpy(&bits, &value, sizeof bits);
   write_u32(p, bits);
+}
+
+/// `value` rounded to an int16 field, or InputError(source, "<what> does not fit its int16 field").
+inline std::int16_t checked_int16(double value, const char* source, const char* what) {
+  const double rounded = std::round(value);
+  if (!(rounded >= -32768.0 && rounded <= 32767.0))
+    throw InputError(source, std::string(what) + " does not fit its int16 field");
+  return static_cast<std::int16_t>(rounded);
 }
 
 /// True if p[0..3] is "L025" or "L036".

@@ -14,19 +14,19 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr const char* kBlockSource = "LEMI compact-flash block";  // InputError's source
 
 // Caption byte offsets.
-constexpr std::size_t kStation = 4;
-constexpr std::size_t kTime = 5;
-constexpr std::size_t kLatitude = 11;   // 5 bytes
-constexpr std::size_t kLongitude = 16;  // 6 bytes
-constexpr std::size_t kGpsStatus = 22;
-constexpr std::size_t kReserved = 23;
-constexpr std::size_t kSupply = 24;
-constexpr std::size_t kBias = 25;
-constexpr std::size_t kService = 31;
-constexpr std::size_t kReadingSize = 16;
+constexpr std::size_t kCaptionStation = 4;
+constexpr std::size_t kCaptionTime = 5;
+constexpr std::size_t kCaptionLatitude = 11;   // 5 bytes
+constexpr std::size_t kCaptionLongitude = 16;  // 6 bytes
+constexpr std::size_t kCaptionGpsStatus = 22;
+constexpr std::size_t kCaptionReserved = 23;
+constexpr std::size_t kCaptionSupply = 24;
+constexpr std::size_t kCaptionBias = 25;
+constexpr std::size_t kCaptionService = 31;
+constexpr std::size_t kBlockReadingSize = 16;
 
 std::optional<int> bcd4(const std::uint8_t* p) {  // two BCD bytes = four digits
   const auto hi = lemi_decode_bcd(p[0]);
@@ -44,7 +44,7 @@ double decode_position(const std::uint8_t* p, int degree_bytes, char positive, c
   const char hemisphere = static_cast<char>(p[degree_bytes + 3]);
   if (!degrees || !minutes || !fraction || *minutes > 59 ||
       (hemisphere != positive && hemisphere != negative))
-    return kNaN;
+    return std::numeric_limits<double>::quiet_NaN();
   const double value = *degrees + (*minutes + *fraction / 10000.0) / 60.0;
   return hemisphere == negative ? -value : value;
 }
@@ -77,20 +77,13 @@ void encode_position(double deg, std::uint8_t* p, int degree_bytes, char positiv
 // Empty string if the caption at p is valid, else the problem.
 std::string caption_problem(const std::uint8_t* p) {
   if (!lemi_detail::is_lemi_tag(p)) return "block does not start with L025 / L036";
-  if (std::isnan(lemi_decode_bcd_time(p + kTime))) return "caption time is not a valid BCD date";
+  if (std::isnan(lemi_decode_bcd_time(p + kCaptionTime))) return "caption time is not a valid BCD date";
   return "";
 }
 
 bool is_erased(const std::uint8_t* p) {
   return std::all_of(p, p + kLemiFlashBlockSize, [](std::uint8_t b) { return b == 0x00; }) ||
          std::all_of(p, p + kLemiFlashBlockSize, [](std::uint8_t b) { return b == 0xFF; });
-}
-
-std::int16_t checked_int16(double value, const char* what) {
-  const double rounded = std::round(value);
-  if (!(rounded >= -32768.0 && rounded <= 32767.0))
-    throw InputError("LEMI compact-flash block", std::string(what) + " does not fit int16");
-  return static_cast<std::int16_t>(rounded);
 }
 
 }  // namespace
@@ -101,18 +94,18 @@ LemiFlashBlock decode_lemi_flash_block(const std::uint8_t* b) {
   if (!problem.empty()) throw InputError("LEMI compact-flash block", problem);
   LemiFlashBlock block;
   block.model = b[2] == '3' ? LemiModel::kLemi036 : LemiModel::kLemi025;
-  const std::optional<int> station = lemi_decode_bcd(b[kStation]);
-  block.station = station ? *station : b[kStation];
-  block.time_s = lemi_decode_bcd_time(b + kTime);
-  block.latitude_deg = decode_position(b + kLatitude, 1, 'N', 'S');
-  block.longitude_deg = decode_position(b + kLongitude, 2, 'E', 'W');
-  block.gps_status = static_cast<char>(b[kGpsStatus]);
-  block.reserved = b[kReserved];
-  block.supply_V = b[kSupply] / 10.0;
-  for (int c = 0; c < 3; ++c) block.bias_nT[c] = read_i16(b + kBias + 2 * c) * kLemi025BiasStep_nT;
-  block.service = b[kService];
+  const std::optional<int> station = lemi_decode_bcd(b[kCaptionStation]);
+  block.station = station ? *station : b[kCaptionStation];
+  block.time_s = lemi_decode_bcd_time(b + kCaptionTime);
+  block.latitude_deg = decode_position(b + kCaptionLatitude, 1, 'N', 'S');
+  block.longitude_deg = decode_position(b + kCaptionLongitude, 2, 'E', 'W');
+  block.gps_status = static_cast<char>(b[kCaptionGpsStatus]);
+  block.reserved = b[kCaptionReserved];
+  block.supply_V = b[kCaptionSupply] / 10.0;
+  for (int c = 0; c < 3; ++c) block.bias_nT[c] = read_i16(b + kCaptionBias + 2 * c) * kLemi025BiasStep_nT;
+  block.service = b[kCaptionService];
   for (int j = 0; j < kLemiFlashReadingsPerBlock; ++j) {
-    const std::uint8_t* r = b + kLemiFlashCaptionSize + kReadingSize * j;
+    const std::uint8_t* r = b + kLemiFlashCaptionSize + kBlockReadingSize * j;
     for (int c = 0; c < 3; ++c) block.variation_nT(j, c) = 1000.0 * read_f32(r + 4 * c);  // uT
     block.sensor_temperature_C[j] = read_i16(r + 12) / 100.0;
     block.electronics_temperature_C[j] = read_i16(r + 14) / 100.0;
@@ -130,29 +123,29 @@ std::array<std::uint8_t, kLemiFlashBlockSize> encode_lemi_flash_block(const Lemi
   b[1] = '0';
   b[2] = block.model == LemiModel::kLemi036 ? '3' : '2';
   b[3] = block.model == LemiModel::kLemi036 ? '6' : '5';
-  b[kStation] = lemi_encode_bcd(block.station);
+  b[kCaptionStation] = lemi_encode_bcd(block.station);
   if (!std::isfinite(block.time_s)) throw InputError("LEMI compact-flash block", "time not finite");
   const std::array<int, 6> utc =
       lemi_unix_to_utc(static_cast<std::int64_t>(std::llround(block.time_s)));
   if (utc[0] < 2000 || utc[0] > 2099)
     throw InputError("LEMI compact-flash block", "year outside 2000-2099");
-  b[kTime] = lemi_encode_bcd(utc[0] - 2000);
-  for (int i = 1; i < 6; ++i) b[kTime + i] = lemi_encode_bcd(utc[i]);
-  encode_position(block.latitude_deg, b.data() + kLatitude, 1, 'N', 'S');
-  encode_position(block.longitude_deg, b.data() + kLongitude, 2, 'E', 'W');
-  b[kGpsStatus] = static_cast<std::uint8_t>(block.gps_status);
-  b[kReserved] = block.reserved;
+  b[kCaptionTime] = lemi_encode_bcd(utc[0] - 2000);
+  for (int i = 1; i < 6; ++i) b[kCaptionTime + i] = lemi_encode_bcd(utc[i]);
+  encode_position(block.latitude_deg, b.data() + kCaptionLatitude, 1, 'N', 'S');
+  encode_position(block.longitude_deg, b.data() + kCaptionLongitude, 2, 'E', 'W');
+  b[kCaptionGpsStatus] = static_cast<std::uint8_t>(block.gps_status);
+  b[kCaptionReserved] = block.reserved;
   const double supply = std::round(block.supply_V * 10.0);
   if (!(supply >= 0 && supply <= 255)) throw InputError("LEMI compact-flash block", "supply voltage");
-  b[kSupply] = static_cast<std::uint8_t>(supply);
+  b[kCaptionSupply] = static_cast<std::uint8_t>(supply);
   for (int c = 0; c < 3; ++c)
-    write_i16(b.data() + kBias + 2 * c, checked_int16(block.bias_nT[c] / kLemi025BiasStep_nT, "bias"));
-  b[kService] = block.service;
+    write_i16(b.data() + kCaptionBias + 2 * c, checked_int16(block.bias_nT[c] / kLemi025BiasStep_nT, kBlockSource, "bias"));
+  b[kCaptionService] = block.service;
   for (int j = 0; j < kLemiFlashReadingsPerBlock; ++j) {
-    std::uint8_t* r = b.data() + kLemiFlashCaptionSize + kReadingSize * j;
+    std::uint8_t* r = b.data() + kLemiFlashCaptionSize + kBlockReadingSize * j;
     for (int c = 0; c < 3; ++c) write_f32(r + 4 * c, static_cast<float>(block.variation_nT(j, c) / 1000.0));
-    write_i16(r + 12, checked_int16(block.sensor_temperature_C[j] * 100.0, "sensor temperature"));
-    write_i16(r + 14, checked_int16(block.electronics_temperature_C[j] * 100.0, "electronics temperature"));
+    write_i16(r + 12, checked_int16(block.sensor_temperature_C[j] * 100.0, kBlockSource, "sensor temperature"));
+    write_i16(r + 14, checked_int16(block.electronics_temperature_C[j] * 100.0, kBlockSource, "electronics temperature"));
   }
   return b;
 }

@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
+#include "json_number.hpp"
 
 #include <cmath>
 #include <limits>
@@ -139,7 +140,7 @@ namespace {
 
 using nlohmann::json;
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+using json_detail::number;
 
 // One JSON form per kind of field (calibration_record.hpp).
 json json_of_Text(const record_kind::Text& v) { return v; }

@@ -4,6 +4,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_record.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/estimation/window_agreement.hpp"
+#include "json_number.hpp"
 
 #include <cmath>
 
@@ -12,7 +13,7 @@ namespace {
 
 using nlohmann::json;
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+using json_detail::number;
 
 json vec3(const Eigen::Vector3d& v) { return json::array({number(v(0)), number(v(1)), number(v(2))}); }
 

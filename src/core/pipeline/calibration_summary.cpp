@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "json_number.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -13,7 +14,7 @@ namespace {
 
 using nlohmann::json;
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+using json_detail::number;
 
 /// "scale x", "non-orthogonality xy", "misalignment about z" from the parameter's key.
 std::string words(const std::string& parameter) {
