@@ -35,6 +35,11 @@ std::vector<std::string> read_lines(const std::string& path) {
   return lines;
 }
 
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 ProgramRun run_program(const std::string& program, const std::string& args) {

@@ -1,5 +1,7 @@
 // Shared helpers for the core gtests.
 #pragma once
+#include <nlohmann/json.hpp>
+
 #include <string>
 #include <vector>
 
@@ -15,6 +17,8 @@ std::string test_data(const std::string& name);
 void write_bytes(const std::string& path, const std::string& bytes);
 /// The lines of a text file (or its .gz) as TextLineReader gives them, without line ends.
 std::vector<std::string> read_lines(const std::string& path);
+/// A JSON file parsed (a report of calibrate_records --json, an export's input).
+nlohmann::json read_json(const std::string& path);
 /// Whether `part` occurs in `text`.
 bool contains(const std::string& text, const std::string& part);
 

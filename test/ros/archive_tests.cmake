@@ -1,6 +1,7 @@
 # Tests of the archived-record tools (included by test/ros/tests.cmake):
-#  - test/core/programs/test_archive_records, test_export_corrected, test_export_corrected_cdf (ROS-free, created by the
-#    core glob of CMakeLists.txt): linked here to the archive library, given the programs;
+#  - test_core_programs (test/core/programs/: test_archive_records, test_export_corrected,
+#    test_export_corrected_cdf among them; ROS-free, created by the core's loop in CMakeLists.txt):
+#    linked here to the archive library, given the programs;
 #  - test_bag_records: gtest without a master (bags, records_to_bag, calibrate_records --bag,
 #    export_corrected from a bag and a calibration_node YAML);
 #  - rostest replay_agreement: launch/replay.launch vs calibrate_records --bag, same windows;
@@ -13,7 +14,7 @@ set(_mic_programs
   PACKAGE_DATA_DIR="${CMAKE_CURRENT_SOURCE_DIR}/data"
   TEST_DATA_DIR="${CMAKE_CURRENT_SOURCE_DIR}/test/data")
 
-foreach(_mic_test test_archive_records test_export_corrected test_export_corrected_cdf)
+foreach(_mic_test test_core_programs)
   if(TARGET ${_mic_test})
     target_link_libraries(${_mic_test} ${PROJECT_NAME}_archive)
     target_compile_definitions(${_mic_test} PRIVATE EXPORT_CORRECTED_BIN="$<TARGET_FILE:export_corrected>")

@@ -1,6 +1,7 @@
 // Decomposition checked against matrices built from known angles (independently of the
 // simulator's construction), and the delta-method intervals against sampling.
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
+#include "test_constants.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -11,7 +12,7 @@
 namespace mic = magnetometer_insitu_calibration;
 
 namespace {
-constexpr double kRad = M_PI / 180.0;
+using magnetometer_insitu_calibration::test::kRad;
 
 Eigen::Matrix3d rotation(double angle_deg, const Eigen::Vector3d& axis) {
   return Eigen::AngleAxisd(angle_deg * kRad, axis.normalized()).toRotationMatrix();

@@ -3,6 +3,7 @@
 // Records here come from a small local generator (random-walk field, PSD ~ f^-2, plus white and
 // AR(1) noise) so that the estimator is tested independently of the package's simulator.
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "test_constants.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -18,7 +19,7 @@ using mic::Readings;
 
 namespace {
 
-constexpr double kRad = M_PI / 180.0;
+using magnetometer_insitu_calibration::test::kRad;
 
 struct Pair {
   Readings reference, test;

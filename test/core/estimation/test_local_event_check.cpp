@@ -21,7 +21,7 @@ namespace {
 
 constexpr double kBandTopHz = 0.01;  // the default band's top: event band 0.02-0.2 Hz at 1 s
 
-mic::SimulationSettings station(std::uint64_t seed, double days = 1.0) {
+mic::SimulationSettings event_station(std::uint64_t seed, double days = 1.0) {
   return mic::test::quiet_station(seed, days * 86400.0);
 }
 
@@ -39,7 +39,7 @@ TEST(LocalEventCheck, QuietPairsShowNoEvents) {
   double sum = 0.0;
   int seen = 0;
   for (std::uint64_t seed = 61000; seed < 61010; ++seed) {
-    const mic::LocalEventCheck c = check(mic::simulate_pair(station(seed)));
+    const mic::LocalEventCheck c = check(mic::simulate_pair(event_station(seed)));
     ASSERT_TRUE(c.assessed) << c.text;
     EXPECT_EQ(c.blocks, 674) << c.text;  // 86400 s less one difference, in 128 s blocks
     EXPECT_DOUBLE_EQ(c.low_hz, 0.02);
@@ -56,7 +56,7 @@ TEST(LocalEventCheck, QuietPairsShowNoEvents) {
 TEST(LocalEventCheck, TrafficBothSensorsSeeIsSeen) {
   // Two days (z 8.0-11.2 on these seeds; one day gave 2.0-3.7, the Monte Carlo's 5-day records 9-24).
   for (std::uint64_t seed : {61100, 61101, 61102}) {
-    mic::SimulatedPair pair = mic::simulate_pair(station(seed, 2.0));
+    mic::SimulatedPair pair = mic::simulate_pair(event_station(seed, 2.0));
     add_busy_road(pair, seed);
     const mic::LocalEventCheck c = check(pair);
     ASSERT_TRUE(c.assessed) << c.text;
@@ -70,7 +70,7 @@ TEST(LocalEventCheck, EventsAtTheReferenceAloneAreSeenAtTheTestAloneNot) {
   // The same vehicles, once only in the reference (an error in the regressor: a bias) and once
   // only in the test (noise in the response: no bias).
   const std::uint64_t seed = 61200;
-  const mic::SimulatedPair clean = mic::simulate_pair(station(seed));
+  const mic::SimulatedPair clean = mic::simulate_pair(event_station(seed));
   mic::SimulatedPair both = clean;
   const mic::StationDisturbanceReport road = add_busy_road(both, seed);
   mic::SimulatedPair reference_only = clean, test_only = clean;
@@ -89,7 +89,7 @@ TEST(LocalEventCheck, ATestBehindAFilterAndADelayShowsNoEvents) {
   int seen = 0;
   double sum = 0.0;
   for (std::uint64_t seed = 61300; seed < 61306; ++seed) {
-    mic::SimulatedPair pair = mic::simulate_pair(station(seed));
+    mic::SimulatedPair pair = mic::simulate_pair(event_station(seed));
     mic::apply_test_response(pair.test.values_nT, 1.0, 0.03, 2.0);
     const mic::LocalEventCheck c = check(pair, 2.0);
     seen += c.seen;
@@ -102,7 +102,7 @@ TEST(LocalEventCheck, ATestBehindAFilterAndADelayShowsNoEvents) {
 TEST(LocalEventCheck, StraightLineFillsAreLeftOut) {
   // Gaps filled by straight lines in both records (as the pipeline and the screen fill them) make
   // a block quiet in R and in E together; such blocks are left out, not taken for events.
-  mic::SimulatedPair pair = mic::simulate_pair(station(61400));
+  mic::SimulatedPair pair = mic::simulate_pair(event_station(61400));
   mic::Readings& r = pair.reference.values_nT;
   mic::Readings& t = pair.test.values_nT;
   int runs = 0;
@@ -123,14 +123,14 @@ TEST(LocalEventCheck, StraightLineFillsAreLeftOut) {
 }
 
 TEST(LocalEventCheck, ShortWindowsAndNoEventBandAreNotAssessed) {
-  const mic::SimulatedPair pair = mic::simulate_pair(station(61500, 2.0 / 24.0));
+  const mic::SimulatedPair pair = mic::simulate_pair(event_station(61500, 2.0 / 24.0));
   const mic::LocalEventCheck short_window = check(pair);
   EXPECT_FALSE(short_window.assessed);
   EXPECT_FALSE(short_window.seen);
   EXPECT_TRUE(std::isnan(short_window.p_value));
   EXPECT_NE(short_window.text.find("not assessed: 56 blocks"), std::string::npos) << short_window.text;
   // A band reaching 0.1 Hz at 1 s: the event band would start at 0.2 Hz, above 0.4 / period / 4.
-  const mic::SimulatedPair day = mic::simulate_pair(station(61501));
+  const mic::SimulatedPair day = mic::simulate_pair(event_station(61501));
   const mic::LocalEventCheck high_band =
       mic::check_local_events(day.reference.values_nT, day.test.values_nT, 1.0, 0.1, std::nan(""));
   EXPECT_FALSE(high_band.assessed);
@@ -138,7 +138,7 @@ TEST(LocalEventCheck, ShortWindowsAndNoEventBandAreNotAssessed) {
 }
 
 TEST(LocalEventCheck, TheDefaultEstimatorRunsItWithoutARemotePlainEq2DoesNot) {
-  mic::SimulatedPair pair = mic::simulate_pair(station(61600, 2.0));
+  mic::SimulatedPair pair = mic::simulate_pair(event_station(61600, 2.0));
   add_busy_road(pair, 61600);
   mic::EstimatorSettings robust;
   mic::WindowEstimator estimator(robust);

@@ -2,6 +2,7 @@
 // and a 2 s delay (reference flat), and against a flat pair (gain 1, phase 0).
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -16,9 +17,9 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using magnetometer_insitu_calibration::test::kPi;
 
-struct Pair {
+struct ResponsePair {
   mic::Readings reference, test;
   mic::Readings clean;  ///< the field without instrument noise, nT
   Eigen::Matrix3d n;
@@ -27,11 +28,11 @@ struct Pair {
 /// One day at 1 Hz: a random-walk field (f^-2 spectrum, 0.05 nT steps) plus 10 pT (or
 /// reference_noise_nT) white noise in the reference; T = filter(R_clean n) + 30 pT white noise. The filter is y_k = a y_{k-1} +
 /// (1 - a) x_{k - delay} (a = exp(-2 pi fc dt)), or none when fc = 0.
-Pair simulate(unsigned seed, double corner_hz, int delay_samples, std::size_t samples = 86400,
+ResponsePair simulate(unsigned seed, double corner_hz, int delay_samples, std::size_t samples = 86400,
               double reference_noise_nT = 0.01) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> step(0.0, 0.05), ref_noise(0.0, reference_noise_nT), test_noise(0.0, 0.03);
-  Pair p;
+  ResponsePair p;
   p.n << 1.002, 0.004, -0.003, -0.005, 0.997, 0.006, 0.002, -0.004, 1.004;
   mic::Readings clean(static_cast<Eigen::Index>(samples), 3);
   Eigen::RowVector3d level(20000.0, 1000.0, 45000.0);
@@ -72,7 +73,7 @@ std::complex<double> true_response(double f, double corner_hz, int delay_samples
 }  // namespace
 
 TEST(RelativeResponse, FlatPairHasUnitGainAndZeroPhaseWithinIntervals) {
-  const Pair p = simulate(3, 0.0, 0);
+  const ResponsePair p = simulate(3, 0.0, 0);
   const auto bands = mic::relative_response(p.reference, p.test, p.n, 1.0);
   ASSERT_GE(bands.size(), 10u);
   int inside = 0, total = 0;
@@ -104,7 +105,7 @@ TEST(RelativeResponse, LowPassAndDelayRecoveredWithinIntervals) {
   const char* seeds_env = std::getenv("MIC_RESPONSE_SEEDS");
   const unsigned seeds = seeds_env != nullptr ? static_cast<unsigned>(std::atoi(seeds_env)) : 40u;
   for (unsigned seed = 100; seed < 100 + seeds; ++seed) {
-    const Pair p = simulate(seed, corner, delay);
+    const ResponsePair p = simulate(seed, corner, delay);
     const auto bands = mic::relative_response(p.reference, p.test, p.n, 1.0);
     for (double f : {0.01, 0.03}) {
       const auto it = std::find_if(bands.begin(), bands.end(),
@@ -132,7 +133,7 @@ TEST(RelativeResponse, LowPassAndDelayRecoveredWithinIntervals) {
 // with the reference's noise given (a maker's figure, a three-cornered hat) the gain is 1 within
 // its intervals again.
 TEST(RelativeResponse, IdentifiedReferenceNoiseRemovesTheAttenuationOfTheGain) {
-  const Pair p = simulate(11, 0.0, 0, 86400, 0.03);
+  const ResponsePair p = simulate(11, 0.0, 0, 86400, 0.03);
   mic::RelativeResponseSettings corrected;
   corrected.reference_noise.white_nT.setConstant(0.03);
   const auto plain = mic::relative_response(p.reference, p.test, p.n, 1.0);
@@ -165,7 +166,7 @@ TEST(RelativeResponse, IdentifiedReferenceNoiseRemovesTheAttenuationOfTheGain) {
 // on the remote's instruments the gain above 0.03 Hz is 1 within its intervals without any
 // model of the reference's noise, where the pair's own is attenuated.
 TEST(RelativeResponse, RemoteInstrumentsRemoveTheAttenuationWithoutANoiseModel) {
-  const Pair p = simulate(11, 0.0, 0, 86400, 0.03);
+  const ResponsePair p = simulate(11, 0.0, 0, 86400, 0.03);
   std::mt19937_64 rng(99);
   std::normal_distribution<double> step(0.0, 0.05 * std::sqrt(0.2)), noise(0.0, 0.02);
   Eigen::Matrix3d q;
@@ -202,7 +203,7 @@ TEST(RelativeResponse, RemoteInstrumentsRemoveTheAttenuationWithoutANoiseModel) 
 }
 
 TEST(RelativeResponse, GroupDelayOfAPureDelay) {
-  const Pair p = simulate(7, 1e9, 3);  // a = 0: a pure 3-sample delay
+  const ResponsePair p = simulate(7, 1e9, 3);  // a = 0: a pure 3-sample delay
   const auto bands = mic::relative_response(p.reference, p.test, p.n, 1.0);
   const auto summary = mic::summarise_response(bands, 0.0002, 0.05);
   ASSERT_GT(summary.bands, 3u);

@@ -15,7 +15,7 @@ namespace lemi_test {
 using Bytes = std::vector<std::uint8_t>;
 
 // 2024-03-05 12:34:50 UTC (python: calendar.timegm((2024,3,5,12,34,50))).
-constexpr double kT0 = 1709642090.0;
+constexpr double kArchiveT0 = 1709642090.0;
 
 inline void put_i16(Bytes& b, std::size_t at, int value) {
   const auto u = static_cast<std::uint16_t>(static_cast<std::int16_t>(value));

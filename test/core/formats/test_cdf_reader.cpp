@@ -34,7 +34,7 @@ Bytes file_bytes(const std::string& path) {
   return Bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-void write_file(const std::string& path, const Bytes& bytes) {
+void write_cdf_file(const std::string& path, const Bytes& bytes) {
   mic::test::write_bytes(path, std::string(bytes.begin(), bytes.end()));
 }
 
@@ -141,7 +141,7 @@ TEST(CdfReader, TruncatedAndCorruptFilesNameTheFileAndThePart) {
   ASSERT_GT(compressed.size(), 100000u);
   auto error_of = [&](const std::string& name, const Bytes& bytes) {
     const std::string path = dir + "/" + name;
-    write_file(path, bytes);
+    write_cdf_file(path, bytes);
     const std::string message = read_error(path);
     EXPECT_TRUE(contains(message, path)) << message;
     return message;
@@ -162,7 +162,7 @@ TEST(CdfReader, TruncatedAndCorruptFilesNameTheFileAndThePart) {
   EXPECT_TRUE(contains(error_of("rle.cdf", rle), "compression type 1 is not supported")) << error_of("rle.cdf", rle);
 
   const Bytes plain = uncompressed_cdf(compressed);
-  ASSERT_EQ(mic::read_record((write_file(dir + "/plain.cdf", plain), dir + "/plain.cdf")).size(), 86400u);
+  ASSERT_EQ(mic::read_record((write_cdf_file(dir + "/plain.cdf", plain), dir + "/plain.cdf")).size(), 86400u);
   // Truncated uncompressed file.
   const std::string half = error_of("half.cdf", Bytes(plain.begin(), plain.begin() + static_cast<long>(plain.size() / 2)));
   EXPECT_TRUE(contains(half, "CDF ")) << half;

@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include "test_support.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -25,8 +26,8 @@ using mic::test::write_bytes;
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kMay14 = 1747180800.0;  // 2025-05-14T00:00:00Z
+using magnetometer_insitu_calibration::test::kNaN;
+using magnetometer_insitu_calibration::test::kMay14;
 
 /// The InputError message of reading a CSV file with `content`, or "" if it read fine.
 std::string csv_error(const std::string& dir, const std::string& name, const std::string& content) {

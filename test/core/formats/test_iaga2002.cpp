@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include "test_support.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -28,8 +29,8 @@ using mic::test::write_bytes;
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kMay14 = 1747180800.0;  // 2025-05-14T00:00:00Z
+using magnetometer_insitu_calibration::test::kNaN;
+using magnetometer_insitu_calibration::test::kMay14;
 
 std::string read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -37,7 +38,7 @@ std::string read_bytes(const std::string& path) {
 }
 
 /// The InputError message of reading `path`, or "" if it read without error.
-std::string read_error(const std::string& path) {
+std::string iaga_read_error(const std::string& path) {
   try {
     mic::read_iaga2002(path);
   } catch (const mic::InputError& error) {
@@ -132,35 +133,35 @@ TEST(ReadIaga2002, SmallFixtureSentinelsAndFractionalTime) {
 }
 
 TEST(ReadIaga2002, ErrorsNameFileLineAndField) {
-  std::string message = read_error(test_data("formats/iaga_bad_number.sec"));
+  std::string message = iaga_read_error(test_data("formats/iaga_bad_number.sec"));
   EXPECT_TRUE(contains(message, "iaga_bad_number.sec:18: ")) << message;
   EXPECT_TRUE(contains(message, "WICE")) << message;
   EXPECT_TRUE(contains(message, "54x.22")) << message;
 
-  message = read_error(test_data("formats/iaga_backwards.sec"));
+  message = iaga_read_error(test_data("formats/iaga_backwards.sec"));
   EXPECT_TRUE(contains(message, "iaga_backwards.sec:19: ")) << message;
   EXPECT_TRUE(contains(message, "backwards")) << message;
   EXPECT_TRUE(contains(message, "2025-05-14T00:00:01.500Z")) << message;
   EXPECT_TRUE(contains(message, "on line 18")) << message;  // the previous record
 
-  message = read_error(test_data("formats/iaga_duplicate.sec"));
+  message = iaga_read_error(test_data("formats/iaga_duplicate.sec"));
   EXPECT_TRUE(contains(message, "iaga_duplicate.sec:17: ")) << message;
   EXPECT_TRUE(contains(message, "duplicate time")) << message;
 
-  message = read_error(test_data("formats/iaga_short_line.sec"));
+  message = iaga_read_error(test_data("formats/iaga_short_line.sec"));
   EXPECT_TRUE(contains(message, "iaga_short_line.sec:20: ")) << message;
   EXPECT_TRUE(contains(message, "too few columns: expected 7")) << message;
   EXPECT_TRUE(contains(message, "found 6")) << message;
 
-  message = read_error(test_data("formats/iaga_bad_date.sec"));
+  message = iaga_read_error(test_data("formats/iaga_bad_date.sec"));
   EXPECT_TRUE(contains(message, "iaga_bad_date.sec:17: ")) << message;
   EXPECT_TRUE(contains(message, "DATE/TIME")) << message;
   EXPECT_TRUE(contains(message, "2025-02-30")) << message;
 
-  message = read_error(test_data("formats/iaga_no_data.sec"));
+  message = iaga_read_error(test_data("formats/iaga_no_data.sec"));
   EXPECT_TRUE(contains(message, "iaga_no_data.sec: no data lines")) << message;
 
-  message = read_error(test_data("formats/no_such_file.sec"));
+  message = iaga_read_error(test_data("formats/no_such_file.sec"));
   EXPECT_TRUE(contains(message, "no_such_file.sec: cannot open: No such file or directory"))
       << message;
 }
@@ -191,12 +192,12 @@ TEST(ReadIaga2002, ErrorsFromEditedFixture) {
     edited.replace(at, c.from.size(), c.to);
     const std::string path = dir + "/edited.sec";
     write_bytes(path, edited);
-    const std::string message = read_error(path);
+    const std::string message = iaga_read_error(path);
     EXPECT_TRUE(contains(message, "edited.sec" + c.expect)) << message;
   }
   // No column header at all.
   write_bytes(dir + "/header_only.sec", good.substr(0, good.find("DATE")));
-  EXPECT_TRUE(contains(read_error(dir + "/header_only.sec"), "header_only.sec: no column header"));
+  EXPECT_TRUE(contains(iaga_read_error(dir + "/header_only.sec"), "header_only.sec: no column header"));
 }
 
 TEST(WriteIaga2002, RewritingTheRealFileReproducesItByteForByte) {

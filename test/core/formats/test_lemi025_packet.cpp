@@ -1,6 +1,7 @@
 // LEMI-025 packet decoding/encoding against a packet built byte by byte in this file.
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +15,7 @@ using namespace magnetometer_insitu_calibration;
 namespace {
 
 // 2024-03-05 12:34:56 UTC (python: calendar.timegm((2024,3,5,12,34,56))).
-constexpr double kT0 = 1709642096.0;
+using magnetometer_insitu_calibration::test::kT0;
 
 void put_i16(std::vector<std::uint8_t>& b, std::size_t at, int value) {
   const auto u = static_cast<std::uint16_t>(static_cast<std::int16_t>(value));
@@ -22,7 +23,7 @@ void put_i16(std::vector<std::uint8_t>& b, std::size_t at, int value) {
   b[at + 1] = static_cast<std::uint8_t>(u >> 8);
 }
 
-void put_f32(std::vector<std::uint8_t>& b, std::size_t at, float value) {
+void put_packet_f32(std::vector<std::uint8_t>& b, std::size_t at, float value) {
   std::uint32_t bits;
   std::memcpy(&bits, &value, 4);
   for (int i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(bits >> (8 * i));
@@ -48,7 +49,7 @@ std::vector<std::uint8_t> hand_packet() {
   put_i16(b, 23, -1);     // bias Y -2.5 nT
   put_i16(b, 25, 18001);  // bias Z 45002.5 nT
   for (int k = 0; k < 10; ++k)
-    for (int c = 0; c < 3; ++c) put_f32(b, 28 + 12 * k + 4 * c, reading_uT(k, c));
+    for (int c = 0; c < 3; ++c) put_packet_f32(b, 28 + 12 * k + 4 * c, reading_uT(k, c));
   b[148] = 3;    // mode flash + PC
   b[149] = 87;   // flash free %
   b[150] = 123;  // 12.3 V
@@ -160,11 +161,11 @@ TEST(Lemi025Packet, StructureChecks) {
   }
   {
     std::vector<std::uint8_t> b = good;
-    put_f32(b, 28 + 12 * 5 + 4, std::numeric_limits<float>::quiet_NaN());
+    put_packet_f32(b, 28 + 12 * 5 + 4, std::numeric_limits<float>::quiet_NaN());
     EXPECT_EQ(check_lemi025_structure(b.data()), Lemi025Problem::kBadReadings);
-    put_f32(b, 28 + 12 * 5 + 4, 100.5f);  // 100500 nT > 100000 nT
+    put_packet_f32(b, 28 + 12 * 5 + 4, 100.5f);  // 100500 nT > 100000 nT
     EXPECT_EQ(check_lemi025_structure(b.data()), Lemi025Problem::kBadReadings);
-    put_f32(b, 28 + 12 * 5 + 4, -99.5f);
+    put_packet_f32(b, 28 + 12 * 5 + 4, -99.5f);
     EXPECT_EQ(check_lemi025_structure(b.data()), Lemi025Problem::kOk);
   }
   Lemi025Plausibility lenient;
@@ -278,8 +279,8 @@ TEST(Lemi025Packet, ReadingPlausibilityRule) {
 // check still calls it kBadReadings. Garbage header/time is still not a frame.
 TEST(Lemi025Packet, FrameKeepsPacketWithImplausibleReadings) {
   std::vector<std::uint8_t> b = hand_packet();
-  put_f32(b, 28 + 12 * 4 + 8, 1.0e30f);                                    // reading 4, Z
-  put_f32(b, 28 + 12 * 7 + 0, std::numeric_limits<float>::infinity());     // reading 7, X
+  put_packet_f32(b, 28 + 12 * 4 + 8, 1.0e30f);                                    // reading 4, Z
+  put_packet_f32(b, 28 + 12 * 7 + 0, std::numeric_limits<float>::infinity());     // reading 7, X
   b[152] = lemi025_checksum(b.data(), ChecksumMode::kSum8);
   EXPECT_EQ(check_lemi025_structure(b.data()), Lemi025Problem::kBadReadings);
   for (ChecksumMode mode : {ChecksumMode::kNone, ChecksumMode::kSum8})

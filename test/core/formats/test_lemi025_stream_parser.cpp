@@ -2,6 +2,7 @@
 // Packets are made by encode_lemi025_packet, itself checked byte by byte against a hand-built
 // packet in test_lemi025_packet.cpp.
 #include "magnetometer_insitu_calibration/formats/lemi025_stream_parser.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +14,7 @@ using namespace magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kT0 = 1709642096.0;  // 2024-03-05 12:34:56 UTC
+using magnetometer_insitu_calibration::test::kT0;
 constexpr int kPackets = 8;
 
 Lemi025Packet make_packet(int i) {

@@ -80,7 +80,7 @@ void expect_packet_rows(const VectorRecord& r, std::size_t row, int i, bool full
   for (int k = 0; k < 10; ++k) {
     const auto n = static_cast<Eigen::Index>(row + k);
     ASSERT_LT(row + k, r.size());
-    EXPECT_NEAR(r.time_s[row + k], kT0 + i + shift_s + 0.1 * k, 1e-6) << "row " << row + k;
+    EXPECT_NEAR(r.time_s[row + k], kArchiveT0 + i + shift_s + 0.1 * k, 1e-6) << "row " << row + k;
     EXPECT_DOUBLE_EQ(r.values_nT(n, 0), (full_field ? 20000.0 : 0.0) + 1000.0 * (0.25 * k + i));
     EXPECT_DOUBLE_EQ(r.values_nT(n, 1), -500.0 * k);
     EXPECT_DOUBLE_EQ(r.values_nT(n, 2), (full_field ? -40000.0 : 0.0) + 1500.0);
@@ -136,9 +136,9 @@ TEST(LemiBin, RecordsKeepPcTimeAndOffsets) {
   ASSERT_EQ(file.records.size(), 2u);
   EXPECT_EQ(file.records[0].offset, kHeader.size());
   EXPECT_EQ(file.records[1].offset, kHeader.size() + 169);
-  EXPECT_NEAR(file.records[0].pc_time_s, kT0 + 1.25, 1e-9);
-  EXPECT_NEAR(file.records[1].pc_time_s, kT0 + 2.25, 1e-9);
-  EXPECT_EQ(file.records[1].packet.gps_time_s, kT0 + 1);
+  EXPECT_NEAR(file.records[0].pc_time_s, kArchiveT0 + 1.25, 1e-9);
+  EXPECT_NEAR(file.records[1].pc_time_s, kArchiveT0 + 2.25, 1e-9);
+  EXPECT_EQ(file.records[1].packet.gps_time_s, kArchiveT0 + 1);
   EXPECT_DOUBLE_EQ(file.records[1].packet.sensor_temperature_C, 21.5);
   EXPECT_DOUBLE_EQ(file.records[1].packet.electronics_temperature_C, -3.25);
   EXPECT_DOUBLE_EQ(file.records[1].packet.supply_V, 12.0);
@@ -187,7 +187,7 @@ TEST(LemiBin, ImplausibleReadingsBecomeNaNAndTheRecordIsKept) {
   expect_packet_rows(r, 30, 3, true);
   for (int k = 0; k < 10; ++k) {
     const Eigen::Index n = 20 + k;
-    EXPECT_NEAR(r.time_s[20 + k], kT0 + 2 - 0.3 + 0.1 * k, 1e-6);
+    EXPECT_NEAR(r.time_s[20 + k], kArchiveT0 + 2 - 0.3 + 0.1 * k, 1e-6);
     if (k == 3 || k == 7) {
       EXPECT_TRUE(r.values_nT.row(n).array().isNaN().all()) << "reading " << k;
     } else {
@@ -297,11 +297,11 @@ TEST(LemiBin, PacketSource) {
   const std::string path = write_file("src.bin", lemi_bin({hand_record(0), broken, hand_record(2)}));
   LemiBinPacketSource source(path);
   std::vector<double> t;
-  while (auto p = source.next(0.0)) t.push_back(p->gps_time_s - kT0);
+  while (auto p = source.next(0.0)) t.push_back(p->gps_time_s - kArchiveT0);
   EXPECT_EQ(t, (std::vector<double>{0, 2}));
   EXPECT_TRUE(source.at_end());
   ASSERT_EQ(source.pc_times_s().size(), 2u);
-  EXPECT_NEAR(source.pc_times_s()[1], kT0 + 3.25, 1e-9);
+  EXPECT_NEAR(source.pc_times_s()[1], kArchiveT0 + 3.25, 1e-9);
   const PacketSourceStats s = source.stats();
   EXPECT_EQ(s.parser.packets, 2u);
   EXPECT_EQ(s.parser.bytes_skipped, 169u);

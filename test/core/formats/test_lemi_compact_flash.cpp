@@ -59,7 +59,7 @@ void expect_block_rows(const VectorRecord& r, std::size_t row, int b) {
   for (int j = 0; j < 30; ++j) {
     const auto n = static_cast<Eigen::Index>(row + j);
     ASSERT_LT(row + j, r.size());
-    EXPECT_NEAR(r.time_s[row + j], kT0 + 3 * b - 0.3 + 0.1 * j, 1e-6) << "row " << row + j;
+    EXPECT_NEAR(r.time_s[row + j], kArchiveT0 + 3 * b - 0.3 + 0.1 * j, 1e-6) << "row " << row + j;
     EXPECT_DOUBLE_EQ(r.values_nT(n, 0), 20000.0 + 1000.0 * (0.125 * j + b));
     EXPECT_DOUBLE_EQ(r.values_nT(n, 1), -1000.0 + 1000.0 * (-0.5 - 0.0625 * j));
     EXPECT_DOUBLE_EQ(r.values_nT(n, 2), 40000.0 + 2000.0);
@@ -73,7 +73,7 @@ TEST(LemiCompactFlash, DecodesCaptionIncludingVendorPositionExample) {
   const LemiFlashBlock block = decode_lemi_flash_block(x.data());
   EXPECT_EQ(block.model, LemiModel::kLemi025);
   EXPECT_EQ(block.station, 47);
-  EXPECT_EQ(block.time_s, kT0 + 3);
+  EXPECT_EQ(block.time_s, kArchiveT0 + 3);
   EXPECT_NEAR(block.latitude_deg, 49.0 + 47.9445 / 60.0, 1e-12);   // 49.799075
   EXPECT_NEAR(block.longitude_deg, 24.0 + 0.5496 / 60.0, 1e-12);   // 24.00916
   EXPECT_EQ(block.gps_status, 'A');
@@ -173,18 +173,18 @@ TEST(LemiCompactFlash, BadBlockReportedAndMisalignmentRecovered) {
 TEST(LemiCompactFlash, PacketLikeGroupsOfTen) {
   const LemiFlashBlock block = decode_lemi_flash_block(hand_block(1).data());
   const Lemi025Packet p = lemi_flash_block_second(block, 2);
-  EXPECT_EQ(p.gps_time_s, kT0 + 3 + 2);
+  EXPECT_EQ(p.gps_time_s, kArchiveT0 + 3 + 2);
   EXPECT_DOUBLE_EQ(p.variation_nT(0, 0), 1000.0 * (0.125 * 20 + 1));
   EXPECT_DOUBLE_EQ(p.variation_nT(9, 0), 1000.0 * (0.125 * 29 + 1));
   EXPECT_DOUBLE_EQ(p.sensor_temperature_C, 15.20);
-  EXPECT_NEAR(p.sample_time_s(0), kT0 + 5 - 0.3, 1e-6);
+  EXPECT_NEAR(p.sample_time_s(0), kArchiveT0 + 5 - 0.3, 1e-6);
   EXPECT_THROW(lemi_flash_block_second(block, 3), InputError);
 
   Bytes card = hand_block(0);
   append(card, hand_block(1));
   CompactFlashPacketSource source(write_file("groups.img", card));
   std::vector<double> t;
-  while (auto q = source.next(0.0)) t.push_back(q->gps_time_s - kT0);
+  while (auto q = source.next(0.0)) t.push_back(q->gps_time_s - kArchiveT0);
   EXPECT_EQ(t, (std::vector<double>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(source.stats().parser.time_jumps, 0u);
   EXPECT_EQ(source.stats().parser.bytes_skipped, 0u);
@@ -220,7 +220,7 @@ TEST(LemiCompactFlash, ImplausibleReadingsBecomeNaN) {
   expect_block_rows(r, 60, 2);
   for (int j = 0; j < 30; ++j) {
     const Eigen::Index n = 30 + j;
-    EXPECT_NEAR(r.time_s[30 + j], kT0 + 3 - 0.3 + 0.1 * j, 1e-6);
+    EXPECT_NEAR(r.time_s[30 + j], kArchiveT0 + 3 - 0.3 + 0.1 * j, 1e-6);
     if (j == 5 || j == 12 || j == 20) {
       EXPECT_TRUE(r.values_nT.row(n).array().isNaN().all()) << "reading " << j;
     } else if (j != 21) {

@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/instrument/serial_port.hpp"
 
 #include "test_support.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -24,7 +25,7 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-constexpr double kT0 = 1709642096.0;  // 2024-03-05 12:34:56 UTC
+using magnetometer_insitu_calibration::test::kT0;
 
 // The master side of a pty; the slave name is what a driver would open.
 class Pty {

@@ -3,6 +3,7 @@
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "test_constants.hpp"
 
 #include <fftw3.h>
 #include <gtest/gtest.h>
@@ -17,7 +18,7 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using magnetometer_insitu_calibration::test::kPi;
 
 /// An analogue first-order low-pass 1 / (1 + i f / fc) and a delay exp(-i 2 pi f delay_s), applied
 /// exactly in the frequency domain at dt = 1 s (fc = 0: no filter). The line through the end samples

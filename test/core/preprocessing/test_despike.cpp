@@ -2,6 +2,7 @@
 // found, identical flags to a brute-force Hampel implementation, and speed on a 10 Hz day.
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -16,7 +17,7 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using magnetometer_insitu_calibration::test::kPi;
 constexpr double kRate_hz = 10.0;
 
 /// Smooth geomagnetic-like variations, nT: sinusoids with periods from 20 s to 1 day (tens of

@@ -2,6 +2,7 @@
 // instruments, trims NaN ends, snaps jittered stamps and rejects off-grid ones.
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,14 +14,14 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kStart = 1747180800.0;  // 2025-05-14T00:00:00Z
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kGapStart = 1747180800.0;  // 2025-05-14T00:00:00Z
+using magnetometer_insitu_calibration::test::kPi;
 const double kNaN = std::nan("");
 
 /// Reference: a linear function of time per column; test = reference * n + offset drift
 /// (also linear in time), nT.
 Eigen::RowVector3d linear_reference(double t) {
-  const double u = t - kStart;
+  const double u = t - kGapStart;
   return Eigen::RowVector3d(20000.0 + 0.013 * u, -300.0 - 0.007 * u, 45000.0 + 0.002 * u);
 }
 
@@ -36,7 +37,7 @@ mic::PairedRecord make_paired(int count, const std::set<int>& skip, bool linear)
   std::vector<Eigen::RowVector3d> r, t;
   for (int k = 0; k < count; ++k) {
     if (skip.count(k)) continue;
-    const double time = kStart + k;
+    const double time = kGapStart + k;
     Eigen::RowVector3d ref = linear_reference(time);
     if (!linear) {
       ref += Eigen::RowVector3d(30 * std::sin(2 * kPi * k / 600.0), 20 * std::cos(2 * kPi * k / 97.0),
@@ -68,8 +69,8 @@ TEST(GapFilling, LinearSignalIsReproducedExactlyAcrossGaps) {
   std::set<int> skip{5, 6, 7, 100};
   for (int k = 200; k < 290; ++k) skip.insert(k);  // 90 s gap: longer than max_fill_s = 60
   mic::PairedRecord p = make_paired(400, skip, true);
-  p.reference_nT(row_at(p, kStart + 50), 1) = kNaN;  // NaN in one reference component
-  p.test_nT(row_at(p, kStart + 60), 2) = kNaN;       // NaN in one test component
+  p.reference_nT(row_at(p, kGapStart + 50), 1) = kNaN;  // NaN in one reference component
+  p.test_nT(row_at(p, kGapStart + 60), 2) = kNaN;       // NaN in one test component
   const mic::GapReport report = mic::regularize_and_fill(p, 1.0, mic::GapSettings{});
 
   ASSERT_EQ(p.size(), 400u);
@@ -83,7 +84,7 @@ TEST(GapFilling, LinearSignalIsReproducedExactlyAcrossGaps) {
   double worst_ref = 0, worst_relation = 0;
   for (std::size_t k = 0; k < 400; ++k) {
     const auto r = static_cast<Eigen::Index>(k);
-    EXPECT_EQ(p.time_s[k], kStart + static_cast<double>(k));
+    EXPECT_EQ(p.time_s[k], kGapStart + static_cast<double>(k));
     const bool should_fill = skip.count(static_cast<int>(k)) || k == 50 || k == 60;
     EXPECT_EQ(report.filled[k], should_fill ? 1 : 0) << k;
     worst_ref = std::max(worst_ref, (p.reference_nT.row(r) - linear_reference(p.time_s[k])).cwiseAbs().maxCoeff());
@@ -131,8 +132,8 @@ TEST(GapFilling, LeadingAndTrailingNaNRowsAreTrimmed) {
   EXPECT_EQ(report.trimmed_leading, 3u);
   EXPECT_EQ(report.trimmed_trailing, 5u);
   ASSERT_EQ(p.size(), 92u);
-  EXPECT_EQ(p.time_s.front(), kStart + 3);
-  EXPECT_EQ(p.time_s.back(), kStart + 94);
+  EXPECT_EQ(p.time_s.front(), kGapStart + 3);
+  EXPECT_EQ(p.time_s.back(), kGapStart + 94);
   EXPECT_EQ(report.filled_samples, 0u);
   EXPECT_TRUE(p.reference_nT.allFinite() && p.test_nT.allFinite());
 }
@@ -140,24 +141,24 @@ TEST(GapFilling, LeadingAndTrailingNaNRowsAreTrimmed) {
 TEST(GapFilling, JitteredStampsSnapToTheGridAndOffGridStampsThrow) {
   // 10 Hz with +-20 ms jitter (less than dt/4 = 25 ms) and a jittered first stamp.
   mic::PairedRecord p = make_paired(50, {}, true);
-  for (std::size_t k = 0; k < p.size(); ++k) p.time_s[k] = kStart + 0.1 * static_cast<double>(k) + 0.02 * std::sin(1.3 * k + 1);
-  p.time_s[0] = kStart - 0.02;
+  for (std::size_t k = 0; k < p.size(); ++k) p.time_s[k] = kGapStart + 0.1 * static_cast<double>(k) + 0.02 * std::sin(1.3 * k + 1);
+  p.time_s[0] = kGapStart - 0.02;
   const std::vector<double> stamps = p.time_s;
   const mic::GapReport report = mic::regularize_and_fill(p, 0.1, mic::GapSettings{});
   ASSERT_EQ(p.size(), 50u);
   EXPECT_EQ(report.inserted_epochs, 0u);
   // Grid phase = median offset of the stamps from the nominal epochs; epochs exactly regular.
   std::vector<double> offsets;
-  for (std::size_t k = 0; k < stamps.size(); ++k) offsets.push_back(stamps[k] - (kStart + 0.1 * static_cast<double>(k)));
+  for (std::size_t k = 0; k < stamps.size(); ++k) offsets.push_back(stamps[k] - (kGapStart + 0.1 * static_cast<double>(k)));
   std::nth_element(offsets.begin(), offsets.begin() + 25, offsets.end());
   const double phase = offsets[25];
   EXPECT_GT(std::abs(phase), 1e-3);  // the jitter pattern really has a non-zero median
   for (std::size_t k = 0; k < p.size(); ++k) {
-    EXPECT_NEAR(p.time_s[k], kStart + phase + 0.1 * static_cast<double>(k), 1e-6);
+    EXPECT_NEAR(p.time_s[k], kGapStart + phase + 0.1 * static_cast<double>(k), 1e-6);
   }
 
   mic::PairedRecord q = make_paired(50, {}, true);
-  for (std::size_t k = 0; k < q.size(); ++k) q.time_s[k] = kStart + 0.1 * static_cast<double>(k);
+  for (std::size_t k = 0; k < q.size(); ++k) q.time_s[k] = kGapStart + 0.1 * static_cast<double>(k);
   q.time_s[20] += 0.04;  // 40 ms off a 100 ms grid
   try {
     mic::regularize_and_fill(q, 0.1, mic::GapSettings{});

@@ -2,6 +2,7 @@
 // grid offsets, gap handling, and streaming == batch.
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "test_constants.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -14,11 +15,11 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kStart = 1747180800.0;  // 2025-05-14T00:00:00Z, a whole second
+using magnetometer_insitu_calibration::test::kPi;
+constexpr double kDecimationStart = 1747180800.0;  // 2025-05-14T00:00:00Z, a whole second
 constexpr double kAmplitude = 10.0;      // nT
 
-/// 10 Hz record over [kStart + offset, kStart + offset + duration), value(t - kStart) per row.
+/// 10 Hz record over [kDecimationStart + offset, kDecimationStart + offset + duration), value(t - kDecimationStart) per row.
 mic::VectorRecord sampled(double duration_s, double offset_s,
                           const std::function<Eigen::RowVector3d(double)>& value) {
   mic::VectorRecord r;
@@ -26,8 +27,8 @@ mic::VectorRecord sampled(double duration_s, double offset_s,
   const int n = static_cast<int>(std::lround(duration_s * 10.0));
   r.values_nT.resize(n, 3);
   for (int k = 0; k < n; ++k) {
-    const double u = offset_s + 0.1 * k;  // s since kStart
-    r.time_s.push_back(kStart + u);
+    const double u = offset_s + 0.1 * k;  // s since kDecimationStart
+    r.time_s.push_back(kDecimationStart + u);
     r.values_nT.row(k) = value(u);
   }
   return r;
@@ -42,13 +43,13 @@ std::function<Eigen::RowVector3d(double)> sinusoid(double f_hz) {
 }
 
 /// Least-squares amplitude and phase of column c of y against sin/cos at f, phase relative to
-/// sin(2 pi f (t - kStart)).
+/// sin(2 pi f (t - kDecimationStart)).
 void fit_sinusoid(const mic::VectorRecord& y, int c, double f_hz, double offset_nT, double* amplitude,
                   double* phase) {
   Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
   for (std::size_t k = 0; k < y.size(); ++k) {
-    const double u = y.time_s[k] - kStart;
+    const double u = y.time_s[k] - kDecimationStart;
     const Eigen::Vector2d basis(std::sin(2 * kPi * f_hz * u), std::cos(2 * kPi * f_hz * u));
     a += basis * basis.transpose();
     b += basis * (y.values_nT(static_cast<Eigen::Index>(k), c) - offset_nT);
@@ -102,7 +103,7 @@ TEST(GaussianDecimation, KeepsAmplitudeAndPhaseAtTheTopOfTheBandOnWholeSecondEpo
   }
   // Pointwise: every output equals the analytic filtered sinusoid.
   for (std::size_t k = 0; k < y.size(); ++k) {
-    const double u = y.time_s[k] - kStart;
+    const double u = y.time_s[k] - kDecimationStart;
     EXPECT_NEAR(y.values_nT(static_cast<Eigen::Index>(k), 0), gain * kAmplitude * std::sin(2 * kPi * f * u), 2e-4);
   }
 }
@@ -128,7 +129,7 @@ TEST(GaussianDecimation, KernelIsCentredOnTheOutputEpochWhateverTheInputGridOffs
     EXPECT_EQ(y.time_s.front(), std::round(y.time_s.front()));
     double worst = 0;
     for (std::size_t k = 0; k < y.size(); ++k) {
-      const double u = y.time_s[k] - kStart;
+      const double u = y.time_s[k] - kDecimationStart;
       worst = std::max(worst, std::abs(y.values_nT(static_cast<Eigen::Index>(k), 0) -
                                        gain * kAmplitude * std::sin(2 * kPi * f * u)));
     }
@@ -137,12 +138,12 @@ TEST(GaussianDecimation, KernelIsCentredOnTheOutputEpochWhateverTheInputGridOffs
 }
 
 TEST(GaussianDecimation, OutputEpochsAreThoseWhoseSupportLiesInsideTheRecord) {
-  // Input kStart .. kStart + 599.9; h = 4 sigma = 3.864 s: first output kStart + 4, last + 596.
+  // Input kDecimationStart .. kDecimationStart + 599.9; h = 4 sigma = 3.864 s: first output kDecimationStart + 4, last + 596.
   const mic::DecimationSettings settings;
   const mic::VectorRecord y = mic::decimate(sampled(600.0, 0.0, sinusoid(0.01)), settings);
   ASSERT_EQ(y.size(), 593u);
-  EXPECT_EQ(y.time_s.front(), kStart + 4.0);
-  EXPECT_EQ(y.time_s.back(), kStart + 596.0);
+  EXPECT_EQ(y.time_s.front(), kDecimationStart + 4.0);
+  EXPECT_EQ(y.time_s.back(), kDecimationStart + 596.0);
   // A constant passes unchanged (kernel of unit sum).
   const mic::VectorRecord c = mic::decimate(
       sampled(60.0, -0.3, [](double) { return Eigen::RowVector3d(20000.0, -5.0, 45000.0); }), settings);
@@ -151,8 +152,8 @@ TEST(GaussianDecimation, OutputEpochsAreThoseWhoseSupportLiesInsideTheRecord) {
 
 TEST(GaussianDecimation, NaNOrMissingSampleInTheSupportGivesNaN) {
   mic::VectorRecord x = sampled(600.0, 0.0, sinusoid(0.01));
-  x.values_nT(1000, 1) = std::nan("");  // t = kStart + 100.0, one component
-  // Remove the sample at kStart + 200.0 (index 2000).
+  x.values_nT(1000, 1) = std::nan("");  // t = kDecimationStart + 100.0, one component
+  // Remove the sample at kDecimationStart + 200.0 (index 2000).
   x.time_s.erase(x.time_s.begin() + 2000);
   mic::Readings v(x.values_nT.rows() - 1, 3);
   v << x.values_nT.topRows(2000), x.values_nT.bottomRows(x.values_nT.rows() - 2001);
@@ -161,7 +162,7 @@ TEST(GaussianDecimation, NaNOrMissingSampleInTheSupportGivesNaN) {
   // NaN at 100: outputs with |t_o - 100| <= 3.864 -> 97..103. Gap (199.9, 200.1) overlaps the
   // support of 197..203.
   for (std::size_t k = 0; k < y.size(); ++k) {
-    const double u = y.time_s[k] - kStart;
+    const double u = y.time_s[k] - kDecimationStart;
     const bool expect_nan = (u >= 97 && u <= 103) || (u >= 197 && u <= 203);
     EXPECT_EQ(std::isnan(y.values_nT(static_cast<Eigen::Index>(k), 0)), expect_nan) << u;
     EXPECT_EQ(std::isnan(y.values_nT(static_cast<Eigen::Index>(k), 2)), expect_nan) << u;
@@ -219,8 +220,8 @@ TEST(GaussianDecimation, StreamingEqualsBatch) {
 
   // Reset starts a new record; out-of-order samples are ignored and counted.
   stream.reset();
-  EXPECT_TRUE(stream.push(kStart, Eigen::Vector3d::Zero()).empty());
-  EXPECT_TRUE(stream.push(kStart - 1.0, Eigen::Vector3d::Zero()).empty());
+  EXPECT_TRUE(stream.push(kDecimationStart, Eigen::Vector3d::Zero()).empty());
+  EXPECT_TRUE(stream.push(kDecimationStart - 1.0, Eigen::Vector3d::Zero()).empty());
   EXPECT_EQ(stream.rejected(), 1u);
 }
 
@@ -229,20 +230,20 @@ TEST(GaussianDecimation, StreamingRestartsOnAClockJumpInsteadOfFloodingOrBlockin
   mic::StreamingDecimator stream(0.1, settings, 600.0);
   const Eigen::Vector3d v(1.0, 2.0, 3.0);
   std::size_t outputs = 0;
-  for (int k = 0; k < 600; ++k) outputs += stream.push(kStart + 0.1 * k, v).size();
-  EXPECT_EQ(outputs, 53u);  // epochs kStart + 4 .. kStart + 56 (t_o - h > kStart, t_o + h < kStart + 59.9)
+  for (int k = 0; k < 600; ++k) outputs += stream.push(kDecimationStart + 0.1 * k, v).size();
+  EXPECT_EQ(outputs, 53u);  // epochs kDecimationStart + 4 .. kDecimationStart + 56 (t_o - h > kDecimationStart, t_o + h < kDecimationStart + 59.9)
   // One stamp a year ahead: a new record, no year of NaN outputs.
-  EXPECT_TRUE(stream.push(kStart + 3.15e7, v).empty());
+  EXPECT_TRUE(stream.push(kDecimationStart + 3.15e7, v).empty());
   EXPECT_EQ(stream.restarts(), 1u);
   // Normal stamps again: a second restart, then normal outputs with the same values.
   std::vector<std::pair<double, Eigen::Vector3d>> after;
   for (int k = 600; k < 1200; ++k) {
-    for (auto& o : stream.push(kStart + 0.1 * k, v)) after.push_back(o);
+    for (auto& o : stream.push(kDecimationStart + 0.1 * k, v)) after.push_back(o);
   }
   EXPECT_EQ(stream.restarts(), 2u);
   EXPECT_EQ(stream.rejected(), 0u);
-  ASSERT_EQ(after.size(), 53u);  // kStart + 64 .. kStart + 116
-  EXPECT_EQ(after.front().first, kStart + 64.0);
+  ASSERT_EQ(after.size(), 53u);  // kDecimationStart + 64 .. kDecimationStart + 116
+  EXPECT_EQ(after.front().first, kDecimationStart + 64.0);
   EXPECT_LT((after.back().second - v).cwiseAbs().maxCoeff(), 1e-12);
 }
 
@@ -274,7 +275,7 @@ TEST(GaussianDecimation, ScalarDecimationGivesFThePairsGainOnItsEpochs) {
   for (double f : {0.002, 0.01, 0.05, 0.1}) {
     mic::ScalarRecord s;
     for (int k = 0; k < 3600; ++k) {
-      s.time_s.push_back(kStart + 0.37 + k);
+      s.time_s.push_back(kDecimationStart + 0.37 + k);
       s.value_nT.push_back(48000.0 + kAmplitude * std::sin(2 * kPi * f * (0.37 + k)));
     }
     const mic::ScalarRecord y = mic::decimate_scalar(s, settings);
@@ -296,7 +297,7 @@ TEST(GaussianDecimation, ScalarDecimationGivesFThePairsGainOnItsEpochs) {
   }
   mic::ScalarRecord sparse;
   for (int k = 0; k < 100; ++k) {
-    sparse.time_s.push_back(kStart + 0.37 + 30.0 * k);
+    sparse.time_s.push_back(kDecimationStart + 0.37 + 30.0 * k);
     sparse.value_nT.push_back(48000.0 + k);
   }
   const mic::ScalarRecord same = mic::decimate_scalar(sparse, settings);

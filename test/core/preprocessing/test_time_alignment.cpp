@@ -11,8 +11,8 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kStart = 1747180800.0;  // 2025-05-14T00:00:00Z
-constexpr double kPeriod = 0.1;          // 10 Hz
+constexpr double kAlignmentStart = 1747180800.0;  // 2025-05-14T00:00:00Z
+constexpr double kAlignmentPeriod = 0.1;          // 10 Hz
 
 /// Value of sample k: (k, 2k, 3k) nT for the reference, (k + 0.5, ...) for the test, so each
 /// output row tells which input sample it came from.
@@ -38,7 +38,7 @@ TEST(TimeAlignment, JitterWithinAndBeyondToleranceGivesExactCounts) {
   std::vector<double> ref_t, ref_id, test_t, test_id;
   int expected_pairs = 0, beyond = 0, missing = 0;
   for (int k = 0; k < n; ++k) {
-    ref_t.push_back(kStart + k * kPeriod);
+    ref_t.push_back(kAlignmentStart + k * kAlignmentPeriod);
     ref_id.push_back(k);
     if (k % 50 == 7) {
       ++missing;
@@ -51,11 +51,11 @@ TEST(TimeAlignment, JitterWithinAndBeyondToleranceGivesExactCounts) {
     } else {
       ++expected_pairs;
     }
-    test_t.push_back(kStart + k * kPeriod + jitter);
+    test_t.push_back(kAlignmentStart + k * kAlignmentPeriod + jitter);
     test_id.push_back(k + 0.5);
   }
   for (int k = 0; k < 20; ++k) {
-    test_t.push_back(kStart + (n + k) * kPeriod);
+    test_t.push_back(kAlignmentStart + (n + k) * kAlignmentPeriod);
     test_id.push_back(n + k + 0.5);
   }
   const auto paired = mic::align_by_time(make_record(ref_t, ref_id, "ref.sec"),
@@ -68,7 +68,7 @@ TEST(TimeAlignment, JitterWithinAndBeyondToleranceGivesExactCounts) {
   for (std::size_t k = 0; k < paired.size(); ++k) {
     const double id = paired.reference_nT(static_cast<Eigen::Index>(k), 0);
     // Output time is the reference stamp; the test row is the same epoch's sample.
-    EXPECT_EQ(paired.time_s[k], kStart + id * kPeriod);
+    EXPECT_EQ(paired.time_s[k], kAlignmentStart + id * kAlignmentPeriod);
     EXPECT_EQ(paired.test_nT(static_cast<Eigen::Index>(k), 0), id + 0.5);
     EXPECT_EQ(paired.test_nT(static_cast<Eigen::Index>(k), 2), 3 * (id + 0.5));
     if (k > 0) {
@@ -82,21 +82,21 @@ TEST(TimeAlignment, PairsTheNearestSampleAndToleranceIsInclusive) {
   // pairs, the other (-5 ms) is left over. Epoch 2 pairs at exactly the tolerance (2^-7 s,
   // exactly representable next to a UNIX time, so the test does not hang on rounding).
   const double tolerance = 0.0078125;
-  const std::vector<double> ref_t{kStart, kStart + 1.0, kStart + 2.0};
-  const std::vector<double> test_t{kStart + 0.5, kStart + 0.995, kStart + 1.003, kStart + 2.0 + tolerance};
+  const std::vector<double> ref_t{kAlignmentStart, kAlignmentStart + 1.0, kAlignmentStart + 2.0};
+  const std::vector<double> test_t{kAlignmentStart + 0.5, kAlignmentStart + 0.995, kAlignmentStart + 1.003, kAlignmentStart + 2.0 + tolerance};
   const auto paired = mic::align_by_time(make_record(ref_t, {0, 1, 2}, "r"),
                                          make_record(test_t, {10, 11, 12, 13}, "t"), tolerance);
   ASSERT_EQ(paired.size(), 2u);
   EXPECT_EQ(paired.test_nT(0, 0), 12);
   EXPECT_EQ(paired.test_nT(1, 0), 13);
-  EXPECT_EQ(paired.time_s[1], kStart + 2.0);
+  EXPECT_EQ(paired.time_s[1], kAlignmentStart + 2.0);
   EXPECT_EQ(paired.unpaired_reference, 1u);
   EXPECT_EQ(paired.unpaired_test, 2u);
 }
 
 TEST(TimeAlignment, RepeatedStampsAreCountedAsDuplicatesAndDropped) {
-  const std::vector<double> ref_t{kStart, kStart + 1.0, kStart + 1.0, kStart + 2.0};
-  const std::vector<double> test_t{kStart, kStart, kStart + 1.0, kStart + 2.0};
+  const std::vector<double> ref_t{kAlignmentStart, kAlignmentStart + 1.0, kAlignmentStart + 1.0, kAlignmentStart + 2.0};
+  const std::vector<double> test_t{kAlignmentStart, kAlignmentStart, kAlignmentStart + 1.0, kAlignmentStart + 2.0};
   const auto paired = mic::align_by_time(make_record(ref_t, {0, 1, 99, 2}, "r"),
                                          make_record(test_t, {10, 98, 11, 12}, "t"));
   ASSERT_EQ(paired.size(), 3u);
@@ -108,8 +108,8 @@ TEST(TimeAlignment, RepeatedStampsAreCountedAsDuplicatesAndDropped) {
 }
 
 TEST(TimeAlignment, BackwardsStampThrowsNamingSourceAndIndex) {
-  const std::vector<double> bad{kStart, kStart + 1.0, kStart + 0.5};
-  const std::vector<double> good{kStart, kStart + 1.0, kStart + 2.0};
+  const std::vector<double> bad{kAlignmentStart, kAlignmentStart + 1.0, kAlignmentStart + 0.5};
+  const std::vector<double> good{kAlignmentStart, kAlignmentStart + 1.0, kAlignmentStart + 2.0};
   try {
     mic::align_by_time(make_record(good, {0, 1, 2}, "ref.sec"), make_record(bad, {0, 1, 2}, "test.sec"));
     FAIL() << "no exception";
@@ -120,8 +120,8 @@ TEST(TimeAlignment, BackwardsStampThrowsNamingSourceAndIndex) {
 }
 
 TEST(TimeAlignment, DisjointRecordsThrow) {
-  const std::vector<double> a{kStart, kStart + 1.0};
-  const std::vector<double> b{kStart + 10.0, kStart + 11.0};
+  const std::vector<double> a{kAlignmentStart, kAlignmentStart + 1.0};
+  const std::vector<double> b{kAlignmentStart + 10.0, kAlignmentStart + 11.0};
   try {
     mic::align_by_time(make_record(a, {0, 1}, "r"), make_record(b, {0, 1}, "t"));
     FAIL() << "no exception";
@@ -132,8 +132,8 @@ TEST(TimeAlignment, DisjointRecordsThrow) {
 }
 
 TEST(TimeAlignment, NaNValuesPassThrough) {
-  auto ref = make_record({kStart, kStart + 1.0}, {0, 1}, "r");
-  auto test = make_record({kStart + 0.001, kStart + 1.001}, {5, 6}, "t");
+  auto ref = make_record({kAlignmentStart, kAlignmentStart + 1.0}, {0, 1}, "r");
+  auto test = make_record({kAlignmentStart + 0.001, kAlignmentStart + 1.001}, {5, 6}, "t");
   ref.values_nT(1, 1) = std::nan("");
   const auto paired = mic::align_by_time(ref, test);
   ASSERT_EQ(paired.size(), 2u);

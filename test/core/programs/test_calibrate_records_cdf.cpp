@@ -23,10 +23,7 @@ namespace {
 
 ProgramRun run(const std::string& args) { return mic::test::run_program(CALIBRATE_RECORDS_BIN, args); }
 
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using magnetometer_insitu_calibration::test::read_json;
 
 /// Writes lines [first, last) of the data records of an IAGA-2002 file, after its header, to `path`.
 void write_iaga_part(const std::vector<std::string>& lines, std::size_t first, std::size_t last, const std::string& path) {

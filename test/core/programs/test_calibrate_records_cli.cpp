@@ -17,7 +17,7 @@ namespace {
 
 using mic::test::ProgramRun;
 
-ProgramRun run(const std::string& args) { return mic::test::run_program(CALIBRATE_RECORDS_BIN, args); }
+ProgramRun run_cli(const std::string& args) { return mic::test::run_program(CALIBRATE_RECORDS_BIN, args); }
 
 class CalibrateRecordsCli : public ::testing::Test {
  protected:
@@ -39,7 +39,7 @@ mic::SimulatedPair CalibrateRecordsCli::pair_;
 }  // namespace
 
 TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
-  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --intervals 2 --json " + dir_ +
+  const ProgramRun r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --intervals 2 --json " + dir_ +
                     "/out.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("scale ratio Kxt/Kxr"), std::string::npos);
@@ -62,7 +62,7 @@ TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
 }
 
 TEST_F(CalibrateRecordsCli, MissingFileIsNamed) {
-  const ProgramRun r = run("--reference " + dir_ + "/nope.sec --test " + dir_ + "/test.csv");
+  const ProgramRun r = run_cli("--reference " + dir_ + "/nope.sec --test " + dir_ + "/test.csv");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("nope.sec"), std::string::npos) << r.output;
 }
@@ -72,7 +72,7 @@ TEST_F(CalibrateRecordsCli, MalformedLineIsNamedWithItsNumber) {
     std::ofstream bad(dir_ + "/bad.csv");
     bad << "time,x,y,z\n1747180800,1,2,3\n1747180801,1,2,3\n1747180802,1,two,3\n";
   }
-  const ProgramRun r = run("--reference " + dir_ + "/bad.csv --test " + dir_ + "/test.csv");
+  const ProgramRun r = run_cli("--reference " + dir_ + "/bad.csv --test " + dir_ + "/test.csv");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("bad.csv:4"), std::string::npos) << r.output;
 }
@@ -83,7 +83,7 @@ TEST_F(CalibrateRecordsCli, RecordsThatDoNotOverlapAreRejected) {
     later << "time,x,y,z\n";
     for (int i = 0; i < 100; ++i) later << 1800000000 + i << ",1,2,3\n";
   }
-  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/later.csv");
+  const ProgramRun r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/later.csv");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("overlap"), std::string::npos) << r.output;
 }
@@ -94,19 +94,19 @@ TEST_F(CalibrateRecordsCli, RecordOfNaNIsRejected) {
     nan << "time,x,y,z\n";
     for (int i = 0; i < 3600; ++i) nan << 1747180800 + i << ",nan,nan,nan\n";
   }
-  const ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/nan.csv");
+  const ProgramRun r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/nan.csv");
   EXPECT_NE(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("nan.csv: no sample has three finite components"), std::string::npos) << r.output;
 }
 
 TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
-  ProgramRun r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 0.01:0.001");
+  ProgramRun r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 0.01:0.001");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("band"), std::string::npos) << r.output;
-  r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 1e-3");
+  r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --band 1e-3");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("--band"), std::string::npos) << r.output;
-  r = run("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --window 3600 --step 7200");
+  r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --window 3600 --step 7200");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("step"), std::string::npos) << r.output;
 }
@@ -129,7 +129,7 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
       {"--method plain", "/eiv_plain.json", "none (plain Eq. 2)"},
   };
   for (const Case& c : cases) {
-    const ProgramRun r = run(io + c.json + " " + c.options);
+    const ProgramRun r = run_cli(io + c.json + " " + c.options);
     ASSERT_EQ(r.status, 0) << c.options << ": " << r.output;
     EXPECT_NE(r.output.find("EIV: " + c.expected + "\n"), std::string::npos) << c.options << ": " << r.output;
     std::ifstream in(dir_ + c.json);
@@ -138,7 +138,7 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
   }
   // The default: the pair's noise, said in the EIV line, the JSON and the window's own line
   // (its n against the simulated truth: WritesTheJsonDocumentWithTheTruthInside runs the default).
-  const ProgramRun pair = run(io + "/eiv_pair.json");
+  const ProgramRun pair = run_cli(io + "/eiv_pair.json");
   ASSERT_EQ(pair.status, 0) << pair.output;
   EXPECT_NE(pair.output.find("EIV: reference noise from the pair above the band: white "), std::string::npos) << pair.output;
   EXPECT_NE(pair.output.find("whole record: reference noise from the pair above the band (0.03-0.25 Hz"), std::string::npos)
@@ -151,14 +151,14 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
     EXPECT_EQ(j["windows"][0]["reference_noise_source"], "pair above the band");
     EXPECT_NE(j["windows"][0]["reference_noise"].get<std::string>().find("1/f"), std::string::npos);
   }
-  const ProgramRun bad = run(io + "/x.json --eiv none --reference-noise-pT 5");
+  const ProgramRun bad = run_cli(io + "/x.json --eiv none --reference-noise-pT 5");
   EXPECT_NE(bad.status, 0);
   EXPECT_NE(bad.output.find("--reference-noise-pT"), std::string::npos) << bad.output;
-  const ProgramRun negative = run(io + "/x.json --reference-noise-pT -1");
+  const ProgramRun negative = run_cli(io + "/x.json --reference-noise-pT -1");
   EXPECT_NE(negative.status, 0);
   EXPECT_NE(negative.output.find("--reference-noise-pT"), std::string::npos) << negative.output;
   for (const std::string ratio : {"--eiv-ratio 0.03", "--eiv ratio"}) {
-    const ProgramRun refused = run(io + "/x.json " + ratio);
+    const ProgramRun refused = run_cli(io + "/x.json " + ratio);
     EXPECT_NE(refused.status, 0) << ratio;
     EXPECT_NE(refused.output.find("--eiv"), std::string::npos) << ratio << ": " << refused.output;
   }
@@ -184,7 +184,7 @@ TEST_F(CalibrateRecordsCli, ThirdInstrumentIdentifiesTheReferenceNoise) {
   mic::write_csv_record(dir_ + "/hat_test.csv", p.test);
   mic::write_csv_record(dir_ + "/hat_third.csv", third);
   const std::string io = "--reference " + dir_ + "/hat_ref.csv --test " + dir_ + "/hat_test.csv ";
-  const ProgramRun r = run(io + "--third " + dir_ + "/hat_third.csv --json " + dir_ + "/hat.json");
+  const ProgramRun r = run_cli(io + "--third " + dir_ + "/hat_third.csv --json " + dir_ + "/hat.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("reference noise from the three-cornered hat"), std::string::npos) << r.output;
   std::ifstream in(dir_ + "/hat.json");
@@ -198,13 +198,13 @@ TEST_F(CalibrateRecordsCli, ThirdInstrumentIdentifiesTheReferenceNoise) {
   ASSERT_NE(at, std::string::npos) << eiv;
   EXPECT_NEAR(std::stod(eiv.substr(at + 6)), 300.0, 60.0) << eiv;
 
-  const ProgramRun off = run(io + "--third " + dir_ + "/hat_third.csv --eiv none");
+  const ProgramRun off = run_cli(io + "--third " + dir_ + "/hat_third.csv --eiv none");
   EXPECT_NE(off.status, 0);
   EXPECT_NE(off.output.find("--third"), std::string::npos) << off.output;
-  const ProgramRun both = run(io + "--third " + dir_ + "/hat_third.csv --reference-noise-pT 5");
+  const ProgramRun both = run_cli(io + "--third " + dir_ + "/hat_third.csv --reference-noise-pT 5");
   EXPECT_NE(both.status, 0);
   EXPECT_NE(both.output.find("--third"), std::string::npos) << both.output;
-  const ProgramRun missing = run(io + "--third " + dir_ + "/no_such.csv");
+  const ProgramRun missing = run_cli(io + "--third " + dir_ + "/no_such.csv");
   EXPECT_NE(missing.status, 0);
   EXPECT_NE(missing.output.find("no_such.csv"), std::string::npos) << missing.output;
 }

@@ -28,10 +28,7 @@ using mic::test::run_program;
 
 ProgramRun export_corrected(const std::string& args) { return run_program(EXPORT_CORRECTED_BIN, args); }
 
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using magnetometer_insitu_calibration::test::read_json;
 
 void write_json(const std::string& path, const nlohmann::json& j) {
   std::ofstream out(path);

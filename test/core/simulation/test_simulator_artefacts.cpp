@@ -2,6 +2,7 @@
 // and gaps.
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "simulator_test_helpers.hpp"
+#include "test_constants.hpp"
 
 #include <Eigen/QR>
 #include <gtest/gtest.h>
@@ -17,7 +18,7 @@ namespace {
 using mic::test::dft;
 using mic::test::quiet_settings;
 
-constexpr double kPi = 3.14159265358979323846;
+using magnetometer_insitu_calibration::test::kPi;
 
 Eigen::VectorXd linear_fit(const Eigen::VectorXd& x, const Eigen::VectorXd& y) {
   Eigen::MatrixXd a(x.size(), 2);

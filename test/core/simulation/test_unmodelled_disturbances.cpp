@@ -7,6 +7,7 @@
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "simulator_test_helpers.hpp"
+#include "test_constants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -23,7 +24,7 @@ namespace {
 
 using mic::test::quiet_settings;
 
-constexpr double kPi = 3.14159265358979323846;
+using magnetometer_insitu_calibration::test::kPi;
 
 /// Amplitude and phase (rad) of the harmonic k of x (N samples), from a direct DFT sum.
 std::complex<double> harmonic(const Eigen::VectorXd& x, int k) {
