@@ -72,7 +72,8 @@ endfunction()
 # Unity builds for the targets whose sources share their heavy templates. A ROS source's compile
 # is mostly instantiating and emitting roscpp's, the messages' and gtest's inline templates, and
 # every source of a target emitted its own copies: compiled as one translation unit, the ten
-# sources of rostest_calibration took 18 s of compiler CPU instead of 82. The core's sources
+# sources of rostest_calibration took 18 s of compiler CPU, against 82 s as ten objects in a
+# make -j2 build (docs/tests.md, "Time"). The core's sources
 # instantiate each its own Eigen expressions and gain nothing (measured: 113 s as three batches,
 # 116 s apart), so they stay one file each. The sources of such a target must not define the
 # same name in their anonymous namespaces.

@@ -12,7 +12,7 @@ export ROS_LOG_DIR="$ROS_HOME/log"
 export ROS_HOSTNAME=localhost
 rm -rf build/test_results
 status=0
-# -j2: the tests marked RUN_SERIAL in test/ros/tests.cmake still run alone.
+# -j2: the rostests that stream into calibration_node take one lock (test/ros/tests.cmake), one at a time.
 ctest --test-dir build -j2 --output-on-failure --no-tests=error || status=$?
 # catkin_test_results exits 1 on failures; ctest already judged an empty run.
 catkin_test_results build/test_results || status=$?

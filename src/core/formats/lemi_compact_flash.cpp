@@ -61,7 +61,7 @@ void encode_position(double deg, std::uint8_t* p, int degree_bytes, char positiv
   const long minutes = ten_thousandths / 10000;
   const long fraction = ten_thousandths % 10000;
   if (degrees > (degree_bytes == 1 ? 90 : 180))
-    throw InputError("LEMI compact-flash block", "position out of range");
+    throw InputError(kBlockSource, "position out of range");
   if (degree_bytes == 1) {
     p[0] = lemi_encode_bcd(static_cast<int>(degrees));
   } else {
@@ -91,7 +91,7 @@ bool is_erased(const std::uint8_t* p) {
 LemiFlashBlock decode_lemi_flash_block(const std::uint8_t* b) {
   using namespace lemi_detail;
   const std::string problem = caption_problem(b);
-  if (!problem.empty()) throw InputError("LEMI compact-flash block", problem);
+  if (!problem.empty()) throw InputError(kBlockSource, problem);
   LemiFlashBlock block;
   block.model = b[2] == '3' ? LemiModel::kLemi036 : LemiModel::kLemi025;
   const std::optional<int> station = lemi_decode_bcd(b[kCaptionStation]);
@@ -124,11 +124,11 @@ std::array<std::uint8_t, kLemiFlashBlockSize> encode_lemi_flash_block(const Lemi
   b[2] = block.model == LemiModel::kLemi036 ? '3' : '2';
   b[3] = block.model == LemiModel::kLemi036 ? '6' : '5';
   b[kCaptionStation] = lemi_encode_bcd(block.station);
-  if (!std::isfinite(block.time_s)) throw InputError("LEMI compact-flash block", "time not finite");
+  if (!std::isfinite(block.time_s)) throw InputError(kBlockSource, "time not finite");
   const std::array<int, 6> utc =
       lemi_unix_to_utc(static_cast<std::int64_t>(std::llround(block.time_s)));
   if (utc[0] < 2000 || utc[0] > 2099)
-    throw InputError("LEMI compact-flash block", "year outside 2000-2099");
+    throw InputError(kBlockSource, "year outside 2000-2099");
   b[kCaptionTime] = lemi_encode_bcd(utc[0] - 2000);
   for (int i = 1; i < 6; ++i) b[kCaptionTime + i] = lemi_encode_bcd(utc[i]);
   encode_position(block.latitude_deg, b.data() + kCaptionLatitude, 1, 'N', 'S');
@@ -136,7 +136,7 @@ std::array<std::uint8_t, kLemiFlashBlockSize> encode_lemi_flash_block(const Lemi
   b[kCaptionGpsStatus] = static_cast<std::uint8_t>(block.gps_status);
   b[kCaptionReserved] = block.reserved;
   const double supply = std::round(block.supply_V * 10.0);
-  if (!(supply >= 0 && supply <= 255)) throw InputError("LEMI compact-flash block", "supply voltage");
+  if (!(supply >= 0 && supply <= 255)) throw InputError(kBlockSource, "supply voltage");
   b[kCaptionSupply] = static_cast<std::uint8_t>(supply);
   for (int c = 0; c < 3; ++c)
     write_i16(b.data() + kCaptionBias + 2 * c, checked_int16(block.bias_nT[c] / kLemi025BiasStep_nT, kBlockSource, "bias"));

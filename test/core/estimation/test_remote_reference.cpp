@@ -82,6 +82,14 @@ mic::EstimatorSettings method(mic::EstimatorMethod m) {
   return s;
 }
 
+/// The estimate of `s`'s pair with its remote, named "RMT".
+mic::WindowEstimate estimate_with_remote(mic::WindowEstimator& estimator, const Station& s) {
+  mic::WindowInputs inputs;
+  inputs.remote_nT = &s.remote;
+  inputs.remote_name = "RMT";
+  return estimator.estimate(s.pair.reference.values_nT, s.pair.test.values_nT, 1.0, inputs);
+}
+
 }  // namespace
 
 TEST(RemoteReference, NoiseFreeIsExactAndIndifferentToTheRemotesAxes) {
@@ -119,10 +127,7 @@ TEST(RemoteReference, AQuietPairAgreesWithItsRemote) {
   Station s = station(1.0, 3);
   for (const mic::EstimatorMethod m : {mic::EstimatorMethod::kPlain, mic::EstimatorMethod::kRobust}) {
     mic::WindowEstimator estimator(method(m));
-    mic::WindowInputs inputs;
-    inputs.remote_nT = &s.remote;
-    inputs.remote_name = "RMT";
-    const mic::WindowEstimate e = estimator.estimate(s.pair.reference.values_nT, s.pair.test.values_nT, 1.0, inputs);
+    const mic::WindowEstimate e = estimate_with_remote(estimator, s);
     std::printf("%s: %s\n", mic::estimator_method_name(m), e.remote.text.c_str());
     ASSERT_TRUE(e.remote.used) << e.remote.text;
     EXPECT_FALSE(e.remote.pair_biased) << e.remote.text;
@@ -139,10 +144,7 @@ TEST(RemoteReference, UnbiasedWhereADisturbanceBothSensorsSeeBiasesThePair) {
     add_common_disturbance(s, 1.0, 5);
     mic::WindowEstimator estimator(method(m));
     const mic::WindowEstimate pair = estimator.estimate(s.pair.reference.values_nT, s.pair.test.values_nT, 1.0);
-    mic::WindowInputs inputs;
-    inputs.remote_nT = &s.remote;
-    inputs.remote_name = "RMT";
-    const mic::WindowEstimate remote = estimator.estimate(s.pair.reference.values_nT, s.pair.test.values_nT, 1.0, inputs);
+    const mic::WindowEstimate remote = estimate_with_remote(estimator, s);
     ASSERT_TRUE(remote.remote.used) << remote.remote.text;
     const double z_pair = worst_z(pair, s.pair.n_true), z_remote = worst_z(remote, s.pair.n_true);
     std::printf("%s: pair worst %.1f se, remote worst %.1f se, F %.0f; %s\n", mic::estimator_method_name(m), z_pair,
@@ -158,10 +160,7 @@ TEST(RemoteReference, AWrongTimeBaseIsRefusedWithTheReason) {
   Station s = station(1.0, 21, 0.2, 3 * 3600.0);
   for (const mic::EstimatorMethod m : {mic::EstimatorMethod::kPlain, mic::EstimatorMethod::kRobust}) {
     mic::WindowEstimator estimator(method(m));
-    mic::WindowInputs inputs;
-    inputs.remote_nT = &s.remote;
-    inputs.remote_name = "RMT";
-    const mic::WindowEstimate e = estimator.estimate(s.pair.reference.values_nT, s.pair.test.values_nT, 1.0, inputs);
+    const mic::WindowEstimate e = estimate_with_remote(estimator, s);
     const mic::WindowEstimate pair = estimator.estimate(s.pair.reference.values_nT, s.pair.test.values_nT, 1.0);
     EXPECT_TRUE(e.remote.given);
     EXPECT_FALSE(e.remote.used);
