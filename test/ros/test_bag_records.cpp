@@ -39,10 +39,7 @@ using mic::test::package_data;
 using mic::test::ProgramRun;
 using mic::test::run_program;
 
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using mic::test::read_json;
 
 /// Times equal, values within one unit in the last place (the tesla conversion), NaN kept.
 void expect_same_record_to_one_ulp(const mic::VectorRecord& a, const mic::VectorRecord& b) {

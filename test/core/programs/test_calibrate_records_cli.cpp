@@ -16,9 +16,14 @@ namespace mic = magnetometer_insitu_calibration;
 namespace {
 
 using mic::test::ProgramRun;
+using magnetometer_insitu_calibration::test::read_json;
 
 ProgramRun run_cli(const std::string& args) { return mic::test::run_program(CALIBRATE_RECORDS_BIN, args); }
 
+}  // namespace
+
+// The fixture outside the anonymous namespace: its tests' classes are global, and this file is
+// compiled in one translation unit with its concern's others (-Wsubobject-linkage).
 class CalibrateRecordsCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -36,15 +41,12 @@ class CalibrateRecordsCli : public ::testing::Test {
 std::string CalibrateRecordsCli::dir_;
 mic::SimulatedPair CalibrateRecordsCli::pair_;
 
-}  // namespace
-
 TEST_F(CalibrateRecordsCli, WritesTheJsonDocumentWithTheTruthInside) {
   const ProgramRun r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --intervals 2 --json " + dir_ +
                     "/out.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("scale ratio Kxt/Kxr"), std::string::npos);
-  std::ifstream in(dir_ + "/out.json");
-  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json j = read_json(dir_ + "/out.json");
   ASSERT_EQ(j["windows"].size(), 3u);
   const auto& day = j["windows"][2];
   for (const char* key : {"window_start", "window_end", "samples", "harmonic_first", "matrix", "matrix_stderr", "matrix_covariance",
@@ -132,8 +134,7 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
     const ProgramRun r = run_cli(io + c.json + " " + c.options);
     ASSERT_EQ(r.status, 0) << c.options << ": " << r.output;
     EXPECT_NE(r.output.find("EIV: " + c.expected + "\n"), std::string::npos) << c.options << ": " << r.output;
-    std::ifstream in(dir_ + c.json);
-    const nlohmann::json j = nlohmann::json::parse(in);
+    const nlohmann::json j = read_json(dir_ + c.json);
     EXPECT_EQ(j["windows"][0]["eiv"], c.expected) << c.options;
   }
   // The default: the pair's noise, said in the EIV line, the JSON and the window's own line
@@ -144,8 +145,7 @@ TEST_F(CalibrateRecordsCli, ReportsTheNoiseModelOfTheErrorsInVariablesStep) {
   EXPECT_NE(pair.output.find("whole record: reference noise from the pair above the band (0.03-0.25 Hz"), std::string::npos)
       << pair.output;
   {
-    std::ifstream in(dir_ + "/eiv_pair.json");
-    const nlohmann::json j = nlohmann::json::parse(in);
+    const nlohmann::json j = read_json(dir_ + "/eiv_pair.json");
     EXPECT_NE(j["windows"][0]["eiv"].get<std::string>().find("from the pair above the band"), std::string::npos);
     EXPECT_EQ(j["windows"][0]["eiv_applied"], "applied");
     EXPECT_EQ(j["windows"][0]["reference_noise_source"], "pair above the band");
@@ -187,8 +187,7 @@ TEST_F(CalibrateRecordsCli, ThirdInstrumentIdentifiesTheReferenceNoise) {
   const ProgramRun r = run_cli(io + "--third " + dir_ + "/hat_third.csv --json " + dir_ + "/hat.json");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("reference noise from the three-cornered hat"), std::string::npos) << r.output;
-  std::ifstream in(dir_ + "/hat.json");
-  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json j = read_json(dir_ + "/hat.json");
   const std::string eiv = j["windows"][0]["eiv"];
   EXPECT_EQ(eiv.rfind("reference noise from the three-cornered hat with --third: white ", 0), 0u) << eiv;
   EXPECT_EQ(j["windows"][0]["reference_noise_source"], "three-cornered hat");

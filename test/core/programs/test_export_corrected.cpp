@@ -75,6 +75,10 @@ void expect_rounded_correction(const mic::VectorRecord& out, const mic::VectorRe
 }
 
 
+}  // namespace
+
+// The fixture outside the anonymous namespace: its tests' classes are global, and this file is
+// compiled in one translation unit with its concern's others (-Wsubobject-linkage).
 class ExportCorrected : public ::testing::Test {
  protected:
   // One day at 1 Hz with known n_true, no offset: the corrected test should be the clean field.
@@ -112,8 +116,6 @@ class ExportCorrected : public ::testing::Test {
 std::string ExportCorrected::dir_;
 mic::SimulatedPair ExportCorrected::pair_;
 mic::VectorRecord ExportCorrected::test_read_;
-
-}  // namespace
 
 TEST_F(ExportCorrected, WithTheTrueMatrixTheOutputIsTheCleanFieldPlusTheNoise) {
   const ProgramRun r = export_corrected("--test " + dir_ + "/test.sec --calibration " + dir_ + "/truth_report.json -o " +

@@ -20,6 +20,7 @@ namespace mic = magnetometer_insitu_calibration;
 #ifdef SIMULATE_RECORDS_BIN
 namespace {
 using mic::test::ProgramRun;
+using magnetometer_insitu_calibration::test::read_json;
 ProgramRun run_simulate_records(const std::string& args) {
   return mic::test::run_program(SIMULATE_RECORDS_BIN, args);
 }
@@ -66,8 +67,7 @@ TEST(SimulateRecordsCli, WritesRecordsAndTruthMatchingTheLibrary) {
       if (!std::isnan(ar)) ASSERT_NEAR(ar, br, 6e-7) << "row " << i;
     }
   }
-  std::ifstream in(dir + "/truth.json");
-  const nlohmann::json truth = nlohmann::json::parse(in);
+  const nlohmann::json truth = read_json(dir + "/truth.json");
   for (int k = 0; k < 9; ++k) EXPECT_EQ(truth["n_true"][k].get<double>(), expected.n_true(k / 3, k % 3));
   EXPECT_EQ(truth["trend_nT_per_day"][1].get<double>(), -2.0);
   EXPECT_EQ(truth["spikes"].size(), 2u);
@@ -160,8 +160,7 @@ TEST(SimulateRecordsCli, DisturbedStationOptionsMatchTheLibrary) {
     }
   }
   EXPECT_GT(largest_change, 0.05);  // the options did something
-  std::ifstream in(dir + "/truth.json");
-  const nlohmann::json truth = nlohmann::json::parse(in);
+  const nlohmann::json truth = read_json(dir + "/truth.json");
   EXPECT_EQ(truth["test_only"]["test_corner_hz"].get<double>(), 0.2);
   EXPECT_EQ(truth["test_only"]["pier_tilt_walk_nT_per_sqrt_day"].get<double>(), 0.3);
   EXPECT_EQ(truth["traffic"]["vehicles_per_day"].get<double>(), 200.0);
