@@ -17,7 +17,8 @@
 // cycling and a response mismatch. "quiet": the simulator's defaults. The remote (remote_observatory.hpp) sees
 // the field but none of the local disturbances: MC_REMOTE_INCOHERENT (0.2) of its variations'
 // variance its own, its own noise (simulator defaults), orientation and Z response, and
-// MC_REMOTE_GAPS (1) gaps of 10 min per day; MC_REMOTE_COHERENCE_HZ its coherence corner (its own
+// MC_REMOTE_GAPS (1) gaps of 10 min per day; MC_REMOTE_Z_INCOHERENT the own share of its vertical
+// alone (unset: MC_REMOTE_INCOHERENT's); MC_REMOTE_COHERENCE_HZ its coherence corner (its own
 // share rising with frequency, remote_observatory.hpp; unset: the same share at every frequency).
 // MC_REMOTE_BAND_HIGH (Hz): the remote-reference estimate's band top (calibrate_records --band
 // 0.0002:F --remote ...), the other two estimators keeping the default's 0.01 Hz.
@@ -120,7 +121,8 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
   if (knob("MC_REMOTE_BAND_HIGH", 0.0) > 0.0) {
     std::printf("# the remote-reference estimate's band: up to %g Hz\n", knob("MC_REMOTE_BAND_HIGH", 0.0));
   }
-  std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased  band_halves_differ  local_events_z\n");
+  std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased  band_halves_differ  local_events_z  "
+              "remote_coherence_x_y_z\n");
   Tally tally[kMethods];
   for (int k = 0; k < seeds; ++k) {
     const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(k);
@@ -129,6 +131,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
     mic::RemoteObservatorySettings r;
     r.seed = seed + 7000;
     r.incoherent_fraction = knob("MC_REMOTE_INCOHERENT", 0.2);
+    r.z_incoherent_fraction = knob("MC_REMOTE_Z_INCOHERENT", r.incoherent_fraction);
     r.coherence_corner_hz = knob("MC_REMOTE_COHERENCE_HZ", std::numeric_limits<double>::infinity());
     r.gap_count = static_cast<int>(knob("MC_REMOTE_GAPS", 1.0) * days);
     const mic::VectorRecord remote = mic::simulate_remote_observatory(s, pair, r);
@@ -171,10 +174,10 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
         }
         tally[m].missed_unflagged_either += covered < 9 && !events.seen && !differs;
       }
-      std::printf("seed %5llu %d %9.4f %9.4f %d %7.0f %d %d %6.2f%s%s\n", static_cast<unsigned long long>(seed), m, scale,
-                  angle, covered, rr.strength, rr.pair_biased ? 1 : 0, w.estimate.band_split.differs ? 1 : 0,
-                  w.estimate.local_events.z,
-                  m == 2 && !rr.used ? " " : "", m == 2 && !rr.used ? rr.text.c_str() : "");
+      std::printf("seed %5llu %d %9.4f %9.4f %d %7.0f %d %d %6.2f %5.3f %5.3f %5.3f%s%s\n",
+                  static_cast<unsigned long long>(seed), m, scale, angle, covered, rr.strength, rr.pair_biased ? 1 : 0,
+                  w.estimate.band_split.differs ? 1 : 0, w.estimate.local_events.z, rr.coherence(0), rr.coherence(1),
+                  rr.coherence(2), m == 2 && !rr.used ? " " : "", m == 2 && !rr.used ? rr.text.c_str() : "");
       if (knob("MC_DEBUG", 0) > 0) {
         const mic::CalibrationParameters t = mic::decompose(pair.n_true);
         const mic::CalibrationParameters& q = w.estimate.parameters;

@@ -126,6 +126,7 @@ struct Options {
   // A remote observatory beside the pair (remote_observatory.hpp): remote.<ext>.
   bool remote = false;
   mic::RemoteObservatorySettings remote_settings;
+  std::string remote_z_incoherent;  // --remote-z-incoherent; empty: --remote-incoherent's
   // An absolute scalar magnetometer (scalar_magnetometer.hpp): scalar.csv; the reference's scale.
   bool scalar = false;
   mic::ScalarMagnetometerSettings scalar_settings;
@@ -194,6 +195,9 @@ void add_remote_options(CLI::App& app, Options& o) {
                                      "the local disturbances (its own axes, Z response and noise)");
   app.add_option("--remote-incoherent", o.remote_settings.incoherent_fraction,
                  "remote: share of its variations' variance that is its own, [0, 1)")->capture_default_str();
+  app.add_option("--remote-z-incoherent", o.remote_z_incoherent,
+                 "remote: the same for its vertical alone, [0, 1) (default: --remote-incoherent's; Z is the more "
+                 "local component, often less coherent between stations)");
   app.add_option("--remote-coherence-corner-hz", o.remote_settings.coherence_corner_hz,
                  "remote: frequency at which its own share has risen to 1 - (1 - incoherent) / e, Hz (inf: the same "
                  "share at every frequency)")->capture_default_str();
@@ -259,6 +263,9 @@ void read_texts(Options& o) {
   o.station.seed = o.unmodelled.seed = o.hut.seed = s.seed;
   o.hut.offset_nT_per_C = parse_vector(o.temperature_offset, "--temperature-offset-nT-per-C");
   o.hut.scale_ppm_per_C = parse_vector(o.temperature_scale, "--temperature-scale-ppm-per-C");
+  o.remote_settings.z_incoherent_fraction = o.remote_z_incoherent.empty()
+                                                ? o.remote_settings.incoherent_fraction
+                                                : parse_number(o.remote_z_incoherent, "--remote-z-incoherent");
 }
 
 /// Validates the settings; the InputError names the option of the field at fault.
@@ -282,6 +289,16 @@ void validate(const Options& o) {
         {"scale_ppm_per_C", "--temperature-scale-ppm-per-C"}};
     const auto it = hut_options.find(e.where());
     throw mic::InputError(it == hut_options.end() ? e.where() : it->second, e.problem());
+  }
+  try {
+    o.remote_settings.validate();
+  } catch (const mic::InputError& e) {  // so are the remote's
+    static const std::map<std::string, std::string> remote_options = {
+        {"incoherent_fraction", "--remote-incoherent"}, {"z_incoherent_fraction", "--remote-z-incoherent"},
+        {"coherence_corner_hz", "--remote-coherence-corner-hz"}, {"gap_count", "--remote-gaps"},
+        {"time_offset_s", "--remote-time-offset-s"}};
+    const auto it = remote_options.find(e.where());
+    throw mic::InputError(it == remote_options.end() ? e.where() : it->second, e.problem());
   }
 }
 
@@ -375,6 +392,7 @@ nlohmann::json write_remote(mic::VectorRecord& remote, const Options& o, const s
   const Eigen::Matrix3d q = mic::remote_mixing(r);
   return {{"file", path},
           {"incoherent_fraction", r.incoherent_fraction},
+          {"z_incoherent_fraction", r.z_incoherent_fraction},
           {"coherence_corner_hz", std::isinf(r.coherence_corner_hz) ? nlohmann::json() : nlohmann::json(r.coherence_corner_hz)},
           {"gap_count", r.gap_count},
           {"time_offset_s", r.time_offset_s},

@@ -28,17 +28,18 @@ SimulationSettings clean_field_settings(const SimulationSettings& local) {
 }
 
 /// sqrt(1 - f(nu)) shared + sqrt(f(nu)) own, column by column, with the remote's own share
-/// f(nu) = 1 - (1 - f0) exp(-nu / corner_hz) at each harmonic nu of the record (nT, no NaN;
+/// f(nu) = 1 - (1 - f0_c) exp(-nu / corner_hz) at each harmonic nu of the record (nT, no NaN;
 /// dt in s). Each column is filtered without a wrap-around step (column_response.hpp); its line
 /// through the first and last samples, the lowest frequencies, is weighted as at nu = 0.
-Readings mix_by_frequency(const Readings& shared, const Readings& own, double f0, double corner_hz, double dt) {
+Readings mix_by_frequency(const Readings& shared, const Readings& own, const Eigen::Vector3d& f0, double corner_hz,
+                          double dt) {
   const Eigen::Index rows = shared.rows();
-  auto own_share = [&](double nu) { return 1.0 - (1.0 - f0) * std::exp(-nu / corner_hz); };
   detail::ColumnResponse filter(static_cast<std::size_t>(rows));
   const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(rows, 0.0, 1.0);  // the line's abscissa
   Readings out(rows, 3);
   Eigen::VectorXd part(rows);
   for (int c = 0; c < 3; ++c) {
+    auto own_share = [&](double nu) { return 1.0 - (1.0 - f0(c)) * std::exp(-nu / corner_hz); };
     for (int which = 0; which < 2; ++which) {  // the pair's field, then the remote's own
       const auto v = (which == 0 ? shared : own).col(c);
       const auto weight = [&](double nu) { return std::sqrt(which == 0 ? 1.0 - own_share(nu) : own_share(nu)); };
@@ -61,6 +62,7 @@ void RemoteObservatorySettings::validate() const {
     if (!ok) throw InputError(field, problem);
   };
   require(incoherent_fraction >= 0.0 && incoherent_fraction < 1.0, "incoherent_fraction", "must be in [0, 1)");
+  require(z_incoherent_fraction >= 0.0 && z_incoherent_fraction < 1.0, "z_incoherent_fraction", "must be in [0, 1)");
   require(coherence_corner_hz > 0.0, "coherence_corner_hz", "must be > 0 Hz (infinite: the same share at every frequency)");
   require(rotation_deg.allFinite(), "rotation_deg", "must be finite");
   require(gain.allFinite() && (gain.array() != 0.0).all(), "gain", "must be finite and non-zero");
@@ -94,11 +96,12 @@ VectorRecord simulate_remote_observatory(const SimulationSettings& local, const 
   other.seed = local.seed ^ (0x9e3779b97f4a7c15ULL + settings.seed);
   const Readings own = simulate_pair(other).field_nT - main_and_daily;
   const Readings shared = pair.field_nT - main_and_daily;
-  const double f = settings.incoherent_fraction;
-  const Readings field = std::isinf(settings.coherence_corner_hz)
-                             ? Readings(main_and_daily + std::sqrt(1.0 - f) * shared + std::sqrt(f) * own)
-                             : Readings(main_and_daily + mix_by_frequency(shared, own, f, settings.coherence_corner_hz,
-                                                                          local.sample_period_s));
+  const Eigen::Vector3d f(settings.incoherent_fraction, settings.incoherent_fraction, settings.z_incoherent_fraction);
+  const Readings field =
+      std::isinf(settings.coherence_corner_hz)
+          ? Readings(main_and_daily + shared * (1.0 - f.array()).sqrt().matrix().asDiagonal() +
+                     own * f.array().sqrt().matrix().asDiagonal())
+          : Readings(main_and_daily + mix_by_frequency(shared, own, f, settings.coherence_corner_hz, local.sample_period_s));
 
   VectorRecord out;
   out.values_nT = field * remote_mixing(settings);

@@ -102,6 +102,10 @@ TEST(SimulateRecordsCli, BadOptionsAreNamedAndFail) {
       {"--heater-period-s 0 --heater-nT 0,0.1,0", "--heater-period-s"},
       {"--road-distance-m 0.1 --vehicles-per-day 10", "--road-distance-m"},
       {"--z-ratio -1", "--z-ratio"},
+      {"--remote --remote-incoherent 1.5", "--remote-incoherent"},
+      {"--remote --remote-z-incoherent 1", "--remote-z-incoherent"},
+      {"--remote --remote-z-incoherent x", "--remote-z-incoherent"},
+      {"--remote --remote-coherence-corner-hz 0", "--remote-coherence-corner-hz"},
   };
   for (const auto& [args, option] : cases) {
     const ProgramRun r = run_simulate_records("--out-dir " + dir + " " + args);

@@ -322,7 +322,8 @@ std::pair<double, double> band_weight(const mic::Readings& remote, const mic::Re
 // The remote observatory (remote_observatory.hpp) without noise and in the pair's axes: the
 // pair's field enters it with the weight sqrt(1 - f(nu)), f its own share of the field, the same
 // at every frequency by default and growing as 1 - (1 - f0) exp(-nu / corner) with
-// coherence_corner_hz (the rest its own field, independent of the pair's).
+// coherence_corner_hz (the rest its own field, independent of the pair's); its vertical with a
+// share of its own, z_incoherent_fraction, larger than the horizontals'.
 TEST(RemoteObservatory, OwnShareOfTheFieldAtEachFrequency) {
   mic::SimulationSettings s = quiet_settings();
   s.duration_s = 86400.0;
@@ -335,7 +336,8 @@ TEST(RemoteObservatory, OwnShareOfTheFieldAtEachFrequency) {
   r.gain.setOnes();
   r.z_from_x = 0.0;
   r.white_nT = r.pink_nT_per_sqrt_hz = 0.0;
-  const double f0 = r.incoherent_fraction;  // 0.2
+  r.z_incoherent_fraction = 0.6;
+  const Eigen::Vector3d f0(r.incoherent_fraction, r.incoherent_fraction, r.z_incoherent_fraction);  // 0.2, 0.2, 0.6
   // Below 0.002 Hz the simulated activity is too intermittent for a day's chance correlation of
   // the two fields to stay small (up to 0.13 on 8 seeds at 0.0005-0.005 Hz); in these bands it
   // stayed within 0.04 on the same seeds.
@@ -343,16 +345,23 @@ TEST(RemoteObservatory, OwnShareOfTheFieldAtEachFrequency) {
   for (const double corner : {std::numeric_limits<double>::infinity(), 0.05}) {
     SCOPED_TRACE(corner);
     r.coherence_corner_hz = corner;
-    const auto share = [&](double f) { return 1.0 - (1.0 - f0) * std::exp(std::isinf(corner) ? 0.0 : -f / corner); };
+    const auto share = [&](int c, double f) {
+      return 1.0 - (1.0 - f0(c)) * std::exp(std::isinf(corner) ? 0.0 : -f / corner);
+    };
     const mic::Readings remote = mic::simulate_remote_observatory(s, pair, r).values_nT;
     for (const Band& band : {low, high}) {
       for (int c = 0; c < 3; ++c) {
-        const auto [measured, expected] = band_weight(remote, pair.field_nT, c, s.sample_period_s, band.low_hz, band.high_hz, share);
-        // 0.89 at every frequency by default; with the corner about 0.85 in the low band, 0.55 in the high.
+        const auto [measured, expected] = band_weight(remote, pair.field_nT, c, s.sample_period_s, band.low_hz,
+                                                      band.high_hz, [&](double f) { return share(c, f); });
+        // x, y: 0.89 at every frequency by default; with the corner about 0.85 in the low band, 0.55
+        // in the high. z: 0.63; with the corner about 0.6 and 0.4.
         EXPECT_NEAR(measured, expected, 0.06) << "component " << c << ", " << band.low_hz << "-" << band.high_hz << " Hz";
       }
     }
   }
   r.coherence_corner_hz = 0.0;
+  EXPECT_THROW(mic::simulate_remote_observatory(s, pair, r), mic::InputError);
+  r.coherence_corner_hz = 0.05;
+  r.z_incoherent_fraction = 1.0;
   EXPECT_THROW(mic::simulate_remote_observatory(s, pair, r), mic::InputError);
 }
