@@ -21,7 +21,8 @@
 // alone (unset: MC_REMOTE_INCOHERENT's); MC_REMOTE_COHERENCE_HZ its coherence corner (its own
 // share rising with frequency, remote_observatory.hpp; unset: the same share at every frequency).
 // MC_REMOTE_BAND_HIGH (Hz): the remote-reference estimate's band top (calibrate_records --band
-// 0.0002:F --remote ...), the other two estimators keeping the default's 0.01 Hz.
+// 0.0002:F --remote ...), the other two estimators keeping the default's 0.01 Hz; MC_REMOTE_BAND_LOW
+// (Hz) its bottom likewise.
 // Each record is one window. MC_PAIR_NOISE=0: the reference's noise not identified from the pair
 // (calibrate_records --no-pair-noise). Without a remote the default's two checks of the pair
 // alone are counted: the band split and the local-event check (records flagged, the coverage of
@@ -121,6 +122,9 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
   if (knob("MC_REMOTE_BAND_HIGH", 0.0) > 0.0) {
     std::printf("# the remote-reference estimate's band: up to %g Hz\n", knob("MC_REMOTE_BAND_HIGH", 0.0));
   }
+  if (knob("MC_REMOTE_BAND_LOW", 0.0) > 0.0) {
+    std::printf("# the remote-reference estimate's band: from %g Hz\n", knob("MC_REMOTE_BAND_LOW", 0.0));
+  }
   std::printf("# seed  method  max|dscale|%%  max|dangle|deg  covered/9  F  pair_biased  band_halves_differ  local_events_z  "
               "remote_coherence_x_y_z\n");
   Tally tally[kMethods];
@@ -146,6 +150,7 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
         cs.window.response_model = false;
       }
       if (m == 2 && knob("MC_REMOTE_BAND_HIGH", 0.0) > 0.0) cs.window.estimator.band_high_hz = knob("MC_REMOTE_BAND_HIGH", 0.0);
+      if (m == 2 && knob("MC_REMOTE_BAND_LOW", 0.0) > 0.0) cs.window.estimator.band_low_hz = knob("MC_REMOTE_BAND_LOW", 0.0);
       const auto start = std::chrono::steady_clock::now();
       const mic::CalibrationWindow w = mic::calibrate_prepared(prepared, cs, m == 2 ? &sides : nullptr).back();
       tally[m].seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
