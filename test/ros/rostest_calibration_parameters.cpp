@@ -1,10 +1,15 @@
 // rostest_calibration, bad_parameters.test (Calibration.BadParameters): calibration_node,
 // correction_node and scalar_simulator started with impossible parameters exit 1 with a FATAL
-// naming the parameter.
+// naming the parameter; the nodes' console lines reach a pipe while they run, and --help answers
+// without a master.
 #include "calibration_harness.hpp"
 
+#include <poll.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 
 using namespace calibration_rostest;
@@ -78,5 +83,60 @@ TEST(Calibration, BadParameters) {
     EXPECT_EQ(r.exit_code, 1) << r.output;
     EXPECT_NE(r.output.find(c.expected), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("FATAL"), std::string::npos) << r.output;
+  }
+}
+
+// calibration_node's console lines (rosconsole INFO, on stdout) arrive while it runs where stdout
+// is a pipe or a file (roslaunch > station.log, a systemd journal), not in 4 KB blocks or at exit:
+// its three start lines, a few hundred bytes, are read from a pipe before the node is stopped.
+TEST(Calibration, ConsoleLinesReachAPipeWhileTheNodeRuns) {
+  const std::string command = std::string(CALIBRATION_NODE_PATH) +
+                              " __name:=console_pipe _reference_topic:=/r _test_topic:=/t "
+                              "_calibration_file:=/tmp/console_pipe_unused.yaml";
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::dup2(fds[1], STDOUT_FILENO);
+    ::close(fds[0]);
+    ::close(fds[1]);
+    ::execl("/bin/sh", "sh", "-c", ("exec " + command).c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  const std::string expected = "errors in variables:";  // the last of its start lines
+  std::string output;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (output.find(expected) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+    pollfd p{fds[0], POLLIN, 0};
+    if (::poll(&p, 1, 200) <= 0) continue;
+    char buffer[1024];
+    const ssize_t got = ::read(fds[0], buffer, sizeof buffer);
+    if (got <= 0) break;  // the node closed its stdout: it has ended
+    output.append(buffer, static_cast<std::size_t>(got));
+  }
+  int status = 0;
+  const bool running = ::waitpid(pid, &status, WNOHANG) == 0;
+  ::kill(pid, SIGINT);
+  for (int i = 0; i < 50 && ::waitpid(pid, &status, WNOHANG) == 0; ++i) ::usleep(100000);
+  if (::waitpid(pid, &status, WNOHANG) == 0) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+  }
+  ::close(fds[0]);
+  EXPECT_NE(output.find(expected), std::string::npos) << "read from the pipe:\n" << output;
+  EXPECT_TRUE(running) << "the node had ended before its start lines were read";
+}
+
+// --help answers at once, pointing at the parameters' documentation, instead of waiting for a
+// master (run() gives up after 30 s).
+TEST(Calibration, NodesAnswerHelpWithoutAMaster) {
+  for (const std::string& node : {std::string(CALIBRATION_NODE_PATH), std::string(CORRECTION_NODE_PATH),
+                                  std::string(SCALAR_SIMULATOR_PATH)}) {
+    SCOPED_TRACE(node);
+    const RunResult r = run("env ROS_MASTER_URI=http://localhost:1 " + node + " --help");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("docs/nodes.md"), std::string::npos) << r.output;
   }
 }
