@@ -15,10 +15,14 @@
 
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 
 namespace mic = magnetometer_insitu_calibration;
@@ -166,6 +170,42 @@ void add_estimator_options(CLI::App& app, Options& o, mic::WindowCalibrationSett
                "choose the band from the coherence between the instruments (reported per window)");
 }
 
+/// An error naming a settings field (the core's settings name their fields) named by the option
+/// the user gave instead; any other error (a file and line, an option) unchanged.
+mic::InputError named_by_option(const mic::InputError& e) {
+  static const std::map<std::string, std::string> options = {
+      {"pairing_tolerance_s", "--tolerance"}, {"output_period_s", "--output-period"}, {"max_fill", "--max-fill"},
+      {"band_low_hz", "--band"}, {"band_high_hz", "--band"}, {"window", "--window"}, {"step", "--step"},
+      {"intervals", "--intervals"}, {"huber_k", "--huber-k"}, {"iterations", "--iterations"},
+      {"section_rejection", "--section-rejection"}, {"section_s", "--section-length"},
+      {"screen_threshold", "--screen-threshold"}, {"screen_margin_s", "--screen-margin"},
+      {"screen_baseline_s", "--screen-baseline"}, {"gamma", "--gamma"}, {"min_coherence", "--min-coherence"},
+      {"max_condition_number", "--max-condition"}, {"temperature_channel", "--temperature-channel"},
+      {"temperature_min_range", "--temperature-min-range"}};
+  const auto it = options.find(e.where());
+  return it == options.end() ? e : mic::InputError(it->second, e.problem());
+}
+
+/// Refused before any work: the same file as reference and test (a record against itself gives
+/// n = I with intervals of zero), and a JSON report that could not be written at the end.
+void check_paths(const Options& o) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  for (const std::string& r : o.reference_paths)
+    for (const std::string& t : o.test_paths)
+      if (fs::equivalent(r, t, error)) {
+        throw mic::InputError("--test", "'" + t + "' is also given as --reference: a record against itself has "
+                                        "nothing to calibrate");
+      }
+  if (!o.json_path.empty()) {
+    const fs::path dir = fs::absolute(fs::path(o.json_path)).parent_path();
+    if (!fs::is_directory(dir, error) || ::access(dir.c_str(), W_OK) != 0) {
+      throw mic::InputError("--json", "cannot write '" + o.json_path + "': " + dir.string() +
+                                          " is not a writable directory");
+    }
+  }
+}
+
 /// The parsed values into the settings; InputError naming the option for an impossible one.
 void apply_options(const Options& o, mic::CalibrationSettings& settings) {
   mic::WindowCalibrationSettings& window_settings = settings.window;
@@ -220,8 +260,10 @@ int main(int argc, char** argv) {
   add_estimator_options(app, o, settings.window);
   CLI11_PARSE(app, argc, argv);
 
+  bool any_ok = false;
   try {
     apply_options(o, settings);
+    check_paths(o);
     const auto [reference, test] = bag->records(o.reference_paths, o.test_paths);
     mic::VectorRecord third, remote;
     mic::SideRecords sides;
@@ -237,6 +279,7 @@ int main(int argc, char** argv) {
       sides.scalar = &scalar;
     }
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings, sides);
+    for (const auto& w : result.windows) any_ok = any_ok || w.estimate.quality == mic::Quality::kOk;
     mic::ReportInputs inputs = bag->inputs(o.reference_paths, o.test_paths);
     inputs.remote = bag->from_bag() ? bag->remote_input() : joined(o.remote_paths);
     std::cout << mic::format_calibration_summary(result, settings.window.tolerances)
@@ -248,11 +291,15 @@ int main(int argc, char** argv) {
       if (!out) throw mic::InputError(o.json_path, "write failed");
     }
   } catch (const mic::InputError& e) {
-    std::cerr << "calibrate_records: " << e.what() << "\n";
+    std::cerr << "calibrate_records: " << named_by_option(e).what() << "\n";
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "calibrate_records: error: " << e.what() << "\n";
     return 1;
+  }
+  if (!any_ok) {  // the report is written; a script must not take it for a calibration
+    std::cerr << "calibrate_records: every window is flagged (see the report): no calibration to apply\n";
+    return 3;
   }
   return 0;
 }

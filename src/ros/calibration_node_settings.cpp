@@ -311,9 +311,9 @@ void load_estimator(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   r.iterations = param_int(p, "iterations", r.iterations);
   // A window must be able to hold min_harmonics harmonics j / window inside the band.
   const double window = s.streams.window_s;
-  const double harmonics = std::floor(e.band_high_hz * window) - std::ceil(e.band_low_hz * window) + 1.0;
+  const double harmonics = e.band_harmonics(window);
   if (harmonics < static_cast<double>(e.min_harmonics)) {
-    throw ParameterError("window", "(" + number_text(window) + " s) holds only " + number_text(std::max(0.0, harmonics)) +
+    throw ParameterError("window", "(" + number_text(window) + " s) holds only " + number_text(harmonics) +
                                        " DFT harmonics in [~band_low, ~band_high], fewer than ~min_harmonics (" +
                                        std::to_string(e.min_harmonics) + "): every window would be flagged");
   }

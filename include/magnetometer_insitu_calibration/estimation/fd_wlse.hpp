@@ -76,6 +76,10 @@ struct EstimatorSettings {
   EstimatorMethod method = EstimatorMethod::kRobust;  ///< used by WindowEstimator / the pipeline
   RobustSettings robust;                               ///< options of the robust method
 
+  /// How many DFT harmonics j / window_s (window_s in s) fall inside [band_low_hz, band_high_hz]:
+  /// a window with fewer than min_harmonics is always flagged TooFewHarmonics.
+  double band_harmonics(double window_s) const;
+
   /// Throws InputError naming the field when a value is impossible.
   void validate() const;
 };

@@ -31,6 +31,7 @@
 #include <Eigen/Eigenvalues>
 #include <fftw3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <limits>
@@ -51,6 +52,10 @@ std::mutex& fftw_planner_mutex() {
 }  // namespace
 
 std::mutex& fftw_planner_lock() { return fftw_planner_mutex(); }
+
+double EstimatorSettings::band_harmonics(double window_s) const {
+  return std::max(0.0, std::floor(band_high_hz * window_s) - std::ceil(band_low_hz * window_s) + 1.0);
+}
 
 void EstimatorSettings::validate() const {
   auto fail = [](const std::string& field, const std::string& problem) {

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 
 namespace magnetometer_insitu_calibration {
@@ -39,6 +40,16 @@ void CalibrationSettings::validate() const {
   preprocess.validate();
   windows.validate();
   window.validate();
+  // Sliding windows too short for the band would all be flagged: refused before any is estimated.
+  const EstimatorSettings& e = window.estimator;
+  if (windows.window_s > 0.0 && e.band_harmonics(windows.window_s) < static_cast<double>(e.min_harmonics)) {
+    char text[240];
+    std::snprintf(text, sizeof text,
+                  "of %g s holds only %g DFT harmonics in the band %g-%g Hz, fewer than the %zu a window needs "
+                  "(every window would be flagged): a longer window or a higher band",
+                  windows.window_s, e.band_harmonics(windows.window_s), e.band_low_hz, e.band_high_hz, e.min_harmonics);
+    throw InputError("window", text);
+  }
 }
 
 double median_sample_period(const VectorRecord& record) {
@@ -154,8 +165,10 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
     const auto window = static_cast<std::size_t>(std::llround(layout.window_s / period_s));
     const auto step = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(layout.step_s / period_s)));
     if (window > samples) {
-      throw InputError("window", "of " + std::to_string(layout.window_s) + " s is longer than the record (" +
-                                     std::to_string(samples * period_s) + " s)");
+      char text[160];
+      std::snprintf(text, sizeof text, "of %g s is longer than the record (%g s)", layout.window_s,
+                    static_cast<double>(samples) * period_s);
+      throw InputError("window", text);
     }
     for (std::size_t first = 0, i = 1; first + window <= samples; first += step, ++i) {
       spans.push_back({"window " + std::to_string(i), first, window});

@@ -103,6 +103,13 @@ std::string format_calibration_summary(const PairCalibration& c, const Tolerance
                 format_iso8601(w->start_s, 0).c_str(), format_iso8601(w->end_s, 0).c_str(),
                 (w->end_s - w->start_s) / 3600.0, which.c_str(), quality_name(w->estimate.quality));
   out << head << "Tolerances: " << tolerances.source << "\n";
+  if (w->estimate.quality != Quality::kOk) {
+    out << "The window is flagged: " << w->estimate.quality_text << ".\nA flagged window is not a calibration: "
+        << "no verdicts, no correction to apply (the table below gives what was estimated, and why it failed).\n";
+    if (w->scalar.assessed) out << "Against the scalar magnetometer: " << w->scalar.text << "\n";
+    out << "\n";
+    return out.str();
+  }
   char columns[256];
   std::snprintf(columns, sizeof columns, "  %-34s %-24s %-12s %-10s %s\n", "parameter", "value ± 95 %", "tolerance",
                 "verdict", "record that would decide");
@@ -111,7 +118,6 @@ std::string format_calibration_summary(const PairCalibration& c, const Tolerance
   if (!w->narrowing.text.empty()) {
     out << "Record needed, if the values stay where they are: intervals narrow as " << w->narrowing.text << "\n";
   }
-  if (w->estimate.quality != Quality::kOk) out << "The window is flagged: " << w->estimate.quality_text << "\n";
   // The reference itself, when a scalar magnetometer checked it: a reference that departs from 1
   // makes every verdict above one against a wrong reference.
   if (w->scalar.assessed) out << "Against the scalar magnetometer: " << w->scalar.text << "\n";

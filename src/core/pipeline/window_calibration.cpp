@@ -297,18 +297,21 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
   return w;
 }
 
-/// Step 6: the verdicts; the sub-windows are estimated only when one is undecided.
+/// Step 6: the verdicts; the sub-windows are estimated only when one is undecided. A flagged
+/// window is not a calibration (the node does not accept it, export_corrected does not apply it):
+/// it gets no verdicts, whose intervals would be those of an estimate its rules refused.
 void WindowCalibrator::decide_tolerances(CalibrationWindow& w, const PairedRecord& filled, double period_s,
                                          const WindowInputs& inputs, const CalibrationParameters& estimator_parameters) {
+  w.verdicts.clear();
+  if (w.estimate.quality != Quality::kOk) {
+    w.narrowing.text = "not measured: the window is flagged (" + w.estimate.quality_text + ")";
+    return;
+  }
   const double length_s = static_cast<double>(w.expected_samples) * period_s;
   w.verdicts = tolerance_verdicts(w.estimate.parameters, settings_.tolerances, length_s, w.narrowing);
   const bool undecided = std::any_of(w.verdicts.begin(), w.verdicts.end(),
                                      [](const ToleranceVerdict& v) { return v.verdict == Verdict::kUndecided; });
   if (!undecided) return;
-  if (w.estimate.quality != Quality::kOk) {
-    w.narrowing.text = "not measured: the window is flagged (" + w.estimate.quality_text + ")";
-    return;
-  }
   w.narrowing = measure_interval_narrowing(estimator_, filled, period_s, inputs, estimator_parameters);
   w.verdicts = tolerance_verdicts(w.estimate.parameters, settings_.tolerances, length_s, w.narrowing);
 }

@@ -10,6 +10,8 @@
 #include <random>
 #include <fstream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 namespace mic = magnetometer_insitu_calibration;
 
@@ -111,6 +113,53 @@ TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
   r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --window 3600 --step 7200");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("step"), std::string::npos) << r.output;
+}
+
+// Errors of the core's settings name the option the user gave, not the settings field; what
+// could only fail at the end (the JSON's directory) or gives nothing to calibrate (one file as
+// both instruments, windows too short for the band) is refused before any work.
+TEST_F(CalibrateRecordsCli, BadOptionsAreNamedByTheirOptionBeforeAnyWork) {
+  const std::string io = "--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {io + "--tolerance -1", "calibrate_records: --tolerance: must be"},
+      {io + "--output-period 0", "calibrate_records: --output-period: must be"},
+      {io + "--max-fill -3", "calibrate_records: --max-fill: must be"},
+      {io + "--huber-k -1", "calibrate_records: --huber-k: must be"},
+      {io + "--window 100 --step 100", "calibrate_records: --window: of 100 s holds only 1 DFT harmonics in the band"},
+      {io + "--window 1e9 --step 3600", "calibrate_records: --window: of 1e+09 s is longer than the record (21600 s)"},
+      {io + "--json " + dir_ + "/no_such_dir/out.json", "calibrate_records: --json: cannot write"},
+      {"--reference " + dir_ + "/ref.csv --test " + dir_ + "/../" + dir_.substr(dir_.rfind('/') + 1) + "/ref.csv",
+       "is also given as --reference"},
+  };
+  for (const auto& [args, expected] : cases) {
+    SCOPED_TRACE(args);
+    const ProgramRun r = run_cli(args);
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("Summary of"), std::string::npos) << "refused only after calibrating:\n" << r.output;
+  }
+}
+
+// A window that fails its quality rules is not a calibration: its summary gives no verdicts and
+// no correction to apply, its JSON no verdicts, and when every window fails the program says so
+// and exits 3 (the report still written) so that a script does not take it for a calibration.
+TEST_F(CalibrateRecordsCli, AFlaggedRecordGivesNoVerdictsNorCorrectionAndExits3) {
+  mic::SimulationSettings s;
+  s.duration_s = 6 * 3600.0;
+  s.seed = 77;  // another field: the test does not follow the reference
+  mic::write_csv_record(dir_ + "/unrelated.csv", mic::simulate_pair(s).test);
+  const ProgramRun r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/unrelated.csv --json " + dir_ +
+                               "/flagged.json");
+  EXPECT_EQ(r.status, 3) << r.output;
+  EXPECT_NE(r.output.find("quality low_coherence"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("A flagged window is not a calibration: no verdicts, no correction"), std::string::npos);
+  EXPECT_EQ(r.output.find("Correction:"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("undecided"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("every window is flagged (see the report): no calibration to apply"), std::string::npos);
+  const nlohmann::json j = read_json(dir_ + "/flagged.json");
+  ASSERT_EQ(j["windows"].size(), 1u);
+  EXPECT_EQ(j["windows"][0]["quality"], "low_coherence");
+  EXPECT_TRUE(j["windows"][0]["verdicts"].empty()) << j["windows"][0]["verdicts"].dump();
 }
 
 // The errors-in-variables correction uses a reference noise model only: without a noise figure
