@@ -9,10 +9,12 @@
 //
 // Correction (rows are samples, nT; T = R n): r = t n^-1. The calibration is one window of a
 // calibrate_records --json report, or the YAML file of calibration_node (the latest accepted
-// window). Only n is applied: the test instrument's baseline (offset) is not estimated by the
-// calibration (DFT harmonic 0 is excluded) and is not removed; an offset b of the test reading
-// appears in the output as b n^-1, so the corrected series needs its own baselines from
-// absolute measurements, as any variometer record. The trend column is not applied either.
+// window). Only n is applied: n is estimated without harmonic 0, and the offset d the report
+// gives beside it (the test against the reference at the window's end, what correction_node
+// removes live) is not removed here: an archive keeps the observatory's baselines, so an offset
+// b of the test reading appears in the output as b n^-1 and the corrected series takes its own
+// baselines from absolute measurements, as any variometer record. The trend column is not
+// applied either.
 #include "archive_records.hpp"
 
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
@@ -28,6 +30,7 @@
 #include <array>
 #include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 
@@ -45,6 +48,8 @@ struct Applied {
   /// The test record's components n was estimated on (a JSON report's preprocessing), empty when
   /// the calibration does not say (a YAML file, an earlier report).
   std::vector<std::string> test_components;
+  /// The reference's files as the report names them (settings.reference, " + " between files).
+  std::vector<std::string> reference_files;
 };
 
 std::string fixed(double v, int decimals) {
@@ -63,6 +68,12 @@ Applied from_json(const std::string& path, const std::string& which) {
   if (report.contains("settings")) {
     const nlohmann::json& s = report["settings"];
     a.inputs = "reference " + s.value("reference", std::string("?")) + ", test " + s.value("test", std::string("?"));
+    const std::string files = s.value("reference", std::string());
+    for (std::size_t first = 0; first < files.size();) {
+      const std::size_t plus = files.find(" + ", first);
+      a.reference_files.push_back(files.substr(first, plus == std::string::npos ? std::string::npos : plus - first));
+      first = plus == std::string::npos ? files.size() : plus + 3;
+    }
   }
   if (report.contains("preprocessing") && report["preprocessing"].contains("test_components") &&
       report["preprocessing"]["test_components"].is_array()) {
@@ -132,6 +143,20 @@ void check_components(const Applied& applied, const mic::VectorRecord& record, c
   }
 }
 
+/// Refuses a test file that is one of the reference files the report was estimated with: n
+/// corrects the test instrument, and applied to the reference it writes a plausible-looking
+/// record of nothing. A report file that no longer resolves from here is not compared.
+void check_not_reference(const Applied& applied, const std::vector<std::string>& test_paths,
+                         const std::string& calibration_path) {
+  std::error_code error;
+  for (const std::string& t : test_paths)
+    for (const std::string& r : applied.reference_files)
+      if (std::filesystem::equivalent(t, r, error)) {
+        throw mic::InputError(t, "is the reference " + calibration_path +
+                                     " was estimated against, not its test: n corrects the test instrument");
+      }
+}
+
 bool ends_with(const std::string& text, const std::string& suffix) {
   return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
@@ -198,6 +223,7 @@ int main(int argc, char** argv) {
                                                   "': not applied (--allow-flagged to apply it anyway)");
     }
 
+    if (bag_path.empty()) check_not_reference(applied, test_paths, calibration_path);
     mic::VectorRecord record;
     std::string test_name;
     for (const std::string& p : test_paths) test_name += (test_name.empty() ? "" : " + ") + p;
@@ -231,8 +257,8 @@ int main(int argc, char** argv) {
         "Calibration window " + applied.window + ", quality " + applied.quality + ", from " + calibration_path +
             (applied.inputs.empty() ? std::string() : " (" + applied.inputs + ")") + ".",
         "Test record: " + test_name + ".",
-        "Baseline: the test offset is not estimated (DFT harmonic 0 excluded) and not removed; an offset b appears "
-        "as b n^-1. Trend not removed. Derive baselines from absolute measurements.",
+        "Baseline: only n applied; the offset d against the reference (report, correction_node) not removed: "
+        "an offset b appears as b n^-1. Trend not removed. Derive baselines from absolute measurements.",
     };
     if (!applied.parameters.empty()) iaga.comments.insert(iaga.comments.begin() + 2, applied.parameters);
     if (const auto it = record.header.find("comments"); it != record.header.end() && !it->second.empty()) {

@@ -41,6 +41,11 @@ std::optional<RecordFormat> detect_binary_format(const std::string& path) {
     }
   }
   if (size >= 2 && bytes[0] == 0x1f && bytes[1] == 0x8b) return std::nullopt;  // gzip: text
+  // A rosbag is read by topic, not as a record file: say so rather than fail on its first "line".
+  if (size >= 9 && std::equal(bytes.begin(), bytes.begin() + 9, "#ROSBAG V")) {
+    throw InputError(path, "is a rosbag: its records are read by topic (calibrate_records --bag FILE "
+                           "--reference-topic T --test-topic T; export_corrected --bag FILE --test-topic T)");
+  }
   if (size >= 7 && std::equal(bytes.begin(), bytes.begin() + 7, "LemiBin")) return RecordFormat::kLemiBin;
   auto packet_at = [&](std::size_t p) {
     return p + kLemi025PacketSize <= size && check_lemi025_structure(bytes.data() + p) == Lemi025Problem::kOk;

@@ -273,6 +273,19 @@ TEST(RecordFile, DetectsFormatByContentAndDispatches) {
   } catch (const mic::InputError& error) {
     EXPECT_TRUE(contains(error.what(), "nowhere.csv: cannot open")) << error.what();
   }
+  // A rosbag (its version line, then binary records) is named as one, not failed on as a CSV.
+  const std::string bag = make_temp_dir("record_file") + "/pair.bag";
+  {
+    std::ofstream out(bag, std::ios::binary);
+    out << "#ROSBAG V2.0\n" << std::string("\x04\x00\x00\x00op=\x03", 9);
+  }
+  try {
+    mic::read_record(bag);
+    ADD_FAILURE() << "a rosbag read as a record file";
+  } catch (const mic::InputError& error) {
+    EXPECT_TRUE(contains(error.what(), "pair.bag: is a rosbag: its records are read by topic (calibrate_records --bag"))
+        << error.what();
+  }
 }
 
 // Auxiliary columns (e.g. the sensor temperature beside the field, INTERMAGNET's 1-second

@@ -271,6 +271,19 @@ TEST_F(ExportCorrected, ARecordOfOtherComponentsThanTheCalibratedOnesIsRefused) 
   expect_rounded_correction(mic::read_iaga2002(out), test_read_, pair_.n_true);
 }
 
+// The reference the report was estimated against, given as --test (the same file, under another
+// spelling of its path), is refused naming it, and nothing is written: n corrects the test.
+TEST_F(ExportCorrected, TheReportsOwnReferenceIsRefusedAsTheTest) {
+  const std::string out = dir_ + "/reference_corrected.sec";
+  const std::string spelled = dir_ + "/../" + dir_.substr(dir_.rfind('/') + 1) + "/reference.sec";
+  const ProgramRun r = export_corrected("--test " + spelled + " --calibration " + dir_ + "/report.json -o " + out);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find(spelled + ": is the reference " + dir_ + "/report.json was estimated against, not its test"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::ifstream(out).good()) << out << " written from the reference";
+}
+
 TEST_F(ExportCorrected, ADamagedCsvLineIsRefusedAsCalibrateRecordsRefusesItAndNothingIsWritten) {
   // Text in a number column (line 5, column 3 "y"): export_corrected refuses the record as
   // calibrate_records does, naming file, line and column, exits 1 and writes no output file.
