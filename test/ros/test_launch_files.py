@@ -16,6 +16,8 @@
 - simulated_station.launch: a duration plays the record once and ends the launch (simulators
   required, no --loop); without one the record loops and nothing ends the launch; the same for
   simulated_network.launch's five simulators;
+- simulated_station.launch ends when calibration_node ends (an impossible parameter); station.launch
+  only with calibration_required:=true;
 - calibration_node writes to the screen by default (one line per window on the console: with
   output=log roslaunch sends a node's stdout, where ROS_INFO goes, to a file).
 """
@@ -137,6 +139,19 @@ class LaunchFiles(unittest.TestCase):
         config = self.load("simulated_station.launch", "duration:=3000", "end_with_record:=false")
         for sim in self.simulators(config):
             self.assertFalse(sim.required)
+
+    def test_the_simulated_station_ends_with_its_calibration_node(self):
+        # An impossible calibration parameter kills calibration_node at start: the simulated
+        # station ends with it instead of playing its record to nobody; a real station's drivers
+        # keep recording unless asked (calibration_required).
+        for args in ([], ["duration:=3000"], ["nodelet_manager:=sim_manager"]):
+            config = self.load("simulated_station.launch", *args)
+            nodes = [n for n in config.nodes if n.name == "calibration_test"]
+            self.assertEqual(len(nodes), 1, args)
+            self.assertTrue(nodes[0].required, args)
+        self.assertFalse(self.node(self.load("station.launch"), "calibration_node").required)
+        config = self.load("station.launch", "calibration_required:=true")
+        self.assertTrue(self.node(config, "calibration_node").required)
 
     def test_a_duration_ends_the_simulated_network(self):
         def simulators(config):
