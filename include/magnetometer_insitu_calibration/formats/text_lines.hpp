@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
 
 namespace magnetometer_insitu_calibration {
@@ -23,6 +24,9 @@ class TextLineReader {
   bool next(std::string& line);
   /// 1-based number of the line last returned by next(); 0 before the first.
   std::size_t line_number() const { return line_number_; }
+  /// True when the line last returned is the file's last and has no line end: a file still
+  /// being written (today's daily file at a station) ends so, cut within a record.
+  bool last_line_unterminated() const { return unterminated_; }
   const std::string& path() const { return path_; }
 
  private:
@@ -30,7 +34,21 @@ class TextLineReader {
   void* file_ = nullptr;  // gzFile, kept opaque so that users need not include zlib.h
   std::size_t line_number_ = 0;
   bool at_end_ = false;
+  bool unterminated_ = false;
 };
+
+class InputError;
+
+/// The header key under which a text reader notes a last line it dropped.
+inline constexpr const char* kPartialLastLineKey = "partial_last_line";
+
+/// Called by a text reader whose line failed to parse with `error`: when that line is the file's
+/// last, has no line end and the record already has data (`have_data`), it is a record still
+/// being written, cut within a line. The line is then dropped, noted in `header` under
+/// kPartialLastLineKey, and true returned; otherwise false (the caller rethrows: a damaged line
+/// refuses the file).
+bool drop_partial_last_line(const TextLineReader& reader, const InputError& error, bool have_data,
+                            std::map<std::string, std::string>& header);
 
 /// Writes text to a file, gzip-compressed when the path ends in ".gz", plain otherwise.
 /// The destructor closes the file but cannot report errors: call close().

@@ -128,71 +128,76 @@ VectorRecord read_csv_record(const std::string& path) {
       have_comments = true;
       continue;
     }
-    const bool first_content = delimiter == 0;
-    if (first_content) delimiter = choose_delimiter(line);
-    const std::vector<std::string> fields = split_fields(line, delimiter);
-    const bool header = first_content && fields.size() >= kColumns && looks_like_header(fields);
-    if (header) {
-      names.clear();
-      for (std::size_t i = 0; i < fields.size(); ++i) {
-        if (fields[i].empty()) {
-          throw InputError(path, n, "header: column " + std::to_string(i + 1) + " has no name");
+    try {
+      const bool first_content = delimiter == 0;
+      if (first_content) delimiter = choose_delimiter(line);
+      const std::vector<std::string> fields = split_fields(line, delimiter);
+      const bool header = first_content && fields.size() >= kColumns && looks_like_header(fields);
+      if (header) {
+        names.clear();
+        for (std::size_t i = 0; i < fields.size(); ++i) {
+          if (fields[i].empty()) {
+            throw InputError(path, n, "header: column " + std::to_string(i + 1) + " has no name");
+          }
+          for (std::size_t j = kColumns; j < i; ++j) {
+            if (names[j] == fields[i]) throw InputError(path, n, "header: column name '" + fields[i] + "' repeated");
+          }
+          names.push_back(fields[i]);
         }
-        for (std::size_t j = kColumns; j < i; ++j) {
-          if (names[j] == fields[i]) throw InputError(path, n, "header: column name '" + fields[i] + "' repeated");
-        }
-        names.push_back(fields[i]);
+        for (std::size_t i = 0; i < 3; ++i) record.components[i] = names[i + 1];
+        auxiliary.assign(names.size() - kColumns, {});
+        continue;
       }
-      for (std::size_t i = 0; i < 3; ++i) record.components[i] = names[i + 1];
-      auxiliary.assign(names.size() - kColumns, {});
-      continue;
-    }
-    if (fields.size() != names.size()) {
-      std::string expected = names[0];
-      for (std::size_t i = 1; i < names.size(); ++i) expected += delimiter + names[i];
-      throw InputError(path, n,
-                       "expected " + std::to_string(names.size()) + " columns (" + expected + "), found " +
-                           std::to_string(fields.size()) +
-                           (fields.size() > names.size() && names.size() == kColumns
-                                ? "; columns after the fourth (e.g. a temperature) need a header line "
-                                  "naming them, e.g. time,X,Y,Z,temperature"
-                                : ""));
-    }
+      if (fields.size() != names.size()) {
+        std::string expected = names[0];
+        for (std::size_t i = 1; i < names.size(); ++i) expected += delimiter + names[i];
+        throw InputError(path, n,
+                         "expected " + std::to_string(names.size()) + " columns (" + expected + "), found " +
+                             std::to_string(fields.size()) +
+                             (fields.size() > names.size() && names.size() == kColumns
+                                  ? "; columns after the fourth (e.g. a temperature) need a header line "
+                                    "naming them, e.g. time,X,Y,Z,temperature"
+                                  : ""));
+      }
 
-    double time_s = 0.0;
-    std::string why;
-    if (!parse_time_field(fields[0], time_s, why)) throw InputError(path, n, column(0) + ": " + why);
-    std::array<double, 3> row{};
-    for (std::size_t i = 1; i < kColumns; ++i) {
-      const std::string& text = fields[i];
-      double value = std::numeric_limits<double>::quiet_NaN();
-      if (!text.empty() && !is_nan_text(text)) {
-        if (!parse_number(text, value) || std::isinf(value)) {
+      double time_s = 0.0;
+      std::string why;
+      if (!parse_time_field(fields[0], time_s, why)) throw InputError(path, n, column(0) + ": " + why);
+      std::array<double, 3> row{};
+      for (std::size_t i = 1; i < kColumns; ++i) {
+        const std::string& text = fields[i];
+        double value = std::numeric_limits<double>::quiet_NaN();
+        if (!text.empty() && !is_nan_text(text)) {
+          if (!parse_number(text, value) || std::isinf(value)) {
+            throw InputError(path, n, column(i) + ": '" + text + "' is not a number");
+          }
+          if (value >= kIagaMissingFrom_nT) value = std::numeric_limits<double>::quiet_NaN();
+        }
+        row[i - 1] = value;
+      }
+      for (std::size_t i = kColumns; i < fields.size(); ++i) {
+        const std::string& text = fields[i];
+        double value = std::numeric_limits<double>::quiet_NaN();  // empty or "nan": missing
+        if (!text.empty() && !is_nan_text(text) && (!parse_number(text, value) || std::isinf(value))) {
           throw InputError(path, n, column(i) + ": '" + text + "' is not a number");
         }
-        if (value >= kIagaMissingFrom_nT) value = std::numeric_limits<double>::quiet_NaN();
+        auxiliary[i - kColumns].push_back(value);
       }
-      row[i - 1] = value;
-    }
-    for (std::size_t i = kColumns; i < fields.size(); ++i) {
-      const std::string& text = fields[i];
-      double value = std::numeric_limits<double>::quiet_NaN();  // empty or "nan": missing
-      if (!text.empty() && !is_nan_text(text) && (!parse_number(text, value) || std::isinf(value))) {
-        throw InputError(path, n, column(i) + ": '" + text + "' is not a number");
+      if (!times.empty() && !(time_s > times.back())) {
+        throw InputError(path, n,
+                         column(0) + ": " +
+                             (time_s == times.back() ? "duplicate time " : "time goes backwards: ") +
+                             time_for_message(time_s) + " is not after " +
+                             time_for_message(times.back()) + " on line " +
+                             std::to_string(previous_line));
       }
-      auxiliary[i - kColumns].push_back(value);
+      times.push_back(time_s);
+      rows.push_back(row);
+      previous_line = n;
+    } catch (const InputError& error) {
+      if (!drop_partial_last_line(reader, error, !times.empty(), record.header)) throw;
+      for (auto& channel : auxiliary) channel.resize(times.size());  // nothing of the refused line kept
     }
-    if (!times.empty() && !(time_s > times.back())) {
-      throw InputError(path, n,
-                       column(0) + ": " +
-                           (time_s == times.back() ? "duplicate time " : "time goes backwards: ") +
-                           time_for_message(time_s) + " is not after " +
-                           time_for_message(times.back()) + " on line " +
-                           std::to_string(previous_line));
-    }
-    times.push_back(time_s);
-    rows.push_back(row);
-    previous_line = n;
   }
 
   if (times.empty()) throw InputError(path, "no data lines");
@@ -299,43 +304,43 @@ void write_csv_record(const std::string& path, const VectorRecord& record, bool 
   for (std::size_t r = 0; r < n; ++r) {
     const double t = record.time_s[r];
     try {
-      text += iso_time ? format_iso8601(t, time_decimals) : shortest_number(t);
-    } catch (const std::invalid_argument& error) {
-      throw InputError(path, "sample " + std::to_string(r) + ": " + error.what());
-    }
-    for (int c = 0; c < 3; ++c) {
-      const double value = record.values_nT(static_cast<Eigen::Index>(r), c);
-      text += ',';
-      if (std::isnan(value)) {
-        text += "nan";
-        continue;
+        text += iso_time ? format_iso8601(t, time_decimals) : shortest_number(t);
+      } catch (const std::invalid_argument& error) {
+        throw InputError(path, "sample " + std::to_string(r) + ": " + error.what());
       }
-      const int length = std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
-      double back = 0.0;
-      if (std::isinf(value) || length <= 0 || length >= static_cast<int>(sizeof buffer) ||
-          !parse_number(std::string(buffer, static_cast<std::size_t>(length)), back) ||
-          back >= kIagaMissingFrom_nT) {
-        throw InputError(path, "sample " + std::to_string(r) + ", component " +
-                                   record.components[c] + ": value " + std::to_string(value) +
-                                   " nT cannot be written (infinite, or would read back as "
-                                   "missing: >= 88888)");
+      for (int c = 0; c < 3; ++c) {
+        const double value = record.values_nT(static_cast<Eigen::Index>(r), c);
+        text += ',';
+        if (std::isnan(value)) {
+          text += "nan";
+          continue;
+        }
+        const int length = std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+        double back = 0.0;
+        if (std::isinf(value) || length <= 0 || length >= static_cast<int>(sizeof buffer) ||
+            !parse_number(std::string(buffer, static_cast<std::size_t>(length)), back) ||
+            back >= kIagaMissingFrom_nT) {
+          throw InputError(path, "sample " + std::to_string(r) + ", component " +
+                                     record.components[c] + ": value " + std::to_string(value) +
+                                     " nT cannot be written (infinite, or would read back as "
+                                     "missing: >= 88888)");
+        }
+        text.append(buffer, static_cast<std::size_t>(length));
       }
-      text.append(buffer, static_cast<std::size_t>(length));
-    }
-    for (const AuxiliaryChannel& a : record.auxiliary) {
-      const double value = a.values[r];
-      if (std::isinf(value)) {
-        throw InputError(path, "sample " + std::to_string(r) + ", " + a.name + ": value is infinite");
+      for (const AuxiliaryChannel& a : record.auxiliary) {
+        const double value = a.values[r];
+        if (std::isinf(value)) {
+          throw InputError(path, "sample " + std::to_string(r) + ", " + a.name + ": value is infinite");
+        }
+        text += ',';
+        text += std::isnan(value) ? std::string("nan") : shortest_number(value);
       }
-      text += ',';
-      text += std::isnan(value) ? std::string("nan") : shortest_number(value);
+      text += '\n';
     }
-    text += '\n';
+
+    TextFileWriter writer(path);
+    writer.write(text);
+    writer.close();
   }
 
-  TextFileWriter writer(path);
-  writer.write(text);
-  writer.close();
-}
-
-}  // namespace magnetometer_insitu_calibration
+  }  // namespace magnetometer_insitu_calibration

@@ -211,7 +211,12 @@ VectorRecord read_iaga2002(const std::string& path) {
     const std::size_t n = reader.line_number();
     if (line.find_first_not_of(" \t") == std::string::npos) continue;  // blank line
     if (have_columns) {
-      parse_data_line(path, n, line, layout, times, rows, fourth, previous_line);
+      try {
+        parse_data_line(path, n, line, layout, times, rows, fourth, previous_line);
+      } catch (const InputError& error) {
+        if (!drop_partial_last_line(reader, error, !times.empty(), record.header)) throw;
+        if (fourth.size() > times.size()) fourth.resize(times.size());  // nothing of the refused line kept
+      }
       continue;
     }
     if (line.compare(0, 4, "DATE") == 0) {

@@ -98,10 +98,19 @@ bool TextLineReader::next(std::string& line) {
     }
   }
   if (!got_any) return false;
+  unterminated_ = line.empty() || line.back() != '\n';
   if (!line.empty() && line.back() == '\n') line.pop_back();
   if (!line.empty() && line.back() == '\r') line.pop_back();
   if (line_number_ == 0 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 BOM
   ++line_number_;
+  return true;
+}
+
+bool drop_partial_last_line(const TextLineReader& reader, const InputError& error, bool have_data,
+                            std::map<std::string, std::string>& header) {
+  if (!have_data || !reader.last_line_unterminated()) return false;
+  header[kPartialLastLineKey] = "line " + std::to_string(reader.line_number()) + " dropped: it ends the file without a " +
+                                "line end (a file still being written?) and " + error.problem();
   return true;
 }
 

@@ -1,6 +1,7 @@
 // CSV records: fixtures with known values, round trips with UNIX and ISO time, errors that
 // name file, line and column; format detection and dispatch (record_file.hpp).
 #include "magnetometer_insitu_calibration/formats/csv_record.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
@@ -285,6 +286,33 @@ TEST(RecordFile, DetectsFormatByContentAndDispatches) {
   } catch (const mic::InputError& error) {
     EXPECT_TRUE(contains(error.what(), "pair.bag: is a rosbag: its records are read by topic (calibrate_records --bag"))
         << error.what();
+  }
+}
+
+// A CSV still being written, cut within its last line (no line end): that line is dropped and
+// noted, with its auxiliary columns; with a line end it refuses the file, naming line and column.
+TEST(ReadCsvRecord, AFileStillBeingWrittenLosesOnlyItsCutLastLine) {
+  const std::string dir = make_temp_dir("csv_partial");
+  const std::string body = "time,x,y,z,temperature\n1747180800,1,2,3,20.5\n1747180801,1,2,3,20.6\n1747180802,1,";
+  {
+    std::ofstream out(dir + "/cut.csv", std::ios::binary);
+    out << body;
+  }
+  const mic::VectorRecord r = mic::read_csv_record(dir + "/cut.csv");
+  ASSERT_EQ(r.size(), 2u);
+  ASSERT_EQ(r.auxiliary.size(), 1u);
+  EXPECT_EQ(r.auxiliary[0].values.size(), 2u);
+  ASSERT_EQ(r.header.count(mic::kPartialLastLineKey), 1u);
+  EXPECT_TRUE(contains(r.header.at(mic::kPartialLastLineKey), "line 4 dropped")) << r.header.at(mic::kPartialLastLineKey);
+  {
+    std::ofstream out(dir + "/cut_ended.csv", std::ios::binary);
+    out << body << "\n";
+  }
+  try {
+    mic::read_csv_record(dir + "/cut_ended.csv");
+    ADD_FAILURE() << "a short line with its line end was read";
+  } catch (const mic::InputError& error) {
+    EXPECT_TRUE(contains(error.what(), "cut_ended.csv:4: expected 5 columns")) << error.what();
   }
 }
 

@@ -1,8 +1,9 @@
 // IAGA-2002: the real WIC LEMI-036 day (data/wic20250514_lemi036.sec.gz), small fixtures in
 // test/data/formats with known values and known bad lines, and write/read round trips.
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
-#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include "test_support.hpp"
@@ -198,6 +199,41 @@ TEST(ReadIaga2002, ErrorsFromEditedFixture) {
   // No column header at all.
   write_bytes(dir + "/header_only.sec", good.substr(0, good.find("DATE")));
   EXPECT_TRUE(contains(iaga_read_error(dir + "/header_only.sec"), "header_only.sec: no column header"));
+}
+
+// A daily file still being written ends within a record, without a line end: that last line is
+// dropped and noted (read_records warns), the record before it kept. The same line with its line
+// end, or a damaged line before the last, still refuses the file.
+TEST(ReadIaga2002, AFileStillBeingWrittenLosesOnlyItsCutLastLine) {
+  const std::string dir = make_temp_dir("iaga_partial");
+  std::string good = read_bytes(test_data("formats/iaga_small.sec"));
+  while (good.size() >= 2 && good.compare(good.size() - 2, 2, "\r\n") == 0) good.resize(good.size() - 2);
+  const std::size_t last = good.rfind("\r\n") + 2;  // the last data line
+  const std::string cut = good.substr(0, last + 40);  // within its first value
+  write_bytes(dir + "/cut.sec", cut);
+  const mic::VectorRecord full = mic::read_iaga2002(test_data("formats/iaga_small.sec"));
+  const mic::VectorRecord partial = mic::read_iaga2002(dir + "/cut.sec");
+  ASSERT_EQ(partial.size() + 1, full.size());
+  EXPECT_EQ(partial.time_s, std::vector<double>(full.time_s.begin(), full.time_s.end() - 1));
+  for (Eigen::Index i = 0; i < partial.values_nT.rows(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      const double a = partial.values_nT(i, c), b = full.values_nT(i, c);  // the sentinels NaN in both
+      EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << i << " " << c;
+    }
+  ASSERT_EQ(partial.header.count(mic::kPartialLastLineKey), 1u);
+  EXPECT_TRUE(contains(partial.header.at(mic::kPartialLastLineKey), "dropped: it ends the file without a line end"))
+      << partial.header.at(mic::kPartialLastLineKey);
+  std::vector<std::string> warnings;
+  EXPECT_EQ(mic::read_records({dir + "/cut.sec"}, &warnings).size(), partial.size());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_TRUE(contains(warnings[0], "cut.sec: line 20 dropped")) << warnings[0];
+
+  write_bytes(dir + "/cut_ended.sec", cut + "\r\n");
+  EXPECT_TRUE(contains(iaga_read_error(dir + "/cut_ended.sec"), "cut_ended.sec:20: too few columns"));
+  std::string middle = good;
+  middle.erase(last - 30, 20);  // the line before the last damaged
+  write_bytes(dir + "/middle.sec", middle + "\r\n");
+  EXPECT_TRUE(contains(iaga_read_error(dir + "/middle.sec"), "middle.sec:19:"));
 }
 
 TEST(WriteIaga2002, RewritingTheRealFileReproducesItByteForByte) {
