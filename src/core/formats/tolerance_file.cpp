@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 namespace magnetometer_insitu_calibration {
 
@@ -40,22 +41,36 @@ Tolerances parse_tolerances(const std::string& text, const std::string& name) {
     throw InputError(name + ":" + std::to_string(e.mark.line + 1), std::string("not YAML: ") + e.msg);
   }
   Tolerances t;
-  t.source = name;
-  if (root.IsNull()) return t;
+  // An empty file would silently be INTERMAGNET's standard under the file's name.
+  if (root.IsNull()) {
+    throw InputError(name, "holds none of scale_percent, nonorthogonality_deg, misalignment_deg (for INTERMAGNET's "
+                           "1-second standard give no tolerance file)");
+  }
   if (!root.IsMap()) throw InputError(name, "expected keys scale_percent, nonorthogonality_deg, misalignment_deg");
+  bool scale = false, nonorthogonality = false, misalignment = false;
   for (const auto& entry : root) {
     const std::string key = entry.first.as<std::string>();
     const std::string where = name + ": " + key;
     if (key == "scale_percent") {
       t.scale = three_values(entry.second, where) / 100.0;
+      scale = true;
     } else if (key == "nonorthogonality_deg") {
       t.nonorthogonality_deg = three_values(entry.second, where);
+      nonorthogonality = true;
     } else if (key == "misalignment_deg") {
       t.misalignment_deg = three_values(entry.second, where);
+      misalignment = true;
     } else {
       throw InputError(where, "unknown key (expected scale_percent, nonorthogonality_deg, misalignment_deg)");
     }
   }
+  // The report says which tolerances are the file's and which the standard's.
+  std::string left_out;
+  for (const auto& [given, key] : {std::pair{scale, "scale_percent"}, std::pair{nonorthogonality, "nonorthogonality_deg"},
+                                   std::pair{misalignment, "misalignment_deg"}}) {
+    if (!given) left_out += std::string(left_out.empty() ? "" : ", ") + key;
+  }
+  t.source = left_out.empty() ? name : name + "; " + left_out + " not in it: INTERMAGNET's 1-second standard";
   return t;
 }
 

@@ -32,9 +32,15 @@ TEST(ToleranceFile, ReadsOneValueOrThreeAndKeepsTheDefaultsOfKeysLeftOut) {
   EXPECT_DOUBLE_EQ(t.nonorthogonality_deg(2), 0.05);
   // 2 mrad, INTERMAGNET's orthogonality, for the misalignment left out.
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(t.misalignment_deg(i), 0.11459, 1e-5);
-  EXPECT_EQ(t.source, "lab.yaml");
-  const mic::Tolerances defaults = mic::parse_tolerances("", "empty.yaml");
-  for (int i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(defaults.scale(i), 0.01);
+  // The report's "Tolerances:" line says which are the file's.
+  EXPECT_EQ(t.source, "lab.yaml; misalignment_deg not in it: INTERMAGNET's 1-second standard");
+  EXPECT_EQ(mic::parse_tolerances("scale_percent: 0.04\nnonorthogonality_deg: 0.02\nmisalignment_deg: 0.02\n",
+                                  "lab.yaml")
+                .source,
+            "lab.yaml");
+  const mic::Tolerances scale_only = mic::parse_tolerances("scale_percent: 0.5\n", "scale.yaml");
+  EXPECT_EQ(scale_only.source,
+            "scale.yaml; nonorthogonality_deg, misalignment_deg not in it: INTERMAGNET's 1-second standard");
 }
 
 TEST(ToleranceFile, RefusesBadValuesNamingTheFileAndTheKey) {
@@ -45,6 +51,8 @@ TEST(ToleranceFile, RefusesBadValuesNamingTheFileAndTheKey) {
   EXPECT_EQ(refusal("nonorthogonality_deg: .nan\n"), "tol.yaml: nonorthogonality_deg");
   EXPECT_EQ(refusal("scale: 1\n"), "tol.yaml: scale");  // unknown key (scale_percent is the key)
   EXPECT_EQ(refusal("- 1\n- 2\n"), "tol.yaml");
+  EXPECT_EQ(refusal(""), "tol.yaml");  // empty: no tolerance of its own, yet named in the report
+  EXPECT_EQ(refusal("# only a comment\n"), "tol.yaml");
   EXPECT_EQ(refusal("scale_percent: [1, 2\n").rfind("tol.yaml:", 0), 0u);  // not YAML: file and line
   EXPECT_THROW(mic::read_tolerance_file("/nonexistent/tolerances.yaml"), mic::InputError);
 }
