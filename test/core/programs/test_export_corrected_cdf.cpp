@@ -123,8 +123,9 @@ TEST(ExportCorrectedCdf, ImagCdfReadByJcdfHasTheValuesOfTheIagaExport) {
 TEST(ExportCorrectedCdf, TemperaturesOfAMagPyInputBecomeTemperatureVariables) {
   const std::string dir = mic::test::make_temp_dir("export_cdf_t");
   const std::string lemi = mic::test::test_data("cdf/LEMI036_1_0002_0002_2025-05-14.cdf");
-  // Any valid report will do: the LEMI against itself gives n = identity.
-  ProgramRun r = run_program(CALIBRATE_RECORDS_BIN, "--reference " + lemi + " --test " + lemi + " --intervals 1 --json " + dir + "/self.json");
+  // Any valid report with the LEMI as its test will do: the LEMI against the FGE.
+  const std::string fge = mic::test::test_data("cdf/FGE_S0252_0002_0002_2025-05-14.cdf");
+  ProgramRun r = run_program(CALIBRATE_RECORDS_BIN, "--reference " + fge + " --test " + lemi + " --intervals 1 --json " + dir + "/self.json");
   ASSERT_EQ(r.status, 0) << r.output;
   r = run_program(EXPORT_CORRECTED_BIN, "--test " + lemi + " --calibration " + dir + "/self.json --allow-flagged -o " + dir + "/lemi.cdf");
   ASSERT_EQ(r.status, 0) << r.output;
