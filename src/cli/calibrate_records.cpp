@@ -182,8 +182,7 @@ mic::InputError named_by_option(const mic::InputError& e) {
       {"screen_baseline_s", "--screen-baseline"}, {"gamma", "--gamma"}, {"min_coherence", "--min-coherence"},
       {"max_condition_number", "--max-condition"}, {"temperature_channel", "--temperature-channel"},
       {"temperature_min_range", "--temperature-min-range"}};
-  const auto it = options.find(e.where());
-  return it == options.end() ? e : mic::InputError(it->second, e.problem());
+  return mic::renamed(e, options);
 }
 
 /// Refused before any work: the same file as reference and test (a record against itself gives

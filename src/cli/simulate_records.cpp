@@ -287,8 +287,7 @@ void validate(const Options& o) {
         {"daily_amplitude_C", "--hut-daily-C"}, {"heater_amplitude_C", "--hut-heater-C"},
         {"heater_period_s", "--hut-heater-period-s"}, {"offset_nT_per_C", "--temperature-offset-nT-per-C"},
         {"scale_ppm_per_C", "--temperature-scale-ppm-per-C"}};
-    const auto it = hut_options.find(e.where());
-    throw mic::InputError(it == hut_options.end() ? e.where() : it->second, e.problem());
+    throw mic::renamed(e, hut_options);
   }
   try {
     o.remote_settings.validate();
@@ -297,8 +296,7 @@ void validate(const Options& o) {
         {"incoherent_fraction", "--remote-incoherent"}, {"z_incoherent_fraction", "--remote-z-incoherent"},
         {"coherence_corner_hz", "--remote-coherence-corner-hz"}, {"gap_count", "--remote-gaps"},
         {"time_offset_s", "--remote-time-offset-s"}};
-    const auto it = remote_options.find(e.where());
-    throw mic::InputError(it == remote_options.end() ? e.where() : it->second, e.problem());
+    throw mic::renamed(e, remote_options);
   }
 }
 

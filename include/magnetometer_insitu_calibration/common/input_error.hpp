@@ -1,6 +1,7 @@
 // The one exception type for bad input: it always names where the problem is.
 #pragma once
 
+#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -21,5 +22,12 @@ class InputError : public std::runtime_error {
   std::string where_;
   std::string problem_;
 };
+
+/// `error` named by names[where] when its where() is a key of `names` (a settings field, under
+/// the option or parameter a user gave for it), else unchanged.
+inline InputError renamed(const InputError& error, const std::map<std::string, std::string>& names) {
+  const auto it = names.find(error.where());
+  return it == names.end() ? error : InputError(it->second, error.problem());
+}
 
 }  // namespace magnetometer_insitu_calibration
