@@ -4,6 +4,7 @@
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "json_number.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -106,6 +107,13 @@ std::string format_calibration_summary(const PairCalibration& c, const Tolerance
   if (w->estimate.quality != Quality::kOk) {
     out << "The window is flagged: " << w->estimate.quality_text << ".\nA flagged window is not a calibration: "
         << "no verdicts, no correction to apply (the table below gives what was estimated, and why it failed).\n";
+    const auto passed = std::count_if(c.windows.begin(), c.windows.end(), [](const CalibrationWindow& other) {
+      return other.estimate.quality == Quality::kOk;
+    });
+    if (passed > 0) {
+      out << passed << " of the other " << c.windows.size() - 1 << " windows passed their rules (the table below; "
+          << "export_corrected --window LABEL applies one).\n";
+    }
     if (w->scalar.assessed) out << "Against the scalar magnetometer: " << w->scalar.text << "\n";
     out << "\n";
     return out.str();

@@ -99,7 +99,7 @@ void apply_gap_rule(CalibrationWindow& w, const WindowCalibrationSettings& setti
   if (!w.long_gap && !(fraction > settings.max_filled_fraction)) return;
   std::ostringstream text;
   text << w.missing() << " of " << w.expected_samples << " samples interpolated or missing";
-  if (w.long_gap) text << ", a gap longer than " << settings.gaps.max_fill_s << " s";
+  if (w.long_gap) text << ", a gap longer than " << settings.gaps.max_fill_s << " s (--max-fill, ~max_fill)";
   if (w.estimate.quality != Quality::kOk) text << "; also " << w.estimate.quality_text;
   w.estimate.quality = Quality::kGaps;
   w.estimate.quality_text = text.str();

@@ -117,6 +117,12 @@ TEST(CalibrateRecordsCdf, DaySplitIntoFilesGivesExactlyTheSingleFileResult) {
   const nlohmann::json gap_one = read_json(dir + "/gap_one.json"), gap_split = read_json(dir + "/gap_split.json");
   EXPECT_EQ(gap_one["windows"], gap_split["windows"]);
   EXPECT_EQ(gap_one["preprocessing"], gap_split["preprocessing"]);
+  // In quarters, the gap flags its own (the third) and the day's window; the summary, of the
+  // flagged day, points at the three that passed, and the program exits 0.
+  r = run("--reference " + kLemiIaga + " --test " + dir + "/fge_gap.sec --intervals 4");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("a gap longer than 60 s (--max-fill, ~max_fill)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("3 of the other 4 windows passed their rules"), std::string::npos) << r.output;
 }
 
 TEST(CalibrateRecordsCdf, CdfDaySplitIntoTwoImagCdfFilesGivesExactlyTheSingleFileResult) {
