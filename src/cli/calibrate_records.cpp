@@ -52,11 +52,22 @@ std::string joined(const std::vector<std::string>& paths) {
   return out;
 }
 
+/// --help without the value CLI11 prints after a negated flag's name ("--screen,--no-screen{false}"
+/// reads as "off by default" where the flag is on): the descriptions say the default.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  std::string make_option_name(const CLI::Option* option, bool positional) const override {
+    std::string name = CLI::Formatter::make_option_name(option, positional);
+    for (std::size_t at = name.find("{false}"); at != std::string::npos; at = name.find("{false}")) name.erase(at, 7);
+    return name;
+  }
+};
+
 /// The robust estimator's own steps (robust_estimator.hpp; docs/method.md), for studies of
 /// what each step does; the defaults are the package's.
 void add_robust_options(CLI::App& app, mic::RobustSettings& robust) {
   const char* group = "Robust estimator steps";
-  app.add_flag("--screen,!--no-screen", robust.screen, "residual screen (step 1)")->group(group);
+  app.add_flag("--screen,!--no-screen", robust.screen, "residual screen (step 1); on by default")->group(group);
   app.add_option("--screen-threshold", robust.screen_threshold, "screen threshold, robust sigmas")
       ->capture_default_str()->group(group);
   app.add_option("--screen-baseline", robust.screen_baseline_s, "screen's running-median baseline, s")
@@ -65,7 +76,7 @@ void add_robust_options(CLI::App& app, mic::RobustSettings& robust) {
       ->capture_default_str()->group(group);
   app.add_option("--section-length", robust.section_s, "section length, s (at least 2 / band low)")
       ->capture_default_str()->group(group);
-  app.add_flag("--section-trend,!--no-section-trend", robust.section_trend, "Eq. 2's trend column in every section")
+  app.add_flag("--section-trend,!--no-section-trend", robust.section_trend, "Eq. 2's trend column in every section; on by default")
       ->group(group);
   app.add_option("--huber-k", robust.huber_k, "Huber constant of the cell weights, sigmas")
       ->capture_default_str()->group(group);
@@ -160,10 +171,10 @@ void add_estimator_options(CLI::App& app, Options& o, mic::WindowCalibrationSett
   o.model_option = app.add_flag(
       "--response-model,!--no-response-model", window_settings.response_model,
       "fit a delay + 1-pole low-pass per component to the relative response and estimate n through a "
-      "significant corner (default with --method robust; off with --method plain unless given)");
+      "significant corner (on by default with --method robust; off with --method plain unless given)");
   app.add_flag("--pair-noise,!--no-pair-noise", window_settings.pair_noise,
                "robust, --eiv given, no figure and no --third: identify the reference's noise from the pair above "
-               "the band (0.03-0.25 Hz at 1 s) and correct n for it (default); off: no correction");
+               "the band (0.03-0.25 Hz at 1 s) and correct n for it (on by default); off: no correction");
   add_robust_options(app, estimator.robust);
   app.add_option("--method", o.method, "estimator: robust (default) or plain (Eq. 2 as printed)")->capture_default_str();
   app.add_flag("--auto-band", estimator.robust.auto_band,
@@ -252,6 +263,7 @@ mic::VectorRecord read_side(const std::vector<std::string>& paths) {
 
 int main(int argc, char** argv) {
   CLI::App app{"In-situ calibration of a test magnetometer against a co-located reference (FD-WLSE, Eq. 2)."};
+  app.formatter(std::make_shared<HelpFormatter>());
   Options o;
   mic::CalibrationSettings settings;
   std::unique_ptr<mic::BagInputOptions> bag;

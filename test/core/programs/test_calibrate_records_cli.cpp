@@ -140,6 +140,20 @@ TEST_F(CalibrateRecordsCli, BadOptionsAreNamedByTheirOptionBeforeAnyWork) {
   }
 }
 
+// --help: the flags that are on by default do not read "{false}" (the value CLI11 shows for the
+// negated form), and say they are on.
+TEST_F(CalibrateRecordsCli, HelpSaysTheOnFlagsAreOn) {
+  const ProgramRun r = run_cli("--help");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("{false}"), std::string::npos) << r.output;
+  for (const char* flag : {"--screen,--no-screen", "--section-trend,--no-section-trend", "--pair-noise,--no-pair-noise",
+                           "--response-model,--no-response-model"}) {
+    const std::size_t at = r.output.find(flag);
+    ASSERT_NE(at, std::string::npos) << flag;
+    EXPECT_NE(r.output.substr(at, 400).find("on by default"), std::string::npos) << flag;
+  }
+}
+
 // A window that fails its quality rules is not a calibration: its summary gives no verdicts and
 // no correction to apply, its JSON no verdicts, and when every window fails the program says so
 // and exits 3 (the report still written) so that a script does not take it for a calibration.
