@@ -61,44 +61,23 @@ Eigen::Vector3d parse_vector(const std::string& text, const std::string& option)
   return Eigen::Vector3d(v[0], v[1], v[2]);
 }
 
-/// Maps SimulationSettings field names (InputError::where() of validate()) to options.
-std::string option_for_field(const std::string& field) {
-  static const std::map<std::string, std::string> options = {
-      {"sample_period_s", "--rate"},
-      {"duration_s", "--days"},
-      {"start_time_s", "--start"},
-      {"scale_ratio", "--scale"},
-      {"nonorthogonality_deg", "--nonorthogonality-deg"},
-      {"misalignment_deg", "--misalignment-deg"},
-      {"reference_white_nT", "--noise-nT"},
-      {"test_white_nT", "--noise-nT"},
-      {"reference_pink_nT_per_sqrt_hz", "--pink-nT"},
-      {"test_pink_nT_per_sqrt_hz", "--pink-nT"},
-      {"drift_nT_per_day", "--drift-nT-per-day"},
-      {"tilt_rate_deg_per_day", "--tilt-deg-per-day"},
-      {"tilt_axis", "--tilt-axis"},
-      {"delay_s", "--delay-s"},
-      {"spikes_per_day", "--spikes-per-day"},
-      {"spike_amplitude_nT", "--spike-nT"},
-      {"gap_count", "--gaps"},
-      {"gap_length_s", "--gap-seconds"},
-      {"variation_rms_nT", "--variation-rms-nT"},
-      {"spectral_index", "--spectral-index"},
-      {"daily_amplitude_nT", "--daily-nT"},
-
-      {"variation_z_ratio", "--z-ratio"},
-      {"vehicles_per_day", "--vehicles-per-day"},
-      {"road_distance_m", "--road-distance-m"},
-      {"parking_probability", "--parking-probability"},
-      {"test_corner_hz", "--test-corner-hz"},
-      {"test_delay_s", "--test-delay-s"},
-      {"tilt_walk_nT_per_sqrt_day", "--pier-tilt-walk-nT"},
-      {"heater_nT", "--heater-nT"},
-      {"heater_period_s", "--heater-period-s"},
-  };
-  const auto it = options.find(field);
-  return it == options.end() ? field : it->second;
-}
+/// The options of the settings' fields (InputError::where() of their validate()): the
+/// simulation's, the station disturbances' and the unmodelled disturbances'.
+const std::map<std::string, std::string> kFieldOptions = {
+    {"sample_period_s", "--rate"}, {"duration_s", "--days"}, {"start_time_s", "--start"},
+    {"scale_ratio", "--scale"}, {"nonorthogonality_deg", "--nonorthogonality-deg"},
+    {"misalignment_deg", "--misalignment-deg"}, {"reference_white_nT", "--noise-nT"}, {"test_white_nT", "--noise-nT"},
+    {"reference_pink_nT_per_sqrt_hz", "--pink-nT"}, {"test_pink_nT_per_sqrt_hz", "--pink-nT"},
+    {"drift_nT_per_day", "--drift-nT-per-day"}, {"tilt_rate_deg_per_day", "--tilt-deg-per-day"},
+    {"tilt_axis", "--tilt-axis"}, {"delay_s", "--delay-s"}, {"spikes_per_day", "--spikes-per-day"},
+    {"spike_amplitude_nT", "--spike-nT"}, {"gap_count", "--gaps"}, {"gap_length_s", "--gap-seconds"},
+    {"variation_rms_nT", "--variation-rms-nT"}, {"spectral_index", "--spectral-index"},
+    {"daily_amplitude_nT", "--daily-nT"}, {"variation_z_ratio", "--z-ratio"},
+    {"vehicles_per_day", "--vehicles-per-day"}, {"road_distance_m", "--road-distance-m"},
+    {"parking_probability", "--parking-probability"}, {"test_corner_hz", "--test-corner-hz"},
+    {"test_delay_s", "--test-delay-s"}, {"tilt_walk_nT_per_sqrt_day", "--pier-tilt-walk-nT"},
+    {"heater_nT", "--heater-nT"}, {"heater_period_s", "--heater-period-s"},
+};
 
 /// The command line: the simulation's settings (filled by CLI11 where an option maps to one
 /// field) and the texts parsed after it.
@@ -278,7 +257,7 @@ void validate(const Options& o) {
     o.station.validate();
     o.unmodelled.validate();
   } catch (const mic::InputError& e) {
-    throw mic::InputError(option_for_field(e.where()), e.problem());
+    throw mic::renamed(e, kFieldOptions);
   }
   try {
     o.hut.validate();
