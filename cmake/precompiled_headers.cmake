@@ -10,11 +10,13 @@
 #
 #   mic_use_precompiled_headers(<target> EXE_CORE|EXE_ROS|TEST_CORE)
 #
-# The members of these groups (programs' and nodes' main files, the bag tools, the tests) and
-# their owners are compiled at -O1: they drive the libraries, where the numerical work is, and
-# those stay at the build type's level (-O3 in Release). At -O3 code generation was two thirds of
-# a bag tool's 13-15 s compile (-ftime-report); the test command on a fresh 2-core clone went
-# from 692 s (its build about 370 s) to 620 s (about 305 s).
+# The members of these groups (programs' and nodes' main files, the bag tools, the tests), their
+# owners and the ROS and archive libraries (mic_adapter_optimization) are compiled at -O1: they
+# adapt messages and files and drive the core, where the numerical work is, and the core stays at
+# the build type's level (-O3 in Release). At -O3 code generation was two thirds of a bag tool's
+# 13-15 s compile (-ftime-report); the test command on a fresh 2-core clone went from 692 s (its
+# build about 370 s) to 620 s (about 305 s). The five ROS and archive libraries (their precompiled
+# header too) took 135 s of compiler CPU at -O3 and 70 s at -O1 (docs/tests.md, "Time").
 #
 # CORE_LIB:  ${PROJECT_NAME}_core's own sources (Eigen, standard library);
 # EXE_CORE:  the ROS-free command-line programs (+ nlohmann/json, CLI11);
@@ -24,9 +26,9 @@
 # Appended after the build type's flags, so it wins; empty in a Debug build (-O0 stays). The
 # core's gtests at -O0 instead were measured no faster to build and 12 s slower to run.
 if(CMAKE_BUILD_TYPE MATCHES "^(Release|RelWithDebInfo)$")
-  set(MIC_EXECUTABLE_OPTIMIZATION -O1)
+  set(MIC_ADAPTER_OPTIMIZATION -O1)
 else()
-  set(MIC_EXECUTABLE_OPTIMIZATION "")
+  set(MIC_ADAPTER_OPTIMIZATION "")
 endif()
 set(MIC_PCH_CORE_LIB
   <Eigen/Dense> <algorithm> <cmath> <cstdint> <stdexcept> <string> <vector>)
@@ -49,7 +51,7 @@ foreach(_mic_group EXE_CORE EXE_ROS)
   set(MIC_PCH_OWNER_${_mic_group} ${PROJECT_NAME}_pch_${_mic_lower})
   add_library(${MIC_PCH_OWNER_${_mic_group}} OBJECT ${CMAKE_CURRENT_SOURCE_DIR}/cmake/precompiled_headers.cpp)
   target_precompile_headers(${MIC_PCH_OWNER_${_mic_group}} PRIVATE ${MIC_PCH_${_mic_group}})
-  target_compile_options(${MIC_PCH_OWNER_${_mic_group}} PRIVATE -Winvalid-pch ${MIC_EXECUTABLE_OPTIMIZATION})
+  target_compile_options(${MIC_PCH_OWNER_${_mic_group}} PRIVATE -Winvalid-pch ${MIC_ADAPTER_OPTIMIZATION})
   target_link_libraries(${MIC_PCH_OWNER_${_mic_group}} PRIVATE Eigen3::Eigen nlohmann_json::nlohmann_json)
 endforeach()
 target_include_directories(${PROJECT_NAME}_pch_exe_ros PRIVATE ${catkin_INCLUDE_DIRS})
@@ -57,8 +59,13 @@ target_include_directories(${PROJECT_NAME}_pch_exe_ros PRIVATE ${catkin_INCLUDE_
 # The test-support library (STATIC: compiled like an executable) owns TEST_CORE.
 function(mic_own_test_precompiled_headers target)
   target_precompile_headers(${target} PRIVATE ${MIC_PCH_TEST_CORE})
-  target_compile_options(${target} PRIVATE -Winvalid-pch ${MIC_EXECUTABLE_OPTIMIZATION})
+  target_compile_options(${target} PRIVATE -Winvalid-pch ${MIC_ADAPTER_OPTIMIZATION})
   set(MIC_PCH_OWNER_TEST_CORE ${target} PARENT_SCOPE)
+endfunction()
+
+# The ROS and archive libraries: adapters, compiled like the executables they serve.
+function(mic_adapter_optimization target)
+  target_compile_options(${target} PRIVATE ${MIC_ADAPTER_OPTIMIZATION})
 endfunction()
 
 function(mic_use_precompiled_headers target group)
@@ -66,7 +73,7 @@ function(mic_use_precompiled_headers target group)
     message(FATAL_ERROR "mic_use_precompiled_headers(${target} ${group}): unknown group")
   endif()
   target_precompile_headers(${target} REUSE_FROM ${MIC_PCH_OWNER_${group}})
-  target_compile_options(${target} PRIVATE -Winvalid-pch ${MIC_EXECUTABLE_OPTIMIZATION})
+  target_compile_options(${target} PRIVATE -Winvalid-pch ${MIC_ADAPTER_OPTIMIZATION})
 endfunction()
 
 # Unity builds for the targets whose sources share their heavy templates. A ROS source's compile

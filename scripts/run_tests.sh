@@ -12,8 +12,10 @@ export ROS_LOG_DIR="$ROS_HOME/log"
 export ROS_HOSTNAME=localhost
 rm -rf build/test_results
 status=0
-# -j2: the rostests that stream into calibration_node take one lock (test/ros/tests.cmake), one at a time.
-ctest --test-dir build -j2 --output-on-failure --no-tests=error || status=$?
+# Two cores: at most two tests that keep a core busy or stream into calibration_node (one at a
+# time, under a lock), and a light one beside them (test/ros/tests.cmake).
+ctest --test-dir build -j3 --resource-spec-file "$PWD/test/ctest_resources.json" --output-on-failure \
+  --no-tests=error || status=$?
 # catkin_test_results exits 1 on failures; ctest already judged an empty run.
 catkin_test_results build/test_results || status=$?
 exit $status

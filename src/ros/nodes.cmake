@@ -62,6 +62,7 @@ target_compile_options(${PROJECT_NAME}_nodelets PRIVATE -Wall -Wextra)
 
 foreach(_mic_target ${PROJECT_NAME}_ros ${PROJECT_NAME}_nodes ${PROJECT_NAME}_nodelets)
   mic_unity_build(${_mic_target})
+  mic_adapter_optimization(${_mic_target})
 endforeach()
 
 install(TARGETS ${PROJECT_NAME}_nodelets ${PROJECT_NAME}_nodes ${PROJECT_NAME}_ros

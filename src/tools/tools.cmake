@@ -3,7 +3,7 @@
 #    temperatures, correction into the reference frame, calibrate_records JSON windows;
 #  - ${PROJECT_NAME}_bag: sensor_msgs/MagneticField bags <-> VectorRecords (rosbag C++ API, no
 #    master) and the --bag input of calibrate_records;
-#  - programs records_to_bag, export_corrected, benchmark_bag_read;
+#  - programs records_to_bag, export_corrected; the benchmark benchmark_bag_read (not in `all`);
 #  - calibrate_records (built by CMakeLists.txt from src/cli) gets the bag input.
 # catkin_lint (-W2): this package's generated message headers are in ${CATKIN_DEVEL_PREFIX}/include
 # (external_directory), and the in-package libraries carry ${catkin_INCLUDE_DIRS} as PUBLIC
@@ -29,19 +29,24 @@ target_include_directories(export_corrected PRIVATE ${CATKIN_DEVEL_PREFIX}/inclu
 target_link_libraries(export_corrected ${PROJECT_NAME}_bag ${PROJECT_NAME}_archive ${PROJECT_NAME}_ros)
 add_dependencies(export_corrected ${PROJECT_NAME}_generate_messages_cpp)
 
-# A program, not a test: its figures go in docs/archived_records.md.
-add_executable(benchmark_bag_read src/tools/benchmark_bag_read.cpp)
+# A benchmark, not a test: built with the others (make -C build benchmark_bag_read, or
+# benchmarks), not by `all`; its figures go in docs/archived_records.md.
+add_executable(benchmark_bag_read EXCLUDE_FROM_ALL src/tools/benchmark_bag_read.cpp)
 target_link_libraries(benchmark_bag_read ${PROJECT_NAME}_bag)
+add_dependencies(benchmarks benchmark_bag_read)
 
 foreach(program records_to_bag export_corrected benchmark_bag_read)
   mic_use_precompiled_headers(${program} EXE_ROS)
   target_compile_options(${program} PRIVATE -Wall -Wextra)
-  install(TARGETS ${program} RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 endforeach()
+install(TARGETS records_to_bag export_corrected RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(TARGETS benchmark_bag_read OPTIONAL RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 # calibrate_records --bag FILE --reference-topic T --test-topic T.
-mic_unity_build(${PROJECT_NAME}_archive)
-mic_unity_build(${PROJECT_NAME}_bag)
+foreach(_mic_target ${PROJECT_NAME}_archive ${PROJECT_NAME}_bag)
+  mic_unity_build(${_mic_target})
+  mic_adapter_optimization(${_mic_target})
+endforeach()
 
 if(TARGET calibrate_records)
   target_link_libraries(calibrate_records ${PROJECT_NAME}_bag)

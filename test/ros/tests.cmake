@@ -104,22 +104,48 @@ roslaunch_add_file_check(launch/replay.launch bag:=/tmp/any.bag USE_TEST_DEPENDE
 # The station with its nodes as nodelets in one manager.
 roslaunch_add_file_check(launch/station.launch nodelet_manager:=station_manager USE_TEST_DEPENDENCIES)
 
-# run_tests.sh runs ctest -j2. The rostests that drive calibration_node with fast simulated
-# streams (their pairing and windows assume the node keeps up; the pty stations at 200x) take one
-# lock: never two of them at once, each beside at most one other test. Their streams are paced,
-# so they leave most of the two cores idle (the network at 200x used 31 %); each is checked
-# beside a busy loop on one core (docs/tests.md). The core gtests, the driver rostests (packets
-# at a few per second), the bag replays (rosbag play waits for the nodes), the plotting script,
-# the launch checks and the rostests that start nodes on wall-clock time with no stream to keep
-# up with (impossible parameters, the correction node's file reload and its refusal of another
-# stream's file) take none. Measured: time_jump beside another test and an extra busy process
-# lost a window's samples at the jump; beside one other test it keeps them.
+# How ctest shares the 2 cores (run_tests.sh: ctest -j3 --resource-spec-file
+# test/ctest_resources.json, which declares two "cores").
+#  - Each test that keeps a core busy (the core's gtests, the plotting script, the bag replays,
+#    the bag tools' gtest, the launch files' script) or must keep up with a fast stream takes one
+#    core (RESOURCE_GROUPS cores:1): never more than two at once.
+#  - The light tests take none and run as a third: the driver rostests (packets at a few per
+#    second), the rostests that start nodes on wall-clock time with no stream to keep up with
+#    (impossible parameters, the correction node's file reload and its refusal of another
+#    stream's file), the launch checks and the layering check. Each used 10-40 % of a core
+#    (CPU over wall time: the driver's rostest 3.1 s over 29 s, the impossible parameters 2.7 s
+#    over 11.8 s, the file reload 1.3 s over 2.9 s).
+#  - The rostests that drive calibration_node with fast simulated streams (their pairing and
+#    windows assume the node keeps up; the pty stations at 200x) also take one lock: never two
+#    of them at once. Their streams are paced, so they leave most of their core idle (the network
+#    at 200x used 31 %); each is checked beside a busy loop on one core (docs/tests.md).
+#    Measured: time_jump beside another test and an extra busy process lost a window's samples
+#    at the jump; beside one other test it keeps them.
+#  - COST: a fresh build has no timings, and ctest starts the costliest first. The lock's chain
+#    (about 175 s) starts first and runs beside the others; the rest start longest first (their
+#    wall seconds on the 2-core VM), so that no long test is left running alone at the end.
+set(_mic_light_tests
+  "lemi025_driver|faults_driver|nodelet_device_error|bad_parameters|correction_reload|correction_stream|roslaunch-check|core_layering")
+set(_mic_unlocked_rostests "${_mic_light_tests}|replay_agreement")
+set(_mic_test_costs  # regular expression, then seconds
+  test_core_pipeline 40 test_core_programs 32 test_core_estimation 32 plot_calibration 30
+  lemi025_driver.test 29 test_bag_records 18 replay_agreement 14 launch_files 12 test_ros_layer 12
+  bad_parameters 12 faults_driver 8 test_core_formats 5 correction_stream 5 correction_reload 4)
 get_property(_mic_all_tests DIRECTORY PROPERTY TESTS)
 foreach(_mic_test ${_mic_all_tests})
-  if(_mic_test MATCHES "_rostest_" AND NOT _mic_test MATCHES
-     "lemi025_driver|faults_driver|replay_agreement|nodelet_device_error|bad_parameters|correction_reload|correction_stream")
-    # COST: a fresh build has no timings, and ctest starts the costliest first; the lock's chain
-    # (about 160 s) then runs beside the other tests instead of after them.
-    set_tests_properties(${_mic_test} PROPERTIES RESOURCE_LOCK mic_streaming_rostest COST 100)
+  if(NOT _mic_test MATCHES "${_mic_light_tests}")
+    set_tests_properties(${_mic_test} PROPERTIES RESOURCE_GROUPS "cores:1")
   endif()
+  if(_mic_test MATCHES "_rostest_" AND NOT _mic_test MATCHES "${_mic_unlocked_rostests}")
+    set_tests_properties(${_mic_test} PROPERTIES RESOURCE_LOCK mic_streaming_rostest COST 100)
+    continue()
+  endif()
+  set(_mic_costs ${_mic_test_costs})
+  while(_mic_costs)
+    list(POP_FRONT _mic_costs _mic_pattern _mic_cost)
+    if(_mic_test MATCHES "${_mic_pattern}")
+      set_tests_properties(${_mic_test} PROPERTIES COST ${_mic_cost})
+      break()
+    endif()
+  endwhile()
 endforeach()
