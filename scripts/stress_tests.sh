@@ -5,7 +5,8 @@
 #
 #   bash scripts/stress_tests.sh N [--hog K] [--ptys] [--logs DIR] [-- CTEST_ARGS...]
 #
-#   N            number of runs of `ctest --test-dir build -j2 --output-on-failure`
+#   N            number of runs of the test command's ctest (scripts/run_tests.sh: -j3 with the
+#                two cores of test/ctest_resources.json, test/ros/tests.cmake)
 #   --hog K      beside K busy-loop processes (each keeps one core busy), started before the
 #                first run and stopped at the end (by their process ids)
 #   --ptys       beside a process that opens a pseudo-terminal every 0.1 s and keeps each 20 s
@@ -78,14 +79,15 @@ fi
 
 declare -A failed_runs=()
 any_failed=0
-echo "stress_tests.sh: $runs run(s) of ctest -j2 ${extra[*]:-} beside $hogs busy loop(s)$( ((ptys)) && echo " and a pty churn"); logs in $logs"
+echo "stress_tests.sh: $runs run(s) of ctest -j3 (two cores) ${extra[*]:-} beside $hogs busy loop(s)$( ((ptys)) && echo " and a pty churn"); logs in $logs"
 for ((i = 1; i <= runs; ++i)); do
   log="$logs/run_$i.log"
   # A fresh ROS_HOME per run: logs and pty links of one run never meet the next's.
   ROS_HOME=$(mktemp -d "$logs/ros_home_$i.XXXXXX")
   export ROS_HOME ROS_LOG_DIR="$ROS_HOME/log" ROS_HOSTNAME=localhost
   start=$(date +%s)
-  ctest --test-dir build -j2 --output-on-failure --no-tests=error "${extra[@]}" > "$log" 2>&1
+  ctest --test-dir build -j3 --resource-spec-file "$PWD/test/ctest_resources.json" --output-on-failure \
+    --no-tests=error "${extra[@]}" > "$log" 2>&1
   status=$?
   seconds=$(( $(date +%s) - start ))
   # ctest prints "  1/53 Test #38: <name> ....***Failed  12.3 sec" (also ***Timeout, ***Exception).
