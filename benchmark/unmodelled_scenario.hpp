@@ -27,7 +27,8 @@ inline double knob(const char* name, double value) {
 }
 
 /// The station of one seed. kind "disturbed": weak vertical, traffic, spikes, gaps, pier tilt
-/// walk, heater, response mismatch; "quiet": simulator defaults, nothing else.
+/// walk, heater, response mismatch; "quiet": simulator defaults, nothing else (gaps only when
+/// MC_GAPS asks for them).
 inline void scenario(const std::string& kind, std::uint64_t seed, double days, mic::SimulationSettings& s,
               mic::StationDisturbanceSettings& d, mic::UnmodelledDisturbanceSettings& u) {
   std::mt19937_64 rng(seed * 7919 + 17);
@@ -45,7 +46,11 @@ inline void scenario(const std::string& kind, std::uint64_t seed, double days, m
   s.test_white_nT = knob("MC_TEST_WHITE", s.test_white_nT);
   s.reference_pink_nT_per_sqrt_hz = knob("MC_REF_PINK", s.reference_pink_nT_per_sqrt_hz);
   s.test_pink_nT_per_sqrt_hz = knob("MC_TEST_PINK", s.test_pink_nT_per_sqrt_hz);
-  if (kind == "quiet") return;
+  if (kind == "quiet") {  // MC_GAPS / MC_GAP_S: gaps per day and their length (none by default)
+    s.gap_count = static_cast<int>(knob("MC_GAPS", 0) * days);
+    s.gap_length_s = knob("MC_GAP_S", 600.0);
+    return;
+  }
   if (kind == "filter") {  // a quiet station whose test sits behind a filter and a delay
     s.variation_rms_nT = knob("MC_RMS", s.variation_rms_nT);
     u.test_corner_hz = knob("MC_CORNER", 0.03);

@@ -136,7 +136,8 @@ void add_input_options(CLI::App& app, Options& o, mic::CalibrationSettings& sett
       ->capture_default_str();
   app.add_flag("--no-despike", o.no_despike, "keep spikes");
   app.add_option("--max-fill", settings.window.gaps.max_fill_s,
-                 "gaps longer than this (s) flag the windows that overlap them")
+                 "gaps longer than this (s) flag the windows that overlap them; shorter ones are bridged by "
+                 "straight lines in both records (a window more than 5 % filled is flagged too)")
       ->capture_default_str();
   app.add_option("--temperature-channel", settings.preprocess.temperature_channel,
                  "the test record's sensor temperature: auto (sensor_temperature, a T_sensor channel, "

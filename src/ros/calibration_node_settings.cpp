@@ -246,11 +246,11 @@ void load_streams(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   require_in_range("max_filled_fraction", w.max_filled_fraction, 0.0, 1.0);
   w.gaps.max_fill_s = param_double(p, "max_fill", w.gaps.max_fill_s);
   require_non_negative("max_fill", w.gaps.max_fill_s, "s");
-  // Temperature terms (when an instrument has a temperature topic). Default max gap: the gap
-  // rule's longest filled gap, at least two estimation periods.
+  // Temperature terms (when an instrument has a temperature topic). Default max gap: the
+  // core's (60 s), at least two estimation periods.
   w.temperature.min_range_C = param_double(p, "temperature_min_range", w.temperature.min_range_C);
   require_non_negative("temperature_min_range", w.temperature.min_range_C, "degC");
-  w.temperature_max_gap_s = param_double(p, "temperature_max_gap", std::max(w.gaps.max_fill_s, 2.0 * period));
+  w.temperature_max_gap_s = param_double(p, "temperature_max_gap", std::max(w.temperature_max_gap_s, 2.0 * period));
   require_positive("temperature_max_gap", w.temperature_max_gap_s, "s");
   l.temperature_margin_s = w.temperature_max_gap_s;
 }

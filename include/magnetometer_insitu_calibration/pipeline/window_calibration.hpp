@@ -75,14 +75,20 @@ struct WindowCalibrationSettings {
   /// Temperature terms: min_range_C is used as given; band, gamma and trend follow the estimate.
   TemperatureBand temperature;
   /// Longest gap of the thermometer's samples bridged by interpolation, and how far its first
-  /// and last sample hold at the window's edges, s.
+  /// and last sample hold at the window's edges, s (a hut's heater cycles in half an hour: not
+  /// the magnetic records' max_fill_s).
   double temperature_max_gap_s = 60.0;
   /// The main field's direction at the station (the observatory's D and I), for the scalar
   /// check's per-axis scales; none: not known.
   std::optional<FieldDirection> field_direction;
   /// The yardstick of the verdicts (default: INTERMAGNET's 1-second standard).
   Tolerances tolerances;
-  GapSettings gaps;                   ///< max_fill_s: longest gap filled without flagging, s
+  /// max_fill_s: the longest gap filled without flagging the window, s. One hour: on simulated
+  /// quiet days, gaps bridged by straight lines in both records (one of 10, 30 or 60 min a day,
+  /// or three of 20 min) left the default's errors and coverage where they were without gaps,
+  /// and so did an hour cut from the real WIC day (docs/accuracy.md, "Gaps"). What limits gaps
+  /// is the share of the window they fill (max_filled_fraction).
+  GapSettings gaps{3600.0};
   double max_filled_fraction = 0.05;  ///< of the window's expected epochs, [0, 1]
 
   /// The errors-in-variables correction may use a noise model: robust method, correction on.

@@ -151,7 +151,7 @@ TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
   s.seed = 21;
   s.keep_clean_field = false;
   s.gap_count = 1;
-  s.gap_length_s = 1800.0;  // half an hour
+  s.gap_length_s = 7200.0;  // two hours: longer than max_fill
   s.gap_instrument = mic::SimulatedInstrument::kTest;
   const mic::SimulatedPair pair = mic::simulate_pair(s);
   ASSERT_EQ(pair.gaps.size(), 1u);
@@ -168,11 +168,42 @@ TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
     flagged += touches;
   }
   EXPECT_GE(flagged, 2);  // at least one interval and the whole record
+  EXPECT_TRUE(result.windows.back().long_gap);
   // The paper's layout is summarised by its whole record, which needs no further word.
   const std::string summary = mic::format_calibration_summary(result, settings.window.tolerances);
   EXPECT_EQ(summary.rfind("Summary of 'whole record' (", 0), 0u) << summary;
   EXPECT_EQ(summary.find("the latest of"), std::string::npos) << summary;
   EXPECT_EQ(summary.find("Against the scalar magnetometer"), std::string::npos) << summary;  // none given
+}
+
+TEST(CalibrationPipeline, HalfAnHourGapFlagsItsQuarterByShareAndNotTheDay) {
+  // A half-hour gap in the test: 2.1 % of the day, under max_fill (an hour), is bridged in the
+  // day's window, which passes with n near the truth; its quarter is 8.3 % filled (over 5 %).
+  mic::SimulationSettings s;
+  s.seed = 21;
+  s.keep_clean_field = false;
+  s.gap_count = 1;
+  s.gap_length_s = 1800.0;
+  s.gap_instrument = mic::SimulatedInstrument::kTest;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  ASSERT_EQ(pair.gaps.size(), 1u);
+  mic::CalibrationSettings settings;
+  settings.windows.intervals = 4;
+  const auto result = mic::calibrate_records(pair.reference, pair.test, settings);
+  EXPECT_EQ(result.report.long_gaps, 0u);
+  const std::size_t gap_first = pair.gaps[0].first_index, gap_last = gap_first + pair.gaps[0].length - 1;
+  for (std::size_t i = 0; i + 1 < result.windows.size(); ++i) {
+    const auto& w = result.windows[i];
+    const bool touches = gap_first <= w.first_index + w.estimate.samples - 1 && gap_last >= w.first_index;
+    EXPECT_EQ(w.estimate.quality == mic::Quality::kGaps, touches) << w.label << " " << w.estimate.quality_text;
+    if (touches) EXPECT_FALSE(w.long_gap) << w.label;  // flagged by its share, not the gap's length
+  }
+  const mic::CalibrationWindow& day = result.windows.back();
+  EXPECT_EQ(day.estimate.quality, mic::Quality::kOk) << day.estimate.quality_text;
+  EXPECT_GE(day.interpolated, 1800u);  // the gap, and the few samples the despiker masked
+  EXPECT_LT(day.interpolated, 1900u);
+  const Eigen::Matrix3d z = (day.estimate.n - pair.n_true).cwiseAbs().array() / day.estimate.n_stderr().array();
+  EXPECT_LT(z.maxCoeff(), 4.0) << z;
 }
 
 TEST(CalibrationPipeline, SlidingWindowsAndJsonReport) {

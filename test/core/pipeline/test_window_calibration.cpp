@@ -84,7 +84,7 @@ mic::WindowRecords without_rows(const mic::WindowRecords& w, std::size_t first, 
 TEST(WindowCalibration, CompleteWindowIsAcceptedAndGapsAreFlagged) {
   mic::SimulatedPair pair;
   const mic::WindowRecords full = simulated_window(7200.0, 5, &pair);
-  mic::WindowCalibrator estimator(plain_settings());  // gap rule 60 s, 5 %
+  mic::WindowCalibrator estimator(plain_settings());  // gap rule 3600 s, 5 %
   const mic::CalibrationWindow ok = estimator.calibrate(full);
   EXPECT_EQ(ok.estimate.quality, mic::Quality::kOk) << ok.estimate.quality_text;
   EXPECT_EQ(ok.missing(), 0u);
@@ -102,15 +102,36 @@ TEST(WindowCalibration, CompleteWindowIsAcceptedAndGapsAreFlagged) {
   const mic::CalibrationWindow small = estimator.calibrate(without_rows(full, 1000, 30));
   EXPECT_EQ(small.estimate.quality, mic::Quality::kOk) << small.estimate.quality_text;
   EXPECT_EQ(small.interpolated, 30u);
-  // 120 s inside: longer than max_fill.
-  const mic::CalibrationWindow long_gap = estimator.calibrate(without_rows(full, 1000, 120));
+  // 300 s inside (4.2 % of the window, under an hour): filled, not flagged, n still within
+  // 4 standard errors of the truth.
+  const mic::CalibrationWindow filled = estimator.calibrate(without_rows(full, 1000, 300));
+  EXPECT_EQ(filled.estimate.quality, mic::Quality::kOk) << filled.estimate.quality_text;
+  EXPECT_EQ(filled.interpolated, 300u);
+  EXPECT_FALSE(filled.long_gap);
+  const Eigen::Matrix3d z_filled =
+      (filled.estimate.n - pair.n_true).cwiseAbs().array() / filled.estimate.n_stderr().array();
+  EXPECT_LT(z_filled.maxCoeff(), 4.0) << z_filled;
+  // Missing at the end (a silent topic), 400 s (5.6 %): counted although regularize_and_fill
+  // trims it, and over the share.
+  const mic::CalibrationWindow tail = estimator.calibrate(without_rows(full, 6800, 400));
+  EXPECT_EQ(tail.trailing_missing, 400u);
+  EXPECT_EQ(tail.estimate.quality, mic::Quality::kGaps);
+  EXPECT_FALSE(tail.long_gap);
+  // A user's max_fill of 60 s: a 120 s gap inside, 200 s missing at the end and 90 s at the
+  // start each flag the window as a long gap.
+  mic::WindowCalibrationSettings strict = plain_settings();
+  strict.gaps.max_fill_s = 60.0;
+  mic::WindowCalibrator strict_estimator(strict);
+  const mic::CalibrationWindow long_gap = strict_estimator.calibrate(without_rows(full, 1000, 120));
   EXPECT_EQ(long_gap.estimate.quality, mic::Quality::kGaps);
   EXPECT_TRUE(long_gap.long_gap);
-  // Missing at the end (a silent topic): counted although regularize_and_fill trims it.
-  const mic::CalibrationWindow tail = estimator.calibrate(without_rows(full, 7000, 200));
-  EXPECT_EQ(tail.trailing_missing, 200u);
-  EXPECT_EQ(tail.estimate.quality, mic::Quality::kGaps);
-  const mic::CalibrationWindow head = estimator.calibrate(without_rows(full, 0, 90));
+  EXPECT_NE(long_gap.estimate.quality_text.find("a gap longer than 60 s"), std::string::npos)
+      << long_gap.estimate.quality_text;
+  const mic::CalibrationWindow short_tail = strict_estimator.calibrate(without_rows(full, 7000, 200));
+  EXPECT_EQ(short_tail.trailing_missing, 200u);
+  EXPECT_EQ(short_tail.estimate.quality, mic::Quality::kGaps);
+  EXPECT_EQ(estimator.calibrate(without_rows(full, 7000, 200)).estimate.quality, mic::Quality::kOk);
+  const mic::CalibrationWindow head = strict_estimator.calibrate(without_rows(full, 0, 90));
   EXPECT_EQ(head.leading_missing, 90u);
   EXPECT_EQ(head.estimate.quality, mic::Quality::kGaps);
   // Many short gaps: more than 5 % interpolated.

@@ -109,17 +109,37 @@ TEST(CalibrateRecordsCdf, DaySplitIntoFilesGivesExactlyTheSingleFileResult) {
     std::ofstream out(dir + "/fge_gap.sec", std::ios::binary);
     for (const std::string& line : cut) out << line << "\r\n";
   }
-  // The hour's gap flags the day's one window (quality gaps): exit 3, the report written.
+  // The hour's gap (4.2 % of the day, not longer than max_fill's hour) is bridged: the day
+  // passes, the same from one file as from two.
   r = run("--reference " + kLemiIaga + " --test " + dir + "/fge_gap.sec --json " + dir + "/gap_one.json");
-  ASSERT_EQ(r.status, 3) << r.output;
+  ASSERT_EQ(r.status, 0) << r.output;
   r = run("--reference " + kLemiIaga + " --test " + dir + "/fge_b.sec " + dir + "/fge_a.sec --json " + dir + "/gap_split.json");
-  ASSERT_EQ(r.status, 3) << r.output;
+  ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json gap_one = read_json(dir + "/gap_one.json"), gap_split = read_json(dir + "/gap_split.json");
   EXPECT_EQ(gap_one["windows"], gap_split["windows"]);
   EXPECT_EQ(gap_one["preprocessing"], gap_split["preprocessing"]);
-  // In quarters, the gap flags its own (the third) and the day's window; the summary, of the
-  // flagged day, points at the three that passed, and the program exits 0.
-  r = run("--reference " + kLemiIaga + " --test " + dir + "/fge_gap.sec --intervals 4");
+  // The real day without its hour against the whole day: every scale ratio and
+  // non-orthogonality within a fifth of the whole day's standard error (measured: at most 0.18).
+  const nlohmann::json& cut_day = gap_one["windows"].back();
+  const nlohmann::json whole_day = one["windows"].back();
+  ASSERT_EQ(cut_day["quality"], "ok");
+  EXPECT_EQ(cut_day["filled_samples"], 3600);
+  for (int i = 0; i < 3; ++i) {
+    const double se = whole_day["scale_ratio_ci95"][i].get<double>() / 1.96;
+    EXPECT_LT(std::abs(cut_day["scale_ratio"][i].get<double>() - whole_day["scale_ratio"][i].get<double>()), 0.2 * se) << i;
+  }
+  for (const char* pair : {"xy", "xz", "yz"}) {
+    const double se = whole_day["nonorthogonality_ci95_deg"][pair].get<double>() / 1.96;
+    EXPECT_LT(std::abs(cut_day["nonorthogonality_deg"][pair].get<double>() -
+                       whole_day["nonorthogonality_deg"][pair].get<double>()), 0.2 * se) << pair;
+  }
+  // A stricter user's --max-fill 60: the hour flags the day's one window (exit 3, the report
+  // written); in quarters it flags its own (the third) and the day's, and the summary, of the
+  // flagged day, points at the three that passed (exit 0).
+  r = run("--reference " + kLemiIaga + " --test " + dir + "/fge_gap.sec --max-fill 60 --json " + dir + "/gap_strict.json");
+  ASSERT_EQ(r.status, 3) << r.output;
+  EXPECT_EQ(read_json(dir + "/gap_strict.json")["windows"].back()["quality"], "gaps");
+  r = run("--reference " + kLemiIaga + " --test " + dir + "/fge_gap.sec --max-fill 60 --intervals 4");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("a gap longer than 60 s (--max-fill, ~max_fill)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("3 of the other 4 windows passed their rules"), std::string::npos) << r.output;
