@@ -129,10 +129,16 @@ ReportInputs BagInputOptions::inputs(const std::vector<std::string>& reference_p
 }
 
 ReportInputs BagInputOptions::inputs(const std::string& reference_path, const std::string& test_path) const {
-  if (bag_.empty()) return {reference_path, test_path, ""};
+  ReportInputs out;
+  out.reference = reference_path;
+  out.test = test_path;
+  if (bag_.empty()) return out;
+  out.reference = bag_ + ":" + bag_topic_name(reference_topic_);
+  out.test = bag_ + ":" + bag_topic_name(test_topic_);
   // A MagneticField names no components: the report claims none (export_corrected then has none
-  // to check against a file of the instrument).
-  return {bag_ + ":" + bag_topic_name(reference_topic_), bag_ + ":" + bag_topic_name(test_topic_), "", false};
+  // to check against a file of the instrument; it checks a bag's frame_id instead).
+  out.components_named = false;
+  return out;
 }
 
 }  // namespace magnetometer_insitu_calibration

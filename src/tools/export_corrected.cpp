@@ -50,6 +50,9 @@ struct Applied {
   std::vector<std::string> test_components;
   /// The reference's files as the report names them (settings.reference, " + " between files).
   std::vector<std::string> reference_files;
+  /// The test stream's frame_id n was estimated on: a node's calibration file, or a report made
+  /// from a bag (preprocessing.test_frame_id); empty when the calibration does not say.
+  std::string test_frame_id;
 };
 
 std::string fixed(double v, int decimals) {
@@ -78,6 +81,10 @@ Applied from_json(const std::string& path, const std::string& which) {
   if (report.contains("preprocessing") && report["preprocessing"].contains("test_components") &&
       report["preprocessing"]["test_components"].is_array()) {
     for (const nlohmann::json& c : report["preprocessing"]["test_components"]) a.test_components.push_back(c.get<std::string>());
+  }
+  if (report.contains("preprocessing") && report["preprocessing"].contains("test_frame_id") &&
+      report["preprocessing"]["test_frame_id"].is_string()) {
+    a.test_frame_id = report["preprocessing"]["test_frame_id"].get<std::string>();
   }
   const nlohmann::json& j = w.json;
   try {
@@ -109,6 +116,7 @@ Applied from_yaml(const std::string& path) {
              mic::format_iso8601(c.window_end.toSec(), 3) + ")";
   a.quality = c.accepted ? "ok" : "not accepted: " + c.quality_text;
   a.inputs = "reference frame " + c.reference_frame_id + ", test frame " + c.test_frame_id;
+  a.test_frame_id = c.test_frame_id;
   a.parameters = "Scale ratios Kt/Kr x y z: " + fixed(c.scale_ratio[0], 6) + " " + fixed(c.scale_ratio[1], 6) + " " +
                  fixed(c.scale_ratio[2], 6) + "; non-orthogonality xy xz yz: " +
                  fixed(c.nonorthogonality_deg[0], 4) + " " + fixed(c.nonorthogonality_deg[1], 4) + " " +
@@ -140,6 +148,18 @@ void check_components(const Applied& applied, const mic::VectorRecord& record, c
     throw mic::InputError(record_name, "components " + recorded + ", but " + calibration_path +
                                            " was estimated on a test record of components " + calibrated +
                                            ": its n maps those axes, not these (another orientation or instrument?)");
+  }
+}
+
+/// Refuses a bag's test topic whose frame_id is not the one n was estimated on (a MagneticField's
+/// instrument identity, the frame its x, y, z are axes of). Not checked when either is unknown.
+void check_frame(const Applied& applied, const mic::VectorRecord& record, const std::string& calibration_path) {
+  const auto it = record.header.find("frame_id");
+  if (applied.test_frame_id.empty() || it == record.header.end() || it->second.empty()) return;
+  if (it->second != applied.test_frame_id) {
+    throw mic::InputError(record.source, "frame_id '" + it->second + "', but " + calibration_path +
+                                             " was estimated on a test stream of frame_id '" + applied.test_frame_id +
+                                             "': its n maps that instrument's axes, not these (another --test-topic?)");
   }
 }
 
@@ -238,6 +258,7 @@ int main(int argc, char** argv) {
       for (const std::string& w : warnings) std::cerr << "export_corrected: warning: " << w << "\n";
     }
     if (bag_path.empty()) check_components(applied, record, test_name, calibration_path);  // a bag names none
+    else check_frame(applied, record, calibration_path);  // a file names no frame
     const std::array<std::string, 3> names = components.empty() ? record.components : split_components(components);
     const mic::VectorRecord corrected = mic::correct_record(record, applied.n, names, max_condition);
 

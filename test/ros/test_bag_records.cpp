@@ -65,13 +65,20 @@ void expect_same_record_to_one_ulp(const mic::VectorRecord& a, const mic::Vector
 /// Two calibrate_records reports describe the same calibration: every window's labels, times,
 /// counts, harmonics and quality equal; every number within `relative` (numerical noise of the
 /// one-ulp tesla round trip of the inputs); the pre-processing counts equal. `a` is the bag's:
-/// it names no components (a MagneticField has none), `b` the files' names.
+/// it names no components (a MagneticField has none) but its topics' frames, `b` the files'
+/// components and no frames.
 void expect_same_report(const nlohmann::json& a, const nlohmann::json& b, double relative) {
   ASSERT_EQ(a["windows"].size(), b["windows"].size());
   nlohmann::json counts_a = a["preprocessing"], counts_b = b["preprocessing"];
   for (const char* key : {"reference_components", "test_components"}) {
     EXPECT_TRUE(counts_a[key].is_null()) << key << " of a bag: " << counts_a[key];
     EXPECT_TRUE(counts_b[key].is_array() && counts_b[key].size() == 3u) << key << " of files: " << counts_b[key];
+    counts_a.erase(key);
+    counts_b.erase(key);
+  }
+  for (const char* key : {"reference_frame_id", "test_frame_id"}) {
+    EXPECT_TRUE(counts_a[key].is_string() && !counts_a[key].get<std::string>().empty()) << key << " of a bag: " << counts_a[key];
+    EXPECT_TRUE(counts_b[key].is_null()) << key << " of files: " << counts_b[key];
     counts_a.erase(key);
     counts_b.erase(key);
   }
@@ -257,6 +264,19 @@ TEST(RecordsToBag, WicDayBagGivesTheSameCalibrationAsTheFiles) {
   ASSERT_EQ(corrected.size(), 86400u);
   const mic::Readings exact = test.values_nT * n.inverse();
   EXPECT_LE((corrected.values_nT - exact).cwiseAbs().maxCoeff(), 0.005 + 1e-9);
+  // The bag's report names its topics' frames; from the bag, export_corrected holds the test
+  // topic's frame against it: the FGE's topic is corrected, the LEMI-036's refused, both named.
+  EXPECT_EQ(bag["preprocessing"]["test_frame_id"], "fge");
+  EXPECT_EQ(bag["preprocessing"]["reference_frame_id"], "lemi036");
+  r = run_program(EXPORT_CORRECTED_BIN, "--bag " + dir + "/wic.bag --test-topic /wic/fge/magnetic_field --calibration " +
+                                            dir + "/bag.json -o " + dir + "/fge_from_bag.sec");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run_program(EXPORT_CORRECTED_BIN, "--bag " + dir + "/wic.bag --test-topic /wic/lemi036/magnetic_field --calibration " +
+                                            dir + "/bag.json -o " + dir + "/lemi_from_bag.sec");
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_TRUE(has(r.output, "frame_id 'lemi036', but " + dir + "/bag.json was estimated on a test stream of frame_id 'fge'"))
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/lemi_from_bag.sec"));
 }
 
 // A simulated 10 Hz LEMI-025 pair: the reference as LemiBin, the test as a raw serial capture

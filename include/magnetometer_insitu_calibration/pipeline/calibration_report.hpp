@@ -18,6 +18,10 @@ struct ReportInputs {
   /// False when the records' component names are not their own (a bag: a MagneticField names
   /// none, its x, y, z being its frame's axes): the report then gives them as null.
   bool components_named = true;
+  /// The records' frames when they came from a bag (each topic's header.frame_id): a
+  /// MagneticField's instrument identity, which export_corrected checks a bag's test topic
+  /// against. Empty for files (written as null).
+  std::string reference_frame_id, test_frame_id;
 };
 
 /// One window of the report: its calibration record (calibration_record.hpp: every field of

@@ -186,7 +186,9 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
         {"long_gaps", r.long_gaps},
         {"temperature_channel", r.temperature_channel.empty() ? json(nullptr) : json(r.temperature_channel)},
         {"reference_components", inputs.components_named ? json(r.reference_components) : json(nullptr)},
-        {"test_components", inputs.components_named ? json(r.test_components) : json(nullptr)}}},
+        {"test_components", inputs.components_named ? json(r.test_components) : json(nullptr)},
+        {"reference_frame_id", inputs.reference_frame_id.empty() ? json(nullptr) : json(inputs.reference_frame_id)},
+        {"test_frame_id", inputs.test_frame_id.empty() ? json(nullptr) : json(inputs.test_frame_id)}}},
       {"windows", windows},
       {"window_agreement", window_agreement_to_json(c.windows)},
   };
