@@ -294,7 +294,10 @@ int main(int argc, char** argv) {
     for (const auto& w : result.windows) any_ok = any_ok || w.estimate.quality == mic::Quality::kOk;
     mic::ReportInputs inputs = bag->inputs(o.reference_paths, o.test_paths);
     inputs.remote = bag->from_bag() ? bag->remote_input() : joined(o.remote_paths);
-    if (bag->from_bag()) {  // a MagneticField's identity: its frame (export_corrected checks it)
+    if (!bag->from_bag()) {
+      inputs.reference_files = o.reference_paths;
+      inputs.test_files = o.test_paths;
+    } else {  // a MagneticField's identity: its frame (export_corrected checks it)
       const auto frame = [](const mic::VectorRecord& r) {
         const auto it = r.header.find("frame_id");
         return it == r.header.end() ? std::string() : it->second;

@@ -48,7 +48,8 @@ struct Applied {
   /// The test record's components n was estimated on (a JSON report's preprocessing), empty when
   /// the calibration does not say (a YAML file, an earlier report).
   std::vector<std::string> test_components;
-  /// The reference's files as the report names them (settings.reference, " + " between files).
+  /// The reference's files as the report names them (settings.reference_files; in an older
+  /// report, settings.reference split at " + ").
   std::vector<std::string> reference_files;
   /// The test stream's frame_id n was estimated on: a node's calibration file, or a report made
   /// from a bag (preprocessing.test_frame_id); empty when the calibration does not say.
@@ -71,7 +72,11 @@ Applied from_json(const std::string& path, const std::string& which) {
   if (report.contains("settings")) {
     const nlohmann::json& s = report["settings"];
     a.inputs = "reference " + s.value("reference", std::string("?")) + ", test " + s.value("test", std::string("?"));
-    const std::string files = s.value("reference", std::string());
+    const bool listed = s.contains("reference_files") && s["reference_files"].is_array();
+    if (listed) {
+      for (const nlohmann::json& f : s["reference_files"]) a.reference_files.push_back(f.get<std::string>());
+    }
+    const std::string files = listed ? std::string() : s.value("reference", std::string());
     for (std::size_t first = 0; first < files.size();) {
       const std::size_t plus = files.find(" + ", first);
       a.reference_files.push_back(files.substr(first, plus == std::string::npos ? std::string::npos : plus - first));

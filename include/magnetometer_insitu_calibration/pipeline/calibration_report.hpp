@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <string>
+#include <vector>
 
 namespace magnetometer_insitu_calibration {
 
@@ -22,6 +23,9 @@ struct ReportInputs {
   /// MagneticField's instrument identity, which export_corrected checks a bag's test topic
   /// against. Empty for files (written as null).
   std::string reference_frame_id, test_frame_id;
+  /// The files as given, one per entry (`reference` and `test` join several with " + ", which a
+  /// file name may contain): settings.reference_files / test_files, absent when empty (a bag).
+  std::vector<std::string> reference_files, test_files;
 };
 
 /// One window of the report: its calibration record (calibration_record.hpp: every field of

@@ -143,6 +143,8 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
       {"settings",
        {{"reference", inputs.reference},
         {"test", inputs.test},
+        {"reference_files", inputs.reference_files.empty() ? json() : json(inputs.reference_files)},
+        {"test_files", inputs.test_files.empty() ? json() : json(inputs.test_files)},
         {"remote", inputs.remote.empty() ? json() : json(inputs.remote)},
         {"model", "T = R n + trend, rows are samples (nT); column l of n is test axis l in reference coordinates"},
         {"band_hz", json::array({s.estimator.band_low_hz, s.estimator.band_high_hz})},

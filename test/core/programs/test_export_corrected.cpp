@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 namespace mic = magnetometer_insitu_calibration;
@@ -282,6 +283,31 @@ TEST_F(ExportCorrected, TheReportsOwnReferenceIsRefusedAsTheTest) {
             std::string::npos)
       << r.output;
   EXPECT_FALSE(std::ifstream(out).good()) << out << " written from the reference";
+}
+
+// The report lists its files one by one (settings.reference_files): a reference whose name
+// holds " + " (the separator of settings.reference) is still known as the reference; a report
+// without the list (an older one) is split at " + ", as before.
+TEST_F(ExportCorrected, TheReferenceIsKnownByItsListedFilesWhateverTheirNames) {
+  const std::string plus = dir_ + "/reference + copy.sec", out = dir_ + "/plus_corrected.sec";
+  std::filesystem::copy_file(dir_ + "/reference.sec", plus, std::filesystem::copy_options::overwrite_existing);
+  ProgramRun r = run_program(CALIBRATE_RECORDS_BIN, "--reference '" + plus + "' --test " + dir_ + "/test.sec --json " +
+                                                        dir_ + "/plus_report.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const nlohmann::json report = read_json(dir_ + "/plus_report.json");
+  EXPECT_EQ(report["settings"]["reference_files"], nlohmann::json::array({plus}));
+  EXPECT_EQ(report["settings"]["test_files"], nlohmann::json::array({dir_ + "/test.sec"}));
+  r = export_corrected("--test '" + plus + "' --calibration " + dir_ + "/plus_report.json -o " + out);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find(plus + ": is the reference " + dir_ + "/plus_report.json was estimated against"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  nlohmann::json earlier = read_json(dir_ + "/report.json");
+  earlier["settings"].erase("reference_files");
+  write_json(dir_ + "/earlier_files.json", earlier);
+  r = export_corrected("--test " + dir_ + "/reference.sec --calibration " + dir_ + "/earlier_files.json -o " + out);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
 }
 
 TEST_F(ExportCorrected, ADamagedCsvLineIsRefusedAsCalibrateRecordsRefusesItAndNothingIsWritten) {
