@@ -146,31 +146,46 @@ TEST(CalibrationPipeline, SwappedRolesGiveTheInverseMatrix) {
   }
 }
 
-TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
+/// A simulated day (seed 21) whose test has one gap of `length_s`, calibrated in quarters and
+/// as a whole (the whole record last).
+struct OneGapDay {
+  mic::SimulatedPair pair;
+  mic::CalibrationSettings settings;
+  mic::PairCalibration result;
+  /// Whether window w overlaps the gap.
+  bool touches(const mic::CalibrationWindow& w) const {
+    const std::size_t gap_first = pair.gaps.at(0).first_index, gap_last = gap_first + pair.gaps.at(0).length - 1;
+    return gap_first <= w.first_index + w.estimate.samples - 1 && gap_last >= w.first_index;
+  }
+};
+
+OneGapDay one_gap_day(double length_s) {
   mic::SimulationSettings s;
   s.seed = 21;
   s.keep_clean_field = false;
   s.gap_count = 1;
-  s.gap_length_s = 7200.0;  // two hours: longer than max_fill
+  s.gap_length_s = length_s;
   s.gap_instrument = mic::SimulatedInstrument::kTest;
-  const mic::SimulatedPair pair = mic::simulate_pair(s);
-  ASSERT_EQ(pair.gaps.size(), 1u);
-  mic::CalibrationSettings settings;
-  settings.windows.intervals = 4;
-  const auto result = mic::calibrate_records(pair.reference, pair.test, settings);
-  EXPECT_EQ(result.report.long_gaps, 1u);
-  const std::size_t gap_first = pair.gaps[0].first_index, gap_last = gap_first + pair.gaps[0].length - 1;
+  OneGapDay day;
+  day.pair = mic::simulate_pair(s);
+  day.settings.windows.intervals = 4;
+  day.result = mic::calibrate_records(day.pair.reference, day.pair.test, day.settings);
+  return day;
+}
+
+TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
+  const OneGapDay gap = one_gap_day(7200.0);  // two hours: longer than max_fill
+  ASSERT_EQ(gap.pair.gaps.size(), 1u);
+  EXPECT_EQ(gap.result.report.long_gaps, 1u);
   int flagged = 0;
-  for (const auto& w : result.windows) {
-    const std::size_t first = w.first_index, last = w.first_index + w.estimate.samples - 1;
-    const bool touches = gap_first <= last && gap_last >= first;
-    EXPECT_EQ(w.estimate.quality == mic::Quality::kGaps, touches) << w.label << " " << w.estimate.quality_text;
-    flagged += touches;
+  for (const auto& w : gap.result.windows) {
+    EXPECT_EQ(w.estimate.quality == mic::Quality::kGaps, gap.touches(w)) << w.label << " " << w.estimate.quality_text;
+    flagged += gap.touches(w);
   }
   EXPECT_GE(flagged, 2);  // at least one interval and the whole record
-  EXPECT_TRUE(result.windows.back().long_gap);
+  EXPECT_TRUE(gap.result.windows.back().long_gap);
   // The paper's layout is summarised by its whole record, which needs no further word.
-  const std::string summary = mic::format_calibration_summary(result, settings.window.tolerances);
+  const std::string summary = mic::format_calibration_summary(gap.result, gap.settings.window.tolerances);
   EXPECT_EQ(summary.rfind("Summary of 'whole record' (", 0), 0u) << summary;
   EXPECT_EQ(summary.find("the latest of"), std::string::npos) << summary;
   EXPECT_EQ(summary.find("Against the scalar magnetometer"), std::string::npos) << summary;  // none given
@@ -179,30 +194,19 @@ TEST(CalibrationPipeline, LongGapFlagsOnlyTheWindowsItTouches) {
 TEST(CalibrationPipeline, HalfAnHourGapFlagsItsQuarterByShareAndNotTheDay) {
   // A half-hour gap in the test: 2.1 % of the day, under max_fill (an hour), is bridged in the
   // day's window, which passes with n near the truth; its quarter is 8.3 % filled (over 5 %).
-  mic::SimulationSettings s;
-  s.seed = 21;
-  s.keep_clean_field = false;
-  s.gap_count = 1;
-  s.gap_length_s = 1800.0;
-  s.gap_instrument = mic::SimulatedInstrument::kTest;
-  const mic::SimulatedPair pair = mic::simulate_pair(s);
-  ASSERT_EQ(pair.gaps.size(), 1u);
-  mic::CalibrationSettings settings;
-  settings.windows.intervals = 4;
-  const auto result = mic::calibrate_records(pair.reference, pair.test, settings);
-  EXPECT_EQ(result.report.long_gaps, 0u);
-  const std::size_t gap_first = pair.gaps[0].first_index, gap_last = gap_first + pair.gaps[0].length - 1;
-  for (std::size_t i = 0; i + 1 < result.windows.size(); ++i) {
-    const auto& w = result.windows[i];
-    const bool touches = gap_first <= w.first_index + w.estimate.samples - 1 && gap_last >= w.first_index;
-    EXPECT_EQ(w.estimate.quality == mic::Quality::kGaps, touches) << w.label << " " << w.estimate.quality_text;
-    if (touches) EXPECT_FALSE(w.long_gap) << w.label;  // flagged by its share, not the gap's length
+  const OneGapDay gap = one_gap_day(1800.0);
+  ASSERT_EQ(gap.pair.gaps.size(), 1u);
+  EXPECT_EQ(gap.result.report.long_gaps, 0u);
+  for (std::size_t i = 0; i + 1 < gap.result.windows.size(); ++i) {
+    const auto& w = gap.result.windows[i];
+    EXPECT_EQ(w.estimate.quality == mic::Quality::kGaps, gap.touches(w)) << w.label << " " << w.estimate.quality_text;
+    if (gap.touches(w)) EXPECT_FALSE(w.long_gap) << w.label;  // flagged by its share, not the gap's length
   }
-  const mic::CalibrationWindow& day = result.windows.back();
+  const mic::CalibrationWindow& day = gap.result.windows.back();
   EXPECT_EQ(day.estimate.quality, mic::Quality::kOk) << day.estimate.quality_text;
   EXPECT_GE(day.interpolated, 1800u);  // the gap, and the few samples the despiker masked
   EXPECT_LT(day.interpolated, 1900u);
-  const Eigen::Matrix3d z = (day.estimate.n - pair.n_true).cwiseAbs().array() / day.estimate.n_stderr().array();
+  const Eigen::Matrix3d z = (day.estimate.n - gap.pair.n_true).cwiseAbs().array() / day.estimate.n_stderr().array();
   EXPECT_LT(z.maxCoeff(), 4.0) << z;
 }
 
