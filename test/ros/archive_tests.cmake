@@ -22,7 +22,8 @@ foreach(_mic_test test_core_programs)
   endif()
 endforeach()
 
-catkin_add_gtest(test_bag_records test/ros/test_bag_records.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
+catkin_add_gtest(test_bag_records test/ros/test_bag_records.cpp test/ros/test_bag_export.cpp
+  WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
 if(TARGET test_bag_records)
   target_include_directories(test_bag_records PRIVATE test/core ${CATKIN_DEVEL_PREFIX}/include)
   # test support (test/core/test_support.cpp): temporary directories, data paths, running programs.
@@ -30,6 +31,7 @@ if(TARGET test_bag_records)
     ${PROJECT_NAME}_test_support ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
   target_compile_definitions(test_bag_records PRIVATE ${_mic_programs})
   target_compile_options(test_bag_records PRIVATE -Wall -Wextra)
+  mic_unity_build(test_bag_records)  # its two files as one translation unit: roscpp's templates once
   add_dependencies(test_bag_records records_to_bag export_corrected calibrate_records
     ${PROJECT_NAME}_generate_messages_cpp)
 endif()

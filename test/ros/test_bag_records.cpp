@@ -1,7 +1,8 @@
 // Records in rosbags, without a master: the bag round trip (bag_records.hpp), records_to_bag on
 // every input format (skipped records reported, temperatures, progress), calibrate_records
 // --bag giving the JSON of calibrate_records on the files (the real WIC pair and a simulated
-// 10 Hz LEMI pair), and export_corrected from a bag and from calibration_node's YAML file.
+// 10 Hz LEMI pair), and export_corrected from a bag (with calibration_node's YAML file:
+// test_bag_export.cpp, compiled with this file as one translation unit).
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
 #include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
@@ -451,42 +452,6 @@ TEST(CalibrateRecordsBag, TemperatureUnderTheEarlierTopicNameIsStillRead) {
 }
 
 // ---- export_corrected from a bag, with calibration_node's YAML ----------------------------------
-
-TEST(ExportCorrectedBag, YamlCalibrationFromTheLiveNodeAndTheTestFromABag) {
-  const std::string dir = make_temp_dir("bag_export");
-  mic::SimulationSettings s;
-  s.duration_s = 3600.0;
-  const mic::SimulatedPair pair = mic::simulate_pair(s);
-  mic::write_records_bag(dir + "/p.bag", {{"/test/magnetic_field", "fge", &pair.test}}, {});
-  mic::MagnetometerCalibration c;
-  c.test_name = "fge";
-  c.reference_frame_id = "lemi";
-  c.test_frame_id = "fge";
-  c.window_start = ros::Time(1747180800.0);
-  c.window_end = ros::Time(1747184399.0);
-  for (int k = 0; k < 9; ++k) c.matrix[k] = pair.n_true(k / 3, k % 3);
-  c.scale_ratio = {0.9996, 1.0004, 1.0004};
-  c.covariance_cells = std::numeric_limits<double>::infinity();  // no covariance: taken as known
-  c.interval_quantile = mic::kNormalQuantile95;
-  c.quality = mic::MagnetometerCalibration::QUALITY_OK;
-  c.quality_text = "ok";
-  c.accepted = true;
-  { std::ofstream(dir + "/fge.yaml") << mic::calibration_to_yaml(c, "/calibration_fge"); }
-  const ProgramRun r = run_program(EXPORT_CORRECTED_BIN, "--bag " + dir + "/p.bag --test-topic /test/magnetic_field --calibration " +
-                                              dir + "/fge.yaml --iaga-code SIM -o " + dir + "/corrected.sec");
-  ASSERT_EQ(r.status, 0) << r.output;
-  const mic::VectorRecord out = mic::read_iaga2002(dir + "/corrected.sec");
-  ASSERT_EQ(out.size(), 3600u);
-  EXPECT_EQ(out.time_s, pair.test.time_s);
-  // The clean field, within the test noise and the 0.01 nT of the format.
-  const mic::Readings e = out.values_nT - pair.field_nT;
-  for (int comp = 0; comp < 3; ++comp) {
-    EXPECT_LT(std::abs(e.col(comp).mean()), 0.02) << comp;
-    EXPECT_LT(e.col(comp).cwiseAbs().maxCoeff(), 0.2) << comp;
-  }
-  EXPECT_TRUE(has(out.header.at("comments"), "'fge' live window (2025-05-14T00:00:00.000Z to")) << out.header.at("comments");
-  EXPECT_TRUE(has(out.header.at("comments"), "p.bag:/test/magnetic_field")) << out.header.at("comments");
-}
 
 // MagPy CDF in, several files per instrument: the LEMI-036 day as two overlapping ImagCDF files
 // (given in reverse order) makes the bag of the single MagPy CDF file, temperatures included.
