@@ -5,8 +5,7 @@
 #
 #   bash scripts/stress_tests.sh N [--hog K] [--ptys] [--logs DIR] [-- CTEST_ARGS...]
 #
-#   N            number of runs of the test command's ctest (scripts/run_tests.sh: -j3 with the
-#                two cores of test/ctest_resources.json, test/ros/tests.cmake)
+#   N            number of runs of the test command's ctest (scripts/ctest_two_cores.sh)
 #   --hog K      beside K busy-loop processes (each keeps one core busy), started before the
 #                first run and stopped at the end (by their process ids)
 #   --ptys       beside a process that opens a pseudo-terminal every 0.1 s and keeps each 20 s
@@ -86,8 +85,7 @@ for ((i = 1; i <= runs; ++i)); do
   ROS_HOME=$(mktemp -d "$logs/ros_home_$i.XXXXXX")
   export ROS_HOME ROS_LOG_DIR="$ROS_HOME/log" ROS_HOSTNAME=localhost
   start=$(date +%s)
-  ctest --test-dir build -j3 --resource-spec-file "$PWD/test/ctest_resources.json" --output-on-failure \
-    --no-tests=error "${extra[@]}" > "$log" 2>&1
+  bash scripts/ctest_two_cores.sh "${extra[@]}" > "$log" 2>&1
   status=$?
   seconds=$(( $(date +%s) - start ))
   # ctest prints "  1/53 Test #38: <name> ....***Failed  12.3 sec" (also ***Timeout, ***Exception).

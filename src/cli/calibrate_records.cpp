@@ -292,19 +292,8 @@ int main(int argc, char** argv) {
     }
     const mic::PairCalibration result = mic::calibrate_records(reference, test, settings, sides);
     for (const auto& w : result.windows) any_ok = any_ok || w.estimate.quality == mic::Quality::kOk;
-    mic::ReportInputs inputs = bag->inputs(o.reference_paths, o.test_paths);
+    mic::ReportInputs inputs = bag->inputs(o.reference_paths, o.test_paths, reference, test);
     inputs.remote = bag->from_bag() ? bag->remote_input() : joined(o.remote_paths);
-    if (!bag->from_bag()) {
-      inputs.reference_files = o.reference_paths;
-      inputs.test_files = o.test_paths;
-    } else {  // a MagneticField's identity: its frame (export_corrected checks it)
-      const auto frame = [](const mic::VectorRecord& r) {
-        const auto it = r.header.find("frame_id");
-        return it == r.header.end() ? std::string() : it->second;
-      };
-      inputs.reference_frame_id = frame(reference);
-      inputs.test_frame_id = frame(test);
-    }
     std::cout << mic::format_calibration_summary(result, settings.window.tolerances)
               << mic::format_calibration_table(result, inputs);
     if (!o.json_path.empty()) {

@@ -124,8 +124,17 @@ std::string joined(const std::vector<std::string>& paths) {
 }  // namespace
 
 ReportInputs BagInputOptions::inputs(const std::vector<std::string>& reference_paths,
-                                     const std::vector<std::string>& test_paths) const {
-  return inputs(joined(reference_paths), joined(test_paths));
+                                     const std::vector<std::string>& test_paths, const VectorRecord& reference,
+                                     const VectorRecord& test) const {
+  ReportInputs out = inputs(joined(reference_paths), joined(test_paths));
+  if (bag_.empty()) {
+    out.reference_files = reference_paths;
+    out.test_files = test_paths;
+  } else {  // a MagneticField's identity: its frame (export_corrected checks it)
+    out.reference_frame_id = bag_frame_id(reference);
+    out.test_frame_id = bag_frame_id(test);
+  }
+  return out;
 }
 
 ReportInputs BagInputOptions::inputs(const std::string& reference_path, const std::string& test_path) const {

@@ -29,9 +29,10 @@ class BagInputOptions {
   std::pair<VectorRecord, VectorRecord> records(const std::vector<std::string>& reference_paths,
                                                 const std::vector<std::string>& test_paths) const;
 
-  /// Names of the inputs for the report: the files (several joined by " + "), or "<bag>:<topic>".
-  ReportInputs inputs(const std::string& reference_path, const std::string& test_path) const;
-  ReportInputs inputs(const std::vector<std::string>& reference_paths, const std::vector<std::string>& test_paths) const;
+  /// Names of the inputs for the report: the files (several joined by " + ", and listed one by
+  /// one), or "<bag>:<topic>" with the frames of the records read from the bag.
+  ReportInputs inputs(const std::vector<std::string>& reference_paths, const std::vector<std::string>& test_paths,
+                      const VectorRecord& reference, const VectorRecord& test) const;
 
   bool from_bag() const { return !bag_.empty(); }
 
@@ -43,6 +44,8 @@ class BagInputOptions {
   std::string remote_input() const;
 
  private:
+  /// The names alone: the joined files, or "<bag>:<topic>".
+  ReportInputs inputs(const std::string& reference_path, const std::string& test_path) const;
   std::string bag_, reference_topic_, test_topic_, remote_topic_;
   CLI::Option* bag_option_ = nullptr;
 };

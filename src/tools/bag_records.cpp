@@ -225,6 +225,11 @@ BagWriteSummary write_records_bag(const std::string& path, const std::vector<Bag
   return summary;
 }
 
+std::string bag_frame_id(const VectorRecord& record) {
+  const auto it = record.header.find("frame_id");
+  return it == record.header.end() ? std::string() : it->second;
+}
+
 std::vector<VectorRecord> read_bag_records(const std::string& path, const std::vector<std::string>& topics,
                                            std::vector<std::string>* warnings) {
   rosbag::Bag bag;

@@ -76,6 +76,10 @@ BagWriteSummary write_records_bag(const std::string& path, const std::vector<Bag
 std::vector<VectorRecord> read_bag_records(const std::string& path, const std::vector<std::string>& topics,
                                            std::vector<std::string>* warnings = nullptr);
 
+/// The frame_id read_bag_records gave a record (its instrument's identity); "" for a record
+/// that did not come from a bag.
+std::string bag_frame_id(const VectorRecord& record);
+
 /// Reads a sensor_msgs/Temperature topic (tests, plots). Throws InputError as above.
 BagTemperatureStream read_bag_temperatures(const std::string& path, const std::string& topic);
 

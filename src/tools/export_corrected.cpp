@@ -159,10 +159,10 @@ void check_components(const Applied& applied, const mic::VectorRecord& record, c
 /// Refuses a bag's test topic whose frame_id is not the one n was estimated on (a MagneticField's
 /// instrument identity, the frame its x, y, z are axes of). Not checked when either is unknown.
 void check_frame(const Applied& applied, const mic::VectorRecord& record, const std::string& calibration_path) {
-  const auto it = record.header.find("frame_id");
-  if (applied.test_frame_id.empty() || it == record.header.end() || it->second.empty()) return;
-  if (it->second != applied.test_frame_id) {
-    throw mic::InputError(record.source, "frame_id '" + it->second + "', but " + calibration_path +
+  const std::string frame = mic::bag_frame_id(record);
+  if (applied.test_frame_id.empty() || frame.empty()) return;
+  if (frame != applied.test_frame_id) {
+    throw mic::InputError(record.source, "frame_id '" + frame + "', but " + calibration_path +
                                              " was estimated on a test stream of frame_id '" + applied.test_frame_id +
                                              "': its n maps that instrument's axes, not these (another --test-topic?)");
   }

@@ -90,7 +90,7 @@ struct PairCalibration {
 /// The report counts runs of missing epochs longer than max_fill_s as long gaps.
 PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& test,
                           const PreprocessSettings& settings, PreprocessReport* report = nullptr,
-                          double max_fill_s = 60.0);
+                          double max_fill_s = GapSettings{}.max_fill_s);
 
 /// Label of the window that spans the whole record (the paper's layout ends with it; the only
 /// window without a layout). Reports and `export_corrected --window` find it by this label.

@@ -83,12 +83,9 @@ struct WindowCalibrationSettings {
   std::optional<FieldDirection> field_direction;
   /// The yardstick of the verdicts (default: INTERMAGNET's 1-second standard).
   Tolerances tolerances;
-  /// max_fill_s: the longest gap filled without flagging the window, s. One hour: on simulated
-  /// quiet days, gaps bridged by straight lines in both records (one of 10, 30 or 60 min a day,
-  /// or three of 20 min) left the default's errors and coverage where they were without gaps,
-  /// and so did an hour cut from the real WIC day (docs/accuracy.md, "Gaps"). What limits gaps
-  /// is the share of the window they fill (max_filled_fraction).
-  GapSettings gaps{3600.0};
+  /// max_fill_s: the longest gap filled without flagging the window, s (one hour, gap_filling.hpp);
+  /// what limits shorter gaps is the share of the window they fill (max_filled_fraction).
+  GapSettings gaps;
   double max_filled_fraction = 0.05;  ///< of the window's expected epochs, [0, 1]
 
   /// The errors-in-variables correction may use a noise model: robust method, correction on.

@@ -67,11 +67,11 @@ Eigen::Index row_at(const mic::PairedRecord& p, double time) {
 
 TEST(GapFilling, LinearSignalIsReproducedExactlyAcrossGaps) {
   std::set<int> skip{5, 6, 7, 100};
-  for (int k = 200; k < 290; ++k) skip.insert(k);  // 90 s gap: longer than max_fill_s = 60
+  for (int k = 200; k < 290; ++k) skip.insert(k);  // 90 s gap: longer than a max_fill_s of 60
   mic::PairedRecord p = make_paired(400, skip, true);
   p.reference_nT(row_at(p, kGapStart + 50), 1) = kNaN;  // NaN in one reference component
   p.test_nT(row_at(p, kGapStart + 60), 2) = kNaN;       // NaN in one test component
-  const mic::GapReport report = mic::regularize_and_fill(p, 1.0, mic::GapSettings{});
+  const mic::GapReport report = mic::regularize_and_fill(p, 1.0, mic::GapSettings{60.0});
 
   ASSERT_EQ(p.size(), 400u);
   ASSERT_EQ(report.filled.size(), 400u);
@@ -118,8 +118,8 @@ TEST(GapFilling, GapExactlyAtMaxFillIsNotLong) {
   for (int k = 100; k < 160; ++k) sixty.insert(k);
   for (int k = 100; k < 161; ++k) sixty_one.insert(k);
   mic::PairedRecord a = make_paired(300, sixty, true), b = make_paired(300, sixty_one, true);
-  EXPECT_TRUE(mic::regularize_and_fill(a, 1.0, mic::GapSettings{}).long_gaps.empty());
-  const auto report = mic::regularize_and_fill(b, 1.0, mic::GapSettings{});
+  EXPECT_TRUE(mic::regularize_and_fill(a, 1.0, mic::GapSettings{60.0}).long_gaps.empty());
+  const auto report = mic::regularize_and_fill(b, 1.0, mic::GapSettings{60.0});
   ASSERT_EQ(report.long_gaps.size(), 1u);
   EXPECT_EQ(report.long_gaps[0], std::make_pair(std::size_t{100}, std::size_t{160}));
 }
