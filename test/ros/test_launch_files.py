@@ -16,6 +16,9 @@
 - simulated_station.launch: a duration plays the record once and ends the launch (simulators
   required, no --loop); without one the record loops and nothing ends the launch; the same for
   simulated_network.launch's five simulators;
+- simulated_network.launch: station a's three instruments see one field (one field seed) with
+  three noises (three seeds), as the three-cornered hat needs; station b sees station a's field
+  only with shared_field;
 - simulated_station.launch ends when calibration_node ends (an impossible parameter); station.launch
   only with calibration_required:=true;
 - calibration_node writes to the screen by default (one line per window on the console: with
@@ -166,6 +169,21 @@ class LaunchFiles(unittest.TestCase):
             self.assertIn("--duration 21600", sim.args)
             self.assertIn("--loop", sim.args.split())
             self.assertFalse(sim.required)
+
+    def test_simulated_network_station_a_has_three_noises_on_one_field(self):
+        def option(sim, name):
+            words = sim.args.split()
+            return words[words.index(name) + 1] if name in words else None
+        for args in ([], ["shared_field:=true"], ["seed_a:=7", "seed_b:=8"]):
+            config = self.load("simulated_network.launch", *args)
+            sims = {n.name: n for n in config.nodes if n.type == "lemi025_simulator"}
+            station_a = [sims["simulator_a_" + name] for name in ("reference", "t1", "t2")]
+            seed_a = option(sims["simulator_a_reference"], "--seed")
+            self.assertEqual({option(sim, "--field-seed") for sim in station_a}, {seed_a}, args)
+            self.assertNotEqual(option(sims["simulator_a_t1"], "--seed"), option(sims["simulator_a_t2"], "--seed"), args)
+            shared = "shared_field:=true" in args
+            for name in ("simulator_b_reference", "simulator_b_t1"):
+                self.assertEqual(option(sims[name], "--field-seed"), seed_a if shared else None, (args, name))
 
     def test_calibration_node_prints_its_windows_on_the_console(self):
         for name, args in (("station.launch", []), ("simulated_station.launch", []), ("replay.launch", ["bag:=b.bag"]),
