@@ -4,7 +4,10 @@
 set -eo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
-bash scripts/build.sh all tests  # one make: the test binaries build alongside the programs
+# `tests` first: make runs its goals one after the other (CMake's top Makefile is .NOTPARALLEL),
+# and the tests depend on every program and node they run, so that goal builds nearly everything
+# with both cores busy, the test binaries beside the libraries; `all` is then left with nothing.
+bash scripts/build.sh tests all
 source build/devel/setup.bash
 # rostest needs a writable ROS_HOME and a host name that resolves (ros1-on-debian.md).
 export ROS_HOME="${ROS_HOME:-$(mktemp -d)}"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the ctest suite N times and prints, per test, in how many runs it failed: the check that
 # the suite does not flake. It does NOT build: build first (bash scripts/run_tests.sh
-# once, or scripts/build.sh all tests); it stops if build/ has no tests.
+# once, or scripts/build.sh tests all); it stops if build/ has no tests.
 #
 #   bash scripts/stress_tests.sh N [--hog K] [--ptys] [--logs DIR] [-- CTEST_ARGS...]
 #
