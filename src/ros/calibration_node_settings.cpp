@@ -266,10 +266,8 @@ void load_estimator(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
     throw ParameterError("band_high", "(" + number_text(e.band_high_hz) + " Hz) must be above ~band_low (" +
                                           number_text(e.band_low_hz) + " Hz): the band is empty");
   }
-  if (e.band_high_hz > 0.5 / period) {
-    throw ParameterError("band_high", "(" + number_text(e.band_high_hz) + " Hz) is above the Nyquist frequency " +
-                                          number_text(0.5 / period) + " Hz of the " + number_text(period) + " s estimation period");
-  }
+  const std::string above_nyquist = e.band_above_nyquist(period);
+  if (!above_nyquist.empty()) throw ParameterError("band_high", above_nyquist);
   e.gamma = param_double(p, "gamma", e.gamma);
   e.trend = param_bool(p, "trend", e.trend);
   const int min_harmonics = param_int(p, "min_harmonics", static_cast<int>(e.min_harmonics));

@@ -46,6 +46,8 @@ TEST(Calibration, BadParameters) {
       {calibration + " __name:=bad_step" + ok + " _window:=3600 _step:=7200", "parameter ~step: (7200 s) is longer than ~window"},
       {calibration + " __name:=bad_window" + ok + " _window:=-3600", "parameter ~window: must be > 0 s"},
       {calibration + " __name:=bad_band" + ok + " _band_low:=0.01 _band_high:=0.005", "parameter ~band_high:"},
+      {calibration + " __name:=minute_band" + ok + " _input_period:=60",
+       "parameter ~band_high: the band's top 0.01 Hz is above the Nyquist frequency 0.00833333 Hz of the 60 s"},
       {calibration + " __name:=bad_short" + ok + " _window:=600 _step:=60", "parameter ~window: (600 s) holds only"},
       {calibration + " __name:=bad_type" + ok + " _step:=ten", "parameter ~step: must be a number"},
       {calibration + " __name:=no_reference _test_topic:=/t _calibration_file:=/tmp/x.yaml", "parameter ~reference_topic: is required"},

@@ -80,6 +80,12 @@ struct EstimatorSettings {
   /// a window with fewer than min_harmonics is always flagged TooFewHarmonics.
   double band_harmonics(double window_s) const;
 
+  /// Why the band cannot be estimated on records of estimation period `period_s` (s): its top
+  /// above their Nyquist frequency 0.5 / period_s (minute data: 0.0083 Hz, under the paper's
+  /// 0.01 Hz), where the harmonics are those of the band below folded back. Empty when it can.
+  /// calibrate_records and calibration_node refuse such a band with this text.
+  std::string band_above_nyquist(double period_s) const;
+
   /// Throws InputError naming the field when a value is impossible.
   void validate() const;
 };

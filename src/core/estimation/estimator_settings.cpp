@@ -6,6 +6,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <string>
 
 namespace magnetometer_insitu_calibration {
@@ -39,5 +40,15 @@ void RobustSettings::validate() const {
   if (!positive(delay_max_hz)) throw InputError("delay_max_hz", "must be a positive frequency in Hz");
 }
 
+
+std::string EstimatorSettings::band_above_nyquist(double period_s) const {
+  const double nyquist_hz = 0.5 / period_s;
+  if (!(band_high_hz > nyquist_hz)) return {};
+  std::ostringstream text;
+  text << "the band's top " << band_high_hz << " Hz is above the Nyquist frequency " << nyquist_hz << " Hz of the "
+       << period_s << " s estimation period: give a band below it (for example " << band_low_hz << "-"
+       << 0.5 * nyquist_hz << " Hz)";
+  return text.str();
+}
 
 }  // namespace magnetometer_insitu_calibration

@@ -172,7 +172,8 @@ WindowEstimate RobustFdEstimator::Window::estimate() {
   result.band_high_hz = sections_.band_high_hz;
   result.harmonic_first =
       static_cast<int>(std::max(1L, static_cast<long>(std::ceil(sections_.band_low_hz * duration_s_ - 1e-9))));
-  result.harmonic_last = static_cast<int>(std::floor(sections_.band_high_hz * duration_s_ + 1e-9));
+  result.harmonic_last = static_cast<int>(std::min(std::floor(sections_.band_high_hz * duration_s_ + 1e-9),
+                                                   std::floor(0.5 * static_cast<double>(length_ - 1))));  // as the cells
   result.screened_fraction =
       static_cast<double>(std::count(diagnostics_.screened.begin(), diagnostics_.screened.end(), 1)) /
       static_cast<double>(length_);

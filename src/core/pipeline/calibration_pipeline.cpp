@@ -253,6 +253,9 @@ WindowRecords window_records(const PreparedPair& prepared, std::size_t first, st
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings,
                                                   const PreparedSides* sides) {
   settings.validate();
+  // Known only once the records are paired: their estimation period.
+  const std::string above_nyquist = settings.window.estimator.band_above_nyquist(prepared.sample_period_s);
+  if (!above_nyquist.empty()) throw InputError("band_high_hz", above_nyquist);
   WindowCalibrator calibrator(settings.window);
   std::vector<CalibrationWindow> out;
   for (const WindowSpan& span : plan_windows(prepared.paired.size(), prepared.sample_period_s, settings.windows)) {

@@ -354,3 +354,33 @@ TEST(RobustEstimator, DefaultCorrectsOnlyForAReferenceNoiseModel) {
   const double after = (corrected.parameters.scale_ratio - truth).cwiseAbs().sum();
   EXPECT_LT(after, 0.5 * before) << "before " << before << " after " << after;
 }
+
+// Minute means of a day (1440 samples, Nyquist 0.0083 Hz) under the paper's band (top 0.01 Hz):
+// both estimators sum the harmonics up to the Nyquist frequency's and report that much, and the
+// settings say why such a band is refused by calibrate_records and calibration_node.
+TEST(RobustEstimator, ABandAboveTheNyquistFrequencyUsesAndReportsTheHarmonicsBelowIt) {
+  const mic::SimulatedPair pair = mic::simulate_pair(station(5));
+  const Eigen::Index minutes = pair.reference.values_nT.rows() / 60;
+  mic::Readings reference(minutes, 3), test(minutes, 3);
+  for (Eigen::Index i = 0; i < minutes; ++i) {
+    reference.row(i) = pair.reference.values_nT.middleRows(60 * i, 60).colwise().mean();
+    test.row(i) = pair.test.values_nT.middleRows(60 * i, 60).colwise().mean();
+  }
+  mic::EstimatorSettings paper, nyquist;
+  nyquist.band_high_hz = 0.5 / 60.0;
+  EXPECT_EQ(nyquist.band_above_nyquist(60.0), "");
+  EXPECT_EQ(paper.band_above_nyquist(1.0), "");
+  EXPECT_NE(paper.band_above_nyquist(60.0).find("0.01 Hz is above the Nyquist frequency 0.00833333 Hz of the 60 s"),
+            std::string::npos)
+      << paper.band_above_nyquist(60.0);
+  for (mic::EstimatorMethod method : {mic::EstimatorMethod::kPlain, mic::EstimatorMethod::kRobust}) {
+    SCOPED_TRACE(mic::estimator_method_name(method));
+    paper.method = nyquist.method = method;
+    const mic::WindowEstimate above = mic::WindowEstimator(paper).estimate(reference, test, 60.0);
+    const mic::WindowEstimate at = mic::WindowEstimator(nyquist).estimate(reference, test, 60.0);
+    ASSERT_EQ(above.quality, mic::Quality::kOk) << above.quality_text;
+    EXPECT_EQ(above.harmonic_last, 719);  // (1440 - 1) / 2: the Nyquist harmonic itself is never summed
+    EXPECT_EQ(at.harmonic_last, 719);
+    EXPECT_LT((above.n - at.n).cwiseAbs().maxCoeff(), 1e-12);
+  }
+}

@@ -126,6 +126,8 @@ TEST_F(CalibrateRecordsCli, BadOptionsAreNamedByTheirOptionBeforeAnyWork) {
       {io + "--max-fill -3", "calibrate_records: --max-fill: must be"},
       {io + "--huber-k -1", "calibrate_records: --huber-k: must be"},
       {io + "--window 100 --step 100", "calibrate_records: --window: of 100 s holds only 1 DFT harmonics in the band"},
+      // Decimated to minutes, the records' Nyquist frequency (0.0083 Hz) is under the default band's top.
+      {io + "--output-period 60", "calibrate_records: --band: the band's top 0.01 Hz is above the Nyquist frequency 0.00833333 Hz"},
       {io + "--window 1e9 --step 3600", "calibrate_records: --window: of 1e+09 s is longer than the record (21600 s)"},
       {io + "--json " + dir_ + "/no_such_dir/out.json", "calibrate_records: --json: cannot write"},
       {"--reference " + dir_ + "/ref.csv --test " + dir_ + "/../" + dir_.substr(dir_.rfind('/') + 1) + "/ref.csv",
