@@ -59,6 +59,9 @@ double median_sample_period(const VectorRecord& record) {
 
 namespace {
 
+/// Two sample periods within 1 % of each other are one rate.
+constexpr double kSameRate = 1.01;
+
 VectorRecord as_record(const std::vector<double>& time_s, const Readings& values, const VectorRecord& like) {
   VectorRecord r;
   r.time_s = time_s;
@@ -115,29 +118,45 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     rep.spikes_reference = despike(ref.values_nT, settings.despike_settings);
     rep.spikes_test = despike(tst.values_nT, settings.despike_settings);
   }
-  // 2. Pairs by stamp.
   PreparedPair out;
-  out.paired = align_by_time(ref, tst, settings.pairing_tolerance_s);
-  rep.paired = out.paired.size();
-  rep.unpaired_reference = out.paired.unpaired_reference;
-  rep.unpaired_test = out.paired.unpaired_test;
-  rep.duplicates = out.paired.duplicates;
-
-  // 3. Gaussian FIR and decimation when sampled faster than the estimation period.
+  const auto count_pairs = [&] {
+    rep.paired = out.paired.size();
+    rep.unpaired_reference = out.paired.unpaired_reference;
+    rep.unpaired_test = out.paired.unpaired_test;
+    rep.duplicates = out.paired.duplicates;
+  };
   const double native_period = std::max(rep.reference_period_s, rep.test_period_s);
-  if (native_period < 0.99 * settings.output_period_s) {
+  if (native_period > kSameRate * std::min(rep.reference_period_s, rep.test_period_s)) {
+    // 2-3. Two rates (a 1 s observatory record beside a 10 Hz LEMI-025): each record through the
+    // same Gaussian FIR onto the same epochs, then paired. The slower one is filtered too, so the
+    // filter adds no relative response to n (its gain, 0.998 at 0.01 Hz for 1 s, would read as
+    // a scale), and the faster one's noise above the output Nyquist frequency is not folded into
+    // the band as a subsampling would.
     DecimationSettings dec;
-    dec.output_period_s = settings.output_period_s;
-    const VectorRecord r = decimate(as_record(out.paired.time_s, out.paired.reference_nT, reference), dec);
-    const VectorRecord t = decimate(as_record(out.paired.time_s, out.paired.test_nT, test), dec);
-    out.paired.time_s = r.time_s;  // both decimated on the same epochs
-    out.paired.reference_nT = r.values_nT;
-    out.paired.test_nT = t.values_nT;
+    dec.output_period_s = std::max(settings.output_period_s, native_period);
+    out.paired = align_by_time(decimate(ref, dec), decimate(tst, dec), settings.pairing_tolerance_s);
+    count_pairs();
     rep.decimated = true;
     out.decimation = dec;
+  } else {
+    // 2. Pairs by stamp.
+    out.paired = align_by_time(ref, tst, settings.pairing_tolerance_s);
+    count_pairs();
+    // 3. Gaussian FIR and decimation when sampled faster than the estimation period.
+    if (native_period < 0.99 * settings.output_period_s) {
+      DecimationSettings dec;
+      dec.output_period_s = settings.output_period_s;
+      const VectorRecord r = decimate(as_record(out.paired.time_s, out.paired.reference_nT, reference), dec);
+      const VectorRecord t = decimate(as_record(out.paired.time_s, out.paired.test_nT, test), dec);
+      out.paired.time_s = r.time_s;  // both decimated on the same epochs
+      out.paired.reference_nT = r.values_nT;
+      out.paired.test_nT = t.values_nT;
+      rep.decimated = true;
+      out.decimation = dec;
+    }
   }
   // 4. Regular grid, common mask; the windows fill the gaps.
-  out.sample_period_s = rep.decimated ? settings.output_period_s : native_period;
+  out.sample_period_s = rep.decimated ? out.decimation->output_period_s : native_period;
   regularize(out.paired, out.sample_period_s);
   rep.grid_samples = out.paired.size();
   count_missing(out, max_fill_s, rep);

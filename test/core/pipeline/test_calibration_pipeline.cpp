@@ -288,3 +288,47 @@ TEST(CalibrationPipeline, ImpossibleLayoutsAreRejectedByName) {
   p.pairing_tolerance_s = -1;
   EXPECT_THROW(p.validate(), std::exception);
 }
+
+// A 1 s reference (an observatory's record) beside a 10 Hz test (a LEMI-025): each goes through
+// the same Gaussian FIR onto the same 1 s epochs before they are paired. The test's white noise
+// at 10 Hz is then not folded into the band, as taking its samples at the reference's seconds
+// would: n comes out with the standard errors of the pair at 10 Hz, and near its n.
+TEST(CalibrationPipeline, AOneSecondReferenceBesideATenHertzTestIsFilteredLikeIt) {
+  mic::SimulationSettings s = ten_hz_station(21);
+  s.test_white_nT = 0.1;  // 0.045 nT/sqrt(Hz) at 10 Hz: folded into 0-0.5 Hz it would be 0.14
+  // The reference taken at whole seconds is an observatory's 1 s record only when little lies
+  // above 0.5 Hz to fold into it (its noise, the field's f^-2 tail): an observatory low-passes.
+  s.reference_white_nT = 0.001;
+  s.reference_pink_nT_per_sqrt_hz = 0.0005;
+  s.spectral_index = 3.0;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  mic::VectorRecord reference_1s = pair.reference;  // its samples on whole seconds (the grid starts at x.7)
+  const Eigen::Index seconds = (static_cast<Eigen::Index>(pair.reference.size()) - 3) / 10;
+  reference_1s.time_s.resize(static_cast<std::size_t>(seconds));
+  reference_1s.values_nT.resize(seconds, 3);
+  for (Eigen::Index i = 0; i < seconds; ++i) {
+    reference_1s.time_s[static_cast<std::size_t>(i)] = pair.reference.time_s[static_cast<std::size_t>(3 + 10 * i)];
+    reference_1s.values_nT.row(i) = pair.reference.values_nT.row(3 + 10 * i);
+  }
+  ASSERT_DOUBLE_EQ(std::fmod(reference_1s.time_s[0], 1.0), 0.0);
+
+  const mic::CalibrationSettings settings;
+  const mic::PairCalibration both = mic::calibrate_records(pair.reference, pair.test, settings);
+  const mic::PairCalibration mixed = mic::calibrate_records(reference_1s, pair.test, settings);
+  EXPECT_TRUE(mixed.report.decimated);
+  EXPECT_NEAR(mixed.report.paired, 6 * 3600, 20);  // 1 s epochs, both records on them
+  EXPECT_LT(mixed.report.unpaired_test, 20u);
+  ASSERT_EQ(mixed.windows.size(), 1u);
+  const mic::WindowEstimate& e = mixed.windows[0].estimate;
+  const mic::WindowEstimate& ten_hz = both.windows[0].estimate;
+  ASSERT_EQ(e.quality, mic::Quality::kOk) << e.quality_text;
+  EXPECT_DOUBLE_EQ(e.sample_period_s, 1.0);
+  expect_within(e, pair.n_true, 3.0, "1 s reference, 10 Hz test");
+  const Eigen::Matrix3d se = e.n_stderr(), se_10 = ten_hz.n_stderr();
+  for (int i = 0; i < 9; ++i) {
+    const int r = i / 3, c = i % 3;
+    // Measured: 0.997-1.009 and at most 0.02; the test's samples at the seconds gave 1.06-2.24 and 0.44.
+    EXPECT_LT(se(r, c), 1.05 * se_10(r, c)) << "n(" << r << "," << c << ")";
+    EXPECT_LT(std::abs(e.n(r, c) - ten_hz.n(r, c)), 0.1 * se_10(r, c)) << "n(" << r << "," << c << ")";
+  }
+}
