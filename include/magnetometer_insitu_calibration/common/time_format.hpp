@@ -6,11 +6,12 @@
 
 namespace magnetometer_insitu_calibration {
 
-/// Parses a UTC time to UNIX seconds (leap seconds not counted). Accepts
+/// Parses an ISO 8601 time to UNIX seconds (leap seconds not counted). Accepts
 /// "YYYY-MM-DDThh:mm:ss" or "YYYY-MM-DD hh:mm:ss", optional fractional seconds of any length
-/// (".123", ".123456789"), optional zone "Z", "+00:00" or "+0000" (UTC only).
+/// (".123", ".123456789"), an optional zone: none or "Z" (UTC), or an offset from UTC "+hh:mm",
+/// "+hhmm", "+hh" or with "-" ("2025-05-14T02:00:00+02:00" is 00:00 UTC).
 /// Throws std::invalid_argument whose message quotes the text, for anything else, including
-/// other time-zone offsets and impossible dates or times (2025-02-29, 24:00:00, second 60).
+/// "-00:00" (an unknown offset) and impossible dates or times (2025-02-29, 24:00:00, second 60).
 double parse_iso8601(const std::string& text);
 
 /// Formats UNIX seconds as "YYYY-MM-DDThh:mm:ss.fffZ" with `decimals` (0..9) fractional digits,

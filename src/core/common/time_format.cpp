@@ -83,6 +83,30 @@ void civil_from_days(std::int64_t days, std::int64_t& year, int& month, int& day
   year = year_of_era + era * 400 + (month <= 2 ? 1 : 0);
 }
 
+/// The zone designator from `pos` to the end of `text`, as seconds east of UTC: none, "Z" or an
+/// ISO 8601 offset "+hh:mm", "+hhmm" or "+hh" (or "-"; hh <= 23, mm <= 59). "-00:00", which
+/// RFC 3339 uses for "offset unknown", is refused.
+std::int64_t zone_offset_s(const std::string& text, std::size_t pos) {
+  const std::string zone = text.substr(pos);
+  if (zone.empty() || zone == "Z" || zone == "z") return 0;
+  const auto fail = [&] {
+    reject(text, "unsupported suffix '" + zone + "' (a zone is 'Z' or an offset +hh:mm, +hhmm or +hh)");
+  };
+  const bool colon = zone.size() == 6 && zone[3] == ':';
+  if ((zone[0] != '+' && zone[0] != '-') || !(zone.size() == 3 || zone.size() == 5 || colon)) fail();
+  for (std::size_t i = 1; i < zone.size(); ++i) {
+    if (!(is_digit(zone[i]) || (colon && i == 3))) fail();
+  }
+  const int hours = (zone[1] - '0') * 10 + (zone[2] - '0');
+  const std::size_t m = colon ? 4 : 3;
+  const int minutes = zone.size() > 3 ? (zone[m] - '0') * 10 + (zone[m + 1] - '0') : 0;
+  if (hours > 23 || minutes > 59) reject(text, "zone offset '" + zone + "' out of range (at most 23:59)");
+  if (zone[0] == '-' && hours == 0 && minutes == 0) {
+    reject(text, "zone offset '" + zone + "' means an unknown offset (RFC 3339); UTC is 'Z'");
+  }
+  return (zone[0] == '-' ? -1 : 1) * (hours * 3600 + minutes * 60);
+}
+
 double parse_iso8601(const std::string& text) {
   // Fixed part: YYYY-MM-DD?hh:mm:ss (19 characters).
   const int year = digits_at(text, 0, 4, "year");
@@ -115,14 +139,9 @@ double parse_iso8601(const std::string& text) {
     fraction = std::strtod(("0" + text.substr(pos, end - pos)).c_str(), nullptr);
     pos = end;
   }
-  const std::string zone = text.substr(pos);
-  if (!(zone.empty() || zone == "Z" || zone == "z" || zone == "+00:00" || zone == "+0000")) {
-    reject(text, "unsupported suffix '" + zone + "' (only UTC: none, 'Z' or '+00:00')");
-  }
-
   const std::int64_t whole = days_from_civil(year, month, day) * kSecondsPerDay +
                              hour * 3600 + minute * 60 + second;
-  return static_cast<double>(whole) + fraction;
+  return static_cast<double>(whole - zone_offset_s(text, pos)) + fraction;
 }
 
 std::string format_iso8601(double unix_s, int decimals) {

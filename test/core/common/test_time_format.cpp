@@ -33,6 +33,13 @@ TEST(ParseIso8601, AcceptedSpellingsAgree) {
   EXPECT_EQ(mic::parse_iso8601("2025-05-14T13:07:05+00:00"), t);
   EXPECT_EQ(mic::parse_iso8601("2025-05-14T13:07:05+0000"), t);
   EXPECT_EQ(mic::parse_iso8601("2025-05-14T13:07:05.000Z"), t);
+  // Offsets from UTC: local time minus the offset.
+  EXPECT_EQ(mic::parse_iso8601("2025-05-14T15:07:05+02:00"), t);
+  EXPECT_EQ(mic::parse_iso8601("2025-05-14T15:07:05+0200"), t);
+  EXPECT_EQ(mic::parse_iso8601("2025-05-14T15:07:05+02"), t);
+  EXPECT_EQ(mic::parse_iso8601("2025-05-14T07:37:05-05:30"), t);
+  EXPECT_EQ(mic::parse_iso8601("2025-05-15T00:07:05.25+11:00"), t + 0.25);  // across midnight
+  EXPECT_EQ(mic::parse_iso8601("1970-01-01T00:00:00-01:00"), 3600.0);
 }
 
 TEST(ParseIso8601, FractionalSeconds) {
@@ -45,8 +52,17 @@ TEST(ParseIso8601, FractionalSeconds) {
 
 TEST(ParseIso8601, RejectsWithTheTextInTheMessage) {
   const char* bad[] = {
-      "2025-05-14T00:00:00+01:00",  // offsets other than UTC
-      "2025-05-14T00:00:00-00:00",
+      "2025-05-14T00:00:00-00:00",  // RFC 3339's unknown offset
+      "2025-05-14T00:00:00-0000",
+      "2025-05-14T00:00:00+24:00",  // offsets out of range or malformed
+      "2025-05-14T00:00:00+01:60",
+      "2025-05-14T00:00:00+1:00",
+      "2025-05-14T00:00:00+01:0",
+      "2025-05-14T00:00:00+01-00",
+      "2025-05-14T00:00:00+010",
+      "2025-05-14T00:00:00 +01:00",
+      "2025-05-14T00:00:00+01:00Z",
+      "2025-05-14T00:00:00UTC",
       "2025-02-29T00:00:00Z",       // 2025 is not a leap year
       "1900-02-29T00:00:00Z",       // century not divisible by 400
       "2025-13-01T00:00:00Z",
