@@ -56,13 +56,28 @@ struct CalibrationSettings {
   void validate() const;
 };
 
+/// How the two records came onto common epochs (pre-processing steps 2-3).
+enum class EpochAlignment {
+  kPairedStamps,         ///< paired by stamp at their own rate, the estimation period
+  kPairedThenDecimated,  ///< paired by stamp, then low-passed and decimated together
+  /// Two rates (a 1 s record beside a 10 Hz one), or one rate with the stamps of one record
+  /// further off the other's than the pairing tolerance (a logger stamping at half seconds):
+  /// each record low-passed onto the estimation epochs by the same Gaussian FIR, then paired.
+  kEachFiltered,
+};
+const char* epoch_alignment_name(EpochAlignment alignment);  ///< JSON: "paired_stamps", ...
+
 /// What pre-processing did, for the report and the diagnostics.
 struct PreprocessReport {
   std::size_t reference_samples = 0, test_samples = 0;
   double reference_period_s = 0.0, test_period_s = 0.0;  ///< median steps of the inputs
+  /// One rate: where the test's stamps fall in each period against the reference's (their
+  /// circular mean phases' difference, in [-period/2, period/2)), s; 0 for two rates.
+  double stamp_offset_s = 0.0;
   std::size_t spikes_reference = 0, spikes_test = 0;      ///< values set to NaN
   std::size_t paired = 0, unpaired_reference = 0, unpaired_test = 0, duplicates = 0;
-  bool decimated = false;
+  EpochAlignment alignment = EpochAlignment::kPairedStamps;
+  bool decimated = false;  ///< alignment is not kPairedStamps: the records were low-passed
   std::size_t grid_samples = 0;     ///< epochs of the regular estimation grid
   std::size_t missing_samples = 0;  ///< of those, without a complete pair (the windows fill them)
   std::size_t long_gaps = 0;        ///< runs of missing epochs longer than the gap rule's max_fill_s

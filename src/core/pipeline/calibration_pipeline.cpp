@@ -10,9 +10,19 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 
 namespace magnetometer_insitu_calibration {
+
+const char* epoch_alignment_name(EpochAlignment alignment) {
+  switch (alignment) {
+    case EpochAlignment::kPairedStamps: return "paired_stamps";
+    case EpochAlignment::kPairedThenDecimated: return "paired_then_decimated";
+    case EpochAlignment::kEachFiltered: return "each_filtered";
+  }
+  return "unknown";
+}
 
 void PreprocessSettings::validate() const {
   if (!(pairing_tolerance_s >= 0.0) || !std::isfinite(pairing_tolerance_s))
@@ -59,8 +69,34 @@ double median_sample_period(const VectorRecord& record) {
 
 namespace {
 
+constexpr double kPi = 3.14159265358979323846;
+
 /// Two sample periods within 1 % of each other are one rate.
 constexpr double kSameRate = 1.01;
+
+/// Where in each period of period_s the stamps fall: the circular mean of t mod period_s over up
+/// to 4096 evenly spread stamps, s in [-period/2, period/2). NaN when they have no common phase
+/// (the mean resultant length under 0.5: stamps off any grid).
+double stamp_phase_s(const std::vector<double>& time_s, double period_s) {
+  const std::size_t stride = std::max<std::size_t>(1, time_s.size() / 4096);
+  double c = 0.0, s = 0.0;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < time_s.size(); i += stride, ++count) {
+    const double angle = 2.0 * kPi * std::fmod(time_s[i], period_s) / period_s;
+    c += std::cos(angle);
+    s += std::sin(angle);
+  }
+  if (count == 0 || std::hypot(c, s) < 0.5 * static_cast<double>(count)) return std::numeric_limits<double>::quiet_NaN();
+  return std::atan2(s, c) / (2.0 * kPi) * period_s;
+}
+
+/// The test's stamps' phase against the reference's at one rate, s in [-period/2, period/2]; 0
+/// when either has no common phase (pairing by stamp decides then).
+double stamp_offset_s(const VectorRecord& reference, const VectorRecord& test, double period_s) {
+  const double d = stamp_phase_s(test.time_s, period_s) - stamp_phase_s(reference.time_s, period_s);
+  if (!std::isfinite(d)) return 0.0;
+  return d - period_s * std::round(d / period_s);
+}
 
 VectorRecord as_record(const std::vector<double>& time_s, const Readings& values, const VectorRecord& like) {
   VectorRecord r;
@@ -126,17 +162,20 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     rep.duplicates = out.paired.duplicates;
   };
   const double native_period = std::max(rep.reference_period_s, rep.test_period_s);
-  if (native_period > kSameRate * std::min(rep.reference_period_s, rep.test_period_s)) {
-    // 2-3. Two rates (a 1 s observatory record beside a 10 Hz LEMI-025): each record through the
-    // same Gaussian FIR onto the same epochs, then paired. The slower one is filtered too, so the
-    // filter adds no relative response to n (its gain, 0.998 at 0.01 Hz for 1 s, would read as
-    // a scale), and the faster one's noise above the output Nyquist frequency is not folded into
-    // the band as a subsampling would.
+  const bool two_rates = native_period > kSameRate * std::min(rep.reference_period_s, rep.test_period_s);
+  if (!two_rates) rep.stamp_offset_s = stamp_offset_s(ref, tst, native_period);
+  if (two_rates || std::abs(rep.stamp_offset_s) > settings.pairing_tolerance_s) {
+    // 2-3. Two rates (a 1 s observatory record beside a 10 Hz LEMI-025), or stamps that do not
+    // pair (one logger stamping at half seconds): each record through the same Gaussian FIR onto
+    // the same epochs, then paired. The slower one is filtered too, so the filter adds no
+    // relative response to n (its gain, 0.998 at 0.01 Hz for 1 s, would read as a scale); the
+    // faster one's noise above the output Nyquist frequency is not folded into the band as a
+    // subsampling would; the kernel centred on each epoch puts a record of another phase on it.
     DecimationSettings dec;
     dec.output_period_s = std::max(settings.output_period_s, native_period);
     out.paired = align_by_time(decimate(ref, dec), decimate(tst, dec), settings.pairing_tolerance_s);
     count_pairs();
-    rep.decimated = true;
+    rep.alignment = EpochAlignment::kEachFiltered;
     out.decimation = dec;
   } else {
     // 2. Pairs by stamp.
@@ -151,10 +190,11 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
       out.paired.time_s = r.time_s;  // both decimated on the same epochs
       out.paired.reference_nT = r.values_nT;
       out.paired.test_nT = t.values_nT;
-      rep.decimated = true;
+      rep.alignment = EpochAlignment::kPairedThenDecimated;
       out.decimation = dec;
     }
   }
+  rep.decimated = rep.alignment != EpochAlignment::kPairedStamps;
   // 4. Regular grid, common mask; the windows fill the gaps.
   out.sample_period_s = rep.decimated ? out.decimation->output_period_s : native_period;
   regularize(out.paired, out.sample_period_s);

@@ -183,6 +183,8 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
         {"unpaired_test", r.unpaired_test},
         {"duplicates", r.duplicates},
         {"decimated", r.decimated},
+        {"epoch_alignment", epoch_alignment_name(r.alignment)},
+        {"stamp_offset_s", r.stamp_offset_s},
         {"grid_samples", r.grid_samples},
         {"missing_samples", r.missing_samples},
         {"long_gaps", r.long_gaps},

@@ -37,6 +37,27 @@ std::vector<std::string> distinct_texts(const std::vector<CalibrationWindow>& wi
   return texts;
 }
 
+/// How the records came onto common epochs, as the pre-processing line's clause ("" when paired
+/// by stamp at their own rate).
+std::string epoch_alignment_text(const PreprocessReport& r) {
+  char text[200];
+  switch (r.alignment) {
+    case EpochAlignment::kPairedStamps: return "";
+    case EpochAlignment::kPairedThenDecimated: return ", Gaussian FIR decimated";
+    case EpochAlignment::kEachFiltered:
+      if (std::abs(r.reference_period_s - r.test_period_s) > 0.01 * std::max(r.reference_period_s, r.test_period_s)) {
+        std::snprintf(text, sizeof text, ", each record Gaussian-FIR filtered onto common epochs (two rates: %g s and %g s)",
+                      r.reference_period_s, r.test_period_s);
+      } else {
+        std::snprintf(text, sizeof text,
+                      ", each record Gaussian-FIR filtered onto common epochs (the test's stamps %+.3g s off the reference's)",
+                      r.stamp_offset_s);
+      }
+      return text;
+  }
+  return "";
+}
+
 /// The head: inputs, model, pre-processing counts, then the errors-in-variables noise models
 /// and the weights and intervals of the windows, and a blank line.
 void write_header(std::ostream& out, const PairCalibration& c, const ReportInputs& inputs) {
@@ -46,7 +67,7 @@ void write_header(std::ostream& out, const PairCalibration& c, const ReportInput
          "cells n's covariance rests on)\n"
       << "pre-processing: " << r.paired << " pairs (" << r.unpaired_reference << " reference and "
       << r.unpaired_test << " test samples unpaired), spikes removed " << r.spikes_reference << " / "
-      << r.spikes_test << (r.decimated ? ", Gaussian FIR decimated" : "") << ", " << r.grid_samples
+      << r.spikes_test << epoch_alignment_text(r) << ", " << r.grid_samples
       << " samples on the grid, " << r.missing_samples << " missing (filled in the windows), " << r.long_gaps
       << " long gaps\n";
   // One model for every window in full; a model identified in each window by its source only

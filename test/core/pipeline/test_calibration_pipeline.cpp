@@ -332,3 +332,45 @@ TEST(CalibrationPipeline, AOneSecondReferenceBesideATenHertzTestIsFilteredLikeIt
     EXPECT_LT(std::abs(e.n(r, c) - ten_hz.n(r, c)), 0.1 * se_10(r, c)) << "n(" << r << "," << c << ")";
   }
 }
+
+// Two 1 s records of one field, the test's stamps 0.3 s after the reference's (a logger with its
+// own second): no stamp pairs within the tolerance, so each record goes through the same
+// Gaussian FIR onto whole seconds. The kernel centred on each epoch puts the test's samples on
+// it: n is the truth's within its intervals and no delay is left.
+TEST(CalibrationPipeline, AOneSecondTestStampedOffTheReferencesSecondsIsFilteredOntoThem) {
+  mic::SimulationSettings s = ten_hz_station(23);
+  s.reference_white_nT = 0.001;  // as above: little above 0.5 Hz to fold into the 1 s records
+  s.reference_pink_nT_per_sqrt_hz = 0.0005;
+  s.spectral_index = 3.0;
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  // Samples on the 10 Hz grid (x.7, x.8, ...): whole seconds at index 3 + 10 i, x.3 at 6 + 10 i.
+  const auto every_second = [](const mic::VectorRecord& r, Eigen::Index first) {
+    mic::VectorRecord out = r;
+    const Eigen::Index count = (static_cast<Eigen::Index>(r.size()) - first) / 10;
+    out.time_s.resize(static_cast<std::size_t>(count));
+    out.values_nT.resize(count, 3);
+    for (Eigen::Index i = 0; i < count; ++i) {
+      out.time_s[static_cast<std::size_t>(i)] = r.time_s[static_cast<std::size_t>(first + 10 * i)];
+      out.values_nT.row(i) = r.values_nT.row(first + 10 * i);
+    }
+    return out;
+  };
+  const mic::VectorRecord reference = every_second(pair.reference, 3), test = every_second(pair.test, 6);
+  ASSERT_NEAR(test.time_s[0] - reference.time_s[0], 0.3, 1e-6);
+
+  const mic::PairCalibration c = mic::calibrate_records(reference, test, mic::CalibrationSettings{});
+  EXPECT_EQ(c.report.alignment, mic::EpochAlignment::kEachFiltered);
+  EXPECT_NEAR(c.report.stamp_offset_s, 0.3, 1e-6);
+  EXPECT_NEAR(c.report.paired, 6 * 3600, 20);
+  ASSERT_EQ(c.windows.size(), 1u);
+  const mic::WindowEstimate& e = c.windows[0].estimate;
+  ASSERT_EQ(e.quality, mic::Quality::kOk) << e.quality_text;
+  expect_within(e, pair.n_true, 3.0, "test stamped 0.3 s off the seconds");
+  EXPECT_LT(std::abs(e.delay_s), std::max(0.05, e.delay_ci95_s)) << "delay " << e.delay_s << " ± " << e.delay_ci95_s;
+  const std::string report = mic::format_calibration_table(c, mic::ReportInputs{});
+  EXPECT_NE(report.find("each record Gaussian-FIR filtered onto common epochs (the test's stamps +0.3 s off"),
+            std::string::npos)
+      << report.substr(0, 600);
+  EXPECT_EQ(mic::calibration_to_json(c, mic::CalibrationSettings{}, mic::ReportInputs{})["preprocessing"]["epoch_alignment"],
+            "each_filtered");
+}
