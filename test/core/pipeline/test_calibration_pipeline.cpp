@@ -37,6 +37,20 @@ mic::SimulationSettings ten_hz_station(std::uint64_t seed) {
   return s;
 }
 
+/// A 1 s record from a 10 Hz one: samples first, first + 10, ... (on the ten_hz_station grid
+/// x.7, x.8, ...: whole seconds from index 3, x.3 from index 6).
+mic::VectorRecord every_tenth(const mic::VectorRecord& r, Eigen::Index first) {
+  mic::VectorRecord out = r;
+  const Eigen::Index count = (static_cast<Eigen::Index>(r.size()) - first) / 10;
+  out.time_s.resize(static_cast<std::size_t>(count));
+  out.values_nT.resize(count, 3);
+  for (Eigen::Index i = 0; i < count; ++i) {
+    out.time_s[static_cast<std::size_t>(i)] = r.time_s[static_cast<std::size_t>(first + 10 * i)];
+    out.values_nT.row(i) = r.values_nT.row(first + 10 * i);
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST(CalibrationPipeline, TenHertzRecordsWithSpikesAndGapsGiveTheTruth) {
@@ -302,14 +316,7 @@ TEST(CalibrationPipeline, AOneSecondReferenceBesideATenHertzTestIsFilteredLikeIt
   s.reference_pink_nT_per_sqrt_hz = 0.0005;
   s.spectral_index = 3.0;
   const mic::SimulatedPair pair = mic::simulate_pair(s);
-  mic::VectorRecord reference_1s = pair.reference;  // its samples on whole seconds (the grid starts at x.7)
-  const Eigen::Index seconds = (static_cast<Eigen::Index>(pair.reference.size()) - 3) / 10;
-  reference_1s.time_s.resize(static_cast<std::size_t>(seconds));
-  reference_1s.values_nT.resize(seconds, 3);
-  for (Eigen::Index i = 0; i < seconds; ++i) {
-    reference_1s.time_s[static_cast<std::size_t>(i)] = pair.reference.time_s[static_cast<std::size_t>(3 + 10 * i)];
-    reference_1s.values_nT.row(i) = pair.reference.values_nT.row(3 + 10 * i);
-  }
+  const mic::VectorRecord reference_1s = every_tenth(pair.reference, 3);  // its samples on whole seconds
   ASSERT_DOUBLE_EQ(std::fmod(reference_1s.time_s[0], 1.0), 0.0);
 
   const mic::CalibrationSettings settings;
@@ -343,19 +350,7 @@ TEST(CalibrationPipeline, AOneSecondTestStampedOffTheReferencesSecondsIsFiltered
   s.reference_pink_nT_per_sqrt_hz = 0.0005;
   s.spectral_index = 3.0;
   const mic::SimulatedPair pair = mic::simulate_pair(s);
-  // Samples on the 10 Hz grid (x.7, x.8, ...): whole seconds at index 3 + 10 i, x.3 at 6 + 10 i.
-  const auto every_second = [](const mic::VectorRecord& r, Eigen::Index first) {
-    mic::VectorRecord out = r;
-    const Eigen::Index count = (static_cast<Eigen::Index>(r.size()) - first) / 10;
-    out.time_s.resize(static_cast<std::size_t>(count));
-    out.values_nT.resize(count, 3);
-    for (Eigen::Index i = 0; i < count; ++i) {
-      out.time_s[static_cast<std::size_t>(i)] = r.time_s[static_cast<std::size_t>(first + 10 * i)];
-      out.values_nT.row(i) = r.values_nT.row(first + 10 * i);
-    }
-    return out;
-  };
-  const mic::VectorRecord reference = every_second(pair.reference, 3), test = every_second(pair.test, 6);
+  const mic::VectorRecord reference = every_tenth(pair.reference, 3), test = every_tenth(pair.test, 6);
   ASSERT_NEAR(test.time_s[0] - reference.time_s[0], 0.3, 1e-6);
 
   const mic::PairCalibration c = mic::calibrate_records(reference, test, mic::CalibrationSettings{});
