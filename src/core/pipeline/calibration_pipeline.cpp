@@ -108,6 +108,26 @@ VectorRecord as_record(const std::vector<double>& time_s, const Readings& values
   return r;
 }
 
+/// `r`'s stamps and values without the samples whose stamp repeats the one before (a bag's
+/// driver restart), counted in `repeated` as align_by_time counts them: the decimator wants
+/// increasing stamps.
+VectorRecord without_repeated_stamps(const VectorRecord& r, std::size_t& repeated) {
+  std::vector<double> time_s;
+  std::vector<Eigen::Index> rows;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (i > 0 && r.time_s[i] == r.time_s[i - 1]) {
+      ++repeated;
+      continue;
+    }
+    time_s.push_back(r.time_s[i]);
+    rows.push_back(static_cast<Eigen::Index>(i));
+  }
+  if (rows.size() == r.size()) return r;
+  Readings values(static_cast<Eigen::Index>(rows.size()), 3);
+  for (std::size_t k = 0; k < rows.size(); ++k) values.row(static_cast<Eigen::Index>(k)) = r.values_nT.row(rows[k]);
+  return as_record(time_s, values, r);
+}
+
 /// Epochs of the grid without a complete pair, and their runs longer than max_fill_s.
 void count_missing(const PreparedPair& prepared, double max_fill_s, PreprocessReport& report) {
   const PairedRecord& p = prepared.paired;
@@ -173,8 +193,11 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     // subsampling would; the kernel centred on each epoch puts a record of another phase on it.
     DecimationSettings dec;
     dec.output_period_s = std::max(settings.output_period_s, native_period);
-    out.paired = align_by_time(decimate(ref, dec), decimate(tst, dec), settings.pairing_tolerance_s);
+    std::size_t repeated = 0;
+    out.paired = align_by_time(decimate(without_repeated_stamps(ref, repeated), dec),
+                               decimate(without_repeated_stamps(tst, repeated), dec), settings.pairing_tolerance_s);
     count_pairs();
+    rep.duplicates += repeated;
     rep.alignment = EpochAlignment::kEachFiltered;
     out.decimation = dec;
   } else {

@@ -338,6 +338,16 @@ TEST(CalibrationPipeline, AOneSecondReferenceBesideATenHertzTestIsFilteredLikeIt
     EXPECT_LT(se(r, c), 1.05 * se_10(r, c)) << "n(" << r << "," << c << ")";
     EXPECT_LT(std::abs(e.n(r, c) - ten_hz.n(r, c)), 0.1 * se_10(r, c)) << "n(" << r << "," << c << ")";
   }
+  // A stamp repeated (a driver restart in a bag) is dropped and counted, as pairing by stamp does.
+  mic::VectorRecord repeated = pair.test;
+  repeated.time_s.insert(repeated.time_s.begin() + 5000, repeated.time_s[5000]);
+  repeated.values_nT.conservativeResize(repeated.values_nT.rows() + 1, 3);
+  repeated.values_nT.bottomRows(repeated.values_nT.rows() - 5001) =
+      pair.test.values_nT.bottomRows(pair.test.values_nT.rows() - 5000).eval();
+  repeated.values_nT.row(5000) = pair.test.values_nT.row(5000);
+  const mic::PairCalibration with_repeat = mic::calibrate_records(reference_1s, repeated, settings);
+  EXPECT_EQ(with_repeat.report.duplicates, 1u);
+  EXPECT_EQ(with_repeat.windows.at(0).estimate.n, e.n);
 }
 
 // Two 1 s records of one field, the test's stamps 0.3 s after the reference's (a logger with its
