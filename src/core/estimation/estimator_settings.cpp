@@ -40,7 +40,6 @@ void RobustSettings::validate() const {
   if (!positive(delay_max_hz)) throw InputError("delay_max_hz", "must be a positive frequency in Hz");
 }
 
-
 std::string EstimatorSettings::band_above_nyquist(double period_s) const {
   const double nyquist_hz = 0.5 / period_s;
   if (!(band_high_hz > nyquist_hz)) return {};

@@ -45,7 +45,7 @@ std::string epoch_alignment_text(const PreprocessReport& r) {
     case EpochAlignment::kPairedStamps: return "";
     case EpochAlignment::kPairedThenDecimated: return ", Gaussian FIR decimated";
     case EpochAlignment::kEachFiltered:
-      if (std::abs(r.reference_period_s - r.test_period_s) > 0.01 * std::max(r.reference_period_s, r.test_period_s)) {
+      if (r.stamp_offset_s == 0.0) {  // measured at one rate only
         std::snprintf(text, sizeof text, ", each record Gaussian-FIR filtered onto common epochs (two rates: %g s and %g s)",
                       r.reference_period_s, r.test_period_s);
       } else {

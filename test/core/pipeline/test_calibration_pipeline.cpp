@@ -322,7 +322,12 @@ TEST(CalibrationPipeline, AOneSecondReferenceBesideATenHertzTestIsFilteredLikeIt
   const mic::CalibrationSettings settings;
   const mic::PairCalibration both = mic::calibrate_records(pair.reference, pair.test, settings);
   const mic::PairCalibration mixed = mic::calibrate_records(reference_1s, pair.test, settings);
+  EXPECT_EQ(mixed.report.alignment, mic::EpochAlignment::kEachFiltered);
   EXPECT_TRUE(mixed.report.decimated);
+  EXPECT_NE(mic::format_calibration_table(mixed, mic::ReportInputs{})
+                .find("each record Gaussian-FIR filtered onto common epochs (two rates: 1 s and 0.1 s)"),
+            std::string::npos);
+  EXPECT_EQ(both.report.alignment, mic::EpochAlignment::kPairedThenDecimated);
   EXPECT_NEAR(mixed.report.paired, 6 * 3600, 20);  // 1 s epochs, both records on them
   EXPECT_LT(mixed.report.unpaired_test, 20u);
   ASSERT_EQ(mixed.windows.size(), 1u);
