@@ -46,7 +46,7 @@ std::string epoch_alignment_text(const PreprocessReport& r) {
     case EpochAlignment::kPairedThenDecimated: return ", Gaussian FIR decimated";
     case EpochAlignment::kEachFiltered:
       if (r.stamp_offset_s == 0.0) {  // measured at one rate only
-        std::snprintf(text, sizeof text, ", each record Gaussian-FIR filtered onto common epochs (two rates: %g s and %g s)",
+        std::snprintf(text, sizeof text, ", each record Gaussian-FIR filtered onto common epochs (two rates: %.3g s and %.3g s)",
                       r.reference_period_s, r.test_period_s);
       } else {
         std::snprintf(text, sizeof text,
