@@ -118,9 +118,9 @@ TEST(Calibration, TemperatureTerms) {
   ASSERT_NE(corrected, nullptr);
   EXPECT_EQ(corrected->values.at("calibration temperature terms"), "fitted");
   EXPECT_EQ(corrected->values.at("temperature model"), "apparent");
-  // Every sample is corrected with or without a recent temperature (~temperature_max_age 300 s
-  // of stamps: at ~rate 2500 samples per wall second the two topics' connections may drift
-  // apart by tenths of a wall second); most with one.
+  // Every sample is corrected with or without a recent temperature (~temperature_max_age 3600 s
+  // of stamps, 1.44 s of wall time at ~rate 2500 samples per wall second: the two topics'
+  // connections once drifted 0.4 s apart beside a busy CI run); most with one.
   const std::size_t with_temperature = value_of(corrected, "corrected with temperature");
   const std::size_t stale = value_of(corrected, "corrected without temperature, none recent");
   std::printf("[ temperature ] correction_sim: %zu corrected with temperature, %zu without (none recent)\n",
