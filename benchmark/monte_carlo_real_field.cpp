@@ -17,10 +17,10 @@
 // nine parameters by each window's 95 % interval, the scale error (per window the largest of the
 // three scale-ratio errors) and the angle error (the largest of the three non-orthogonalities and
 // three misalignments), median / 95th percentile, and the windows flagged.
+#include "parameter_errors.hpp"
 #include "percentile.hpp"
 
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
-#include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
@@ -38,8 +38,6 @@ namespace mic = magnetometer_insitu_calibration;
 
 namespace {
 
-constexpr double kWhiteNT = 0.01;               // nT rms per sample, each instrument
-constexpr double kPinkNTPerSqrtHz = 0.005;      // 1/f amplitude spectral density at 1 Hz
 const Eigen::RowVector3d kOffsetNT(-95.0, 80.0, 400.0);  // the test's offset, nT (any)
 
 struct Options {
@@ -66,17 +64,6 @@ Options parse(int argc, char** argv) {
   return o;
 }
 
-/// Adds each column its own white and 1/f noise (as the simulator's instruments have).
-void add_noise(mic::Readings& values, double period_s, mic::SimulationRng& rng, mic::SpectralSynthesizer& synth) {
-  const std::size_t n = static_cast<std::size_t>(values.rows());
-  for (int c = 0; c < 3; ++c) {
-    const Eigen::VectorXcd spectrum =
-        mic::power_law_spectrum(n, period_s, 1.0, 0.0, kPinkNTPerSqrtHz * kPinkNTPerSqrtHz, rng);
-    values.col(c) += synth.synthesize(spectrum, period_s);
-    for (std::size_t i = 0; i < n; ++i) values(static_cast<Eigen::Index>(i), c) += kWhiteNT * rng.normal();
-  }
-}
-
 struct Tally {
   const char* name;
   mic::CalibrationSettings settings;
@@ -85,30 +72,22 @@ struct Tally {
   std::vector<int> covered_by_window;              // the window's position in the record
   std::vector<std::string> labels;
 
-  void add(std::size_t position, const mic::CalibrationWindow& w, const mic::CalibrationParameters& truth) {
+  void add(std::size_t position, const mic::CalibrationWindow& w, const Eigen::Matrix3d& truth) {
     ++windows;
     if (covered_by_window.size() <= position) {
       covered_by_window.resize(position + 1, 0);
       labels.resize(position + 1);
     }
     labels[position] = w.label + " (" + mic::format_iso8601(w.start_s, 0) + ")";
-    const mic::WindowEstimate& e = w.estimate;
-    if (e.quality != mic::Quality::kOk) {
+    if (w.estimate.quality != mic::Quality::kOk) {
       ++flagged;
       return;
     }
-    const mic::CalibrationParameters& p = e.parameters;
-    Eigen::Matrix<double, 9, 1> est, tru, ci;
-    est << p.scale_ratio, p.nonorthogonality_deg, p.misalignment_deg;
-    tru << truth.scale_ratio, truth.nonorthogonality_deg, truth.misalignment_deg;
-    ci << p.scale_ratio_ci95, p.nonorthogonality_ci95_deg, p.misalignment_ci95_deg;
-    const Eigen::Matrix<double, 9, 1> error = (est - tru).cwiseAbs();
-    for (int k = 0; k < 9; ++k) {
-      covered += error(k) <= ci(k);
-      covered_by_window[position] += error(k) <= ci(k);
-    }
-    scale_errors.push_back(100.0 * error.head<3>().maxCoeff());
-    angle_errors.push_back(error.tail<6>().maxCoeff());
+    const monte_carlo::ParameterErrors e = monte_carlo::parameter_errors(w.estimate.parameters, truth);
+    covered += e.covered;
+    covered_by_window[position] += e.covered;
+    scale_errors.push_back(e.scale_pct);
+    angle_errors.push_back(e.angle_deg);
   }
 
   void print() const {
@@ -137,8 +116,8 @@ int main(int argc, char** argv) {
     const Options o = parse(argc, argv);
     const mic::VectorRecord field = mic::read_record(o.file);
     const double period_s = mic::median_sample_period(field);
-    const Eigen::Matrix3d n_true = mic::SimulationSettings().n_true();
-    const mic::CalibrationParameters truth = mic::decompose(n_true);
+    const mic::SimulationSettings simulator;  // its n and its instruments' noise figures
+    const Eigen::Matrix3d n_true = simulator.n_true();
 
     std::vector<Tally> tallies;
     mic::CalibrationSettings s;
@@ -155,12 +134,14 @@ int main(int argc, char** argv) {
       mic::SimulationRng rng(o.first_seed + static_cast<unsigned>(k));
       mic::VectorRecord reference = field, test = field;
       test.values_nT = (field.values_nT * n_true).rowwise() + kOffsetNT;
-      add_noise(reference.values_nT, period_s, rng, synth);
-      add_noise(test.values_nT, period_s, rng, synth);
+      mic::add_instrument_noise(reference.values_nT, simulator.reference_white_nT,
+                                simulator.reference_pink_nT_per_sqrt_hz, period_s, rng, synth);
+      mic::add_instrument_noise(test.values_nT, simulator.test_white_nT, simulator.test_pink_nT_per_sqrt_hz, period_s,
+                                rng, synth);
       test.source = "simulated test";
       for (Tally& t : tallies) {
         const std::vector<mic::CalibrationWindow> windows = mic::calibrate_records(reference, test, t.settings).windows;
-        for (std::size_t i = 0; i < windows.size(); ++i) t.add(i, windows[i], truth);
+        for (std::size_t i = 0; i < windows.size(); ++i) t.add(i, windows[i], n_true);
       }
     }
     std::printf("%s: %zu samples at %g s; %d noise seeds from %u; ", o.file.c_str(), field.size(), period_s, o.seeds,

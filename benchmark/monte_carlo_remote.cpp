@@ -34,6 +34,7 @@
 
 #include "unmodelled_scenario.hpp"
 
+#include "parameter_errors.hpp"
 #include "percentile.hpp"
 
 #include <algorithm>
@@ -94,18 +95,10 @@ void score_response(const std::vector<mic::ResponseBand>& bands, Tally& tally) {
 /// parameters' 95 % intervals hold the truth.
 void score(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth, Tally& tally, double& scale, double& angle,
            int& covered) {
-  const mic::CalibrationParameters t = mic::decompose(truth);
-  const mic::CalibrationParameters& q = e.parameters;
-  const Eigen::Vector3d ds = 100.0 * (q.scale_ratio - t.scale_ratio);
-  const Eigen::Vector3d dn = q.nonorthogonality_deg - t.nonorthogonality_deg, dm = q.misalignment_deg - t.misalignment_deg;
-  scale = ds.cwiseAbs().maxCoeff();
-  angle = std::max(dn.cwiseAbs().maxCoeff(), dm.cwiseAbs().maxCoeff());
-  covered = 0;
-  for (int l = 0; l < 3; ++l) {
-    covered += std::abs(ds(l)) <= 100.0 * q.scale_ratio_ci95(l);
-    covered += std::abs(dn(l)) <= q.nonorthogonality_ci95_deg(l);
-    covered += std::abs(dm(l)) <= q.misalignment_ci95_deg(l);
-  }
+  const monte_carlo::ParameterErrors errors = monte_carlo::parameter_errors(e.parameters, truth);
+  scale = errors.scale_pct;
+  angle = errors.angle_deg;
+  covered = errors.covered;
   tally.max_scale_pct.push_back(scale);
   tally.max_angle_deg.push_back(angle);
   tally.covered += covered;

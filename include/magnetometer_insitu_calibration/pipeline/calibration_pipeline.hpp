@@ -77,7 +77,8 @@ struct PreprocessReport {
   std::size_t spikes_reference = 0, spikes_test = 0;      ///< values set to NaN
   std::size_t paired = 0, unpaired_reference = 0, unpaired_test = 0, duplicates = 0;
   EpochAlignment alignment = EpochAlignment::kPairedStamps;
-  bool decimated = false;  ///< alignment is not kPairedStamps: the records were low-passed
+  /// The records were low-passed (by the Gaussian FIR) on their way to common epochs.
+  bool decimated() const { return alignment != EpochAlignment::kPairedStamps; }
   std::size_t grid_samples = 0;     ///< epochs of the regular estimation grid
   std::size_t missing_samples = 0;  ///< of those, without a complete pair (the windows fill them)
   std::size_t long_gaps = 0;        ///< runs of missing epochs longer than the gap rule's max_fill_s

@@ -2,6 +2,8 @@
 // domain with FFTW: the building blocks of the simulator.
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/vector_record.hpp"
+
 #include <Eigen/Core>
 
 #include <complex>
@@ -67,5 +69,12 @@ class SpectralSynthesizer {
   double* out_ = nullptr;
   void* plan_ = nullptr;
 };
+
+/// An instrument's noise added to `values` (nT, sample period dt s), column by column: 1/f noise
+/// of amplitude spectral density pink_nT_per_sqrt_hz at 1 Hz (none when 0), then white noise of
+/// white_nT rms per sample (none when 0), drawn from `rng` in that order. The simulator's
+/// instruments, and a real field's simulated instruments (monte_carlo_real_field).
+void add_instrument_noise(Readings& values, double white_nT, double pink_nT_per_sqrt_hz, double dt,
+                          SimulationRng& rng, SpectralSynthesizer& synthesizer);
 
 }  // namespace magnetometer_insitu_calibration

@@ -217,9 +217,8 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
       out.decimation = dec;
     }
   }
-  rep.decimated = rep.alignment != EpochAlignment::kPairedStamps;
   // 4. Regular grid, common mask; the windows fill the gaps.
-  out.sample_period_s = rep.decimated ? out.decimation->output_period_s : native_period;
+  out.sample_period_s = rep.decimated() ? out.decimation->output_period_s : native_period;
   regularize(out.paired, out.sample_period_s);
   rep.grid_samples = out.paired.size();
   count_missing(out, max_fill_s, rep);

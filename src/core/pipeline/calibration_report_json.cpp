@@ -182,7 +182,7 @@ json calibration_to_json(const PairCalibration& c, const CalibrationSettings& se
         {"unpaired_reference", r.unpaired_reference},
         {"unpaired_test", r.unpaired_test},
         {"duplicates", r.duplicates},
-        {"decimated", r.decimated},
+        {"decimated", r.decimated()},
         {"epoch_alignment", epoch_alignment_name(r.alignment)},
         {"stamp_offset_s", r.stamp_offset_s},
         {"grid_samples", r.grid_samples},

@@ -144,4 +144,19 @@ Eigen::VectorXd SpectralSynthesizer::synthesize(const Eigen::VectorXcd& spectrum
   return series;
 }
 
+void add_instrument_noise(Readings& values, double white_nT, double pink_nT_per_sqrt_hz, double dt,
+                          SimulationRng& rng, SpectralSynthesizer& synthesizer) {
+  const std::size_t n = static_cast<std::size_t>(values.rows());
+  for (int c = 0; c < 3; ++c) {
+    if (pink_nT_per_sqrt_hz > 0.0) {
+      const Eigen::VectorXcd spectrum =
+          power_law_spectrum(n, dt, 1.0, 0.0, pink_nT_per_sqrt_hz * pink_nT_per_sqrt_hz, rng);
+      values.col(c) += synthesizer.synthesize(spectrum, dt);
+    }
+    if (white_nT > 0.0) {
+      for (std::size_t i = 0; i < n; ++i) values(static_cast<Eigen::Index>(i), c) += white_nT * rng.normal();
+    }
+  }
+}
+
 }  // namespace magnetometer_insitu_calibration

@@ -106,21 +106,6 @@ Eigen::RowVector3d daily_variation(const SimulationSettings& s, double tau) {
   return value;
 }
 
-void add_noise(Readings& values, double white_nT, double pink_nT_per_sqrt_hz, double dt,
-               SimulationRng& rng, SpectralSynthesizer& synthesizer) {
-  const std::size_t n = static_cast<std::size_t>(values.rows());
-  for (int c = 0; c < 3; ++c) {
-    if (pink_nT_per_sqrt_hz > 0.0) {
-      const Eigen::VectorXcd spectrum =
-          power_law_spectrum(n, dt, 1.0, 0.0, pink_nT_per_sqrt_hz * pink_nT_per_sqrt_hz, rng);
-      values.col(c) += synthesizer.synthesize(spectrum, dt);
-    }
-    if (white_nT > 0.0) {
-      for (std::size_t i = 0; i < n; ++i) values(static_cast<Eigen::Index>(i), c) += white_nT * rng.normal();
-    }
-  }
-}
-
 SimulatedInstrument resolve(SimulatedInstrument requested, SimulationRng& rng) {
   if (requested != SimulatedInstrument::kEither) return requested;
   return rng.uniform() < 0.5 ? SimulatedInstrument::kReference : SimulatedInstrument::kTest;
@@ -421,11 +406,11 @@ SimulatedPair simulate_pair(const SimulationSettings& s) {
   Readings test = test_readings(s, clean, time_s, pair);
   {
     SimulationRng rng(s.seed, kStreamReferenceNoise);
-    add_noise(reference, s.reference_white_nT, s.reference_pink_nT_per_sqrt_hz, dt, rng, synthesizer);
+    add_instrument_noise(reference, s.reference_white_nT, s.reference_pink_nT_per_sqrt_hz, dt, rng, synthesizer);
   }
   {
     SimulationRng rng(s.seed, kStreamTestNoise);
-    add_noise(test, s.test_white_nT, s.test_pink_nT_per_sqrt_hz, dt, rng, synthesizer);
+    add_instrument_noise(test, s.test_white_nT, s.test_pink_nT_per_sqrt_hz, dt, rng, synthesizer);
   }
   const std::vector<char> in_gap = add_gaps(s, reference, test, pair);
   add_spikes(s, in_gap, reference, test, pair);

@@ -63,7 +63,7 @@ TEST(CalibrationPipeline, TenHertzRecordsWithSpikesAndGapsGiveTheTruth) {
 
   mic::CalibrationSettings settings;
   const mic::PairCalibration result = mic::calibrate_records(pair.reference, pair.test, settings);
-  EXPECT_TRUE(result.report.decimated);
+  EXPECT_TRUE(result.report.decimated());
   EXPECT_EQ(result.report.spikes_reference + result.report.spikes_test, pair.spikes.size());
   EXPECT_NEAR(result.report.grid_samples, 6 * 3600, 20);  // kernel support lost at the edges
   ASSERT_EQ(result.windows.size(), 1u);
@@ -323,7 +323,7 @@ TEST(CalibrationPipeline, AOneSecondReferenceBesideATenHertzTestIsFilteredLikeIt
   const mic::PairCalibration both = mic::calibrate_records(pair.reference, pair.test, settings);
   const mic::PairCalibration mixed = mic::calibrate_records(reference_1s, pair.test, settings);
   EXPECT_EQ(mixed.report.alignment, mic::EpochAlignment::kEachFiltered);
-  EXPECT_TRUE(mixed.report.decimated);
+  EXPECT_TRUE(mixed.report.decimated());
   const std::string report = mic::format_calibration_table(mixed, mic::ReportInputs{});
   EXPECT_NE(report.find("each record Gaussian-FIR filtered onto common epochs (two rates: 1 s and 0.1 s)"),
             std::string::npos)

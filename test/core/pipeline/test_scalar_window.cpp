@@ -119,7 +119,7 @@ TEST(ScalarCheck, ADecimatedPairsLowPassIsNotReadAsTheReferencesScale) {
   settings.window.estimator.band_low_hz = 0.002;
   settings.window.estimator.band_high_hz = 0.05;
   const mic::PairCalibration c = mic::calibrate_records(pair.reference, pair.test, settings, {nullptr, nullptr, &scalar});
-  ASSERT_TRUE(c.report.decimated);
+  ASSERT_TRUE(c.report.decimated());
   ASSERT_GE(c.windows.size(), 3u);
   double mean = 0.0;
   for (const auto& w : c.windows) {

@@ -45,7 +45,7 @@ TEST(WicRecords, PairsEverySecondOfTheDay) {
   EXPECT_EQ(report.paired, 86400u);
   EXPECT_EQ(report.unpaired_reference + report.unpaired_test, 0u);
   EXPECT_EQ(report.missing_samples, 0u);
-  EXPECT_FALSE(report.decimated);
+  EXPECT_FALSE(report.decimated());
   EXPECT_DOUBLE_EQ(prepared.sample_period_s, 1.0);
 }
 
