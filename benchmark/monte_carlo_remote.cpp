@@ -195,14 +195,14 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
     }
   }
   std::printf("\n| estimator | median / 95th pct max scale-ratio error | median / 95th pct max angle error | "
-              "coverage (9 parameters x seeds) | pair flagged biased | CPU s per record |\n|---|---|---|---|---|---|\n");
+              "coverage (9 parameters x seeds) | pair-only estimate flagged biased | CPU s per record |\n|---|---|---|---|---|---|\n");
   std::string split_lines;
   for (int m = 0; m < kMethods; ++m) {
     const Tally& t = tally[m];
     std::printf("| %s | %.3f / %.3f %% | %.4f / %.4f deg | %.1f %% | %s | %.2f |\n", kMethodNames[m],
                 percentile(t.max_scale_pct, 0.5), percentile(t.max_scale_pct, 0.95), percentile(t.max_angle_deg, 0.5),
                 percentile(t.max_angle_deg, 0.95), 100.0 * t.covered / std::max(1, t.checked),
-                m == 2 ? (std::to_string(t.flagged) + " of " + std::to_string(t.used) + " used").c_str() : "",
+                m == 2 ? (std::to_string(t.flagged) + " of " + std::to_string(t.used) + " records with the remote").c_str() : "",
                 t.seconds / std::max(1, seeds));
     if (kind == "filter") {
       char line[512];

@@ -87,12 +87,13 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   const EstimatorSettings& estimator = settings_.window.estimator;
   ROS_INFO("%s: reference %s; window %g s every %g s at %g s (%s%s); band %g-%g Hz%s; method %s", node_name_.c_str(),
            nh_.resolveName(settings_.reference_topic).c_str(), streams.window_s, streams.step_s,
-           streams.estimation_period_s(), streams.decimating() ? "low-passed and decimated" : "input rate",
+           streams.estimation_period_s(), epoch_alignment_name(streams.test_plan().alignment),
            streams.despike ? ", despiked" : "", estimator.band_low_hz, estimator.band_high_hz,
            estimator.robust.auto_band ? " (auto band)" : "", estimator_method_name(estimator.method));
-  ROS_INFO("%s: errors in variables: %s; remote reference: %s; scalar: %s", node_name_.c_str(),
+  ROS_INFO("%s: errors in variables: %s; remote reference: %s%s; scalar: %s", node_name_.c_str(),
            settings_.noise_model_state().c_str(),
            settings_.remote_topic.empty() ? "none" : nh_.resolveName(settings_.remote_topic).c_str(),
+           settings_.remote_topic.empty() ? "" : (std::string(" (") + epoch_alignment_name(streams.remote_plan().alignment) + ")").c_str(),
            settings_.scalar_topic.empty() ? "none" : nh_.resolveName(settings_.scalar_topic).c_str());
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });

@@ -137,6 +137,10 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   if (remote_.topic.empty()) return;  // the remote observatory's stream beside the reference's
   status.add("remote topic", nh_.resolveName(remote_.topic));
   const double remote_silence = add_stream_keys(remote_, "remote ", now, started_s_, status);
+  if (const LiveRemoteStream* r = streams_->remote()) {
+    status.add("remote epoch alignment", epoch_alignment_name(r->alignment));
+    status.add("remote decimator restarts", r->decimator_restarts);
+  }
   if (started_s_ > 0.0 && remote_silence > settings_.silent_timeout_s) {
     status.mergeSummary(DiagnosticStatus::WARN, silence_problem(remote_, "remote", remote_silence));
   }
@@ -182,7 +186,7 @@ void CalibrationNode::diagnose_stream(std::size_t index, DiagnosticStatusWrapper
   status.add("despiking", settings_.streams.despike);
   status.add("spikes removed (reference, test)", std::to_string(streams_->reference_spikes()) + ", " +
                                                      std::to_string(stream.despiker.spikes()));
-  status.add("decimating", settings_.streams.decimating());
+  status.add("epoch alignment", epoch_alignment_name(stream.alignment));
   status.add("decimator restarts", stream.decimator_restarts);
   status.add("pipeline resets (stamps backwards)", stream.pipeline_resets);
   status.add("buffered samples", stream.windows.buffered());

@@ -28,7 +28,8 @@ const std::vector<std::string> kCalibrationNodeParameters = {
     "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
     "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike",
     "screen", "screen_threshold", "screen_baseline", "screen_margin", "section_length", "section_trend", "huber_k",
-    "section_rejection", "iterations", "remote_topic", "scalar_topic", "field_direction", "tolerance_file"};
+    "section_rejection", "iterations", "remote_topic", "scalar_topic", "field_direction", "tolerance_file",
+    "test_input_period", "remote_input_period", "stamps_apart"};
 
 // Core field names (InputError::where) -> the parameter that sets them.
 const std::map<std::string, std::string> kCoreFieldToParameter = {
@@ -36,6 +37,7 @@ const std::map<std::string, std::string> kCoreFieldToParameter = {
     {"min_harmonics", "min_harmonics"}, {"max_condition_number", "max_condition_number"},
     {"min_coherence", "min_coherence"}, {"output_period_s", "output_period"}, {"sigma_s", "decimation_sigma"},
     {"half_width_sigmas", "decimation_half_width"}, {"input_period_s", "input_period"},
+    {"test_input_period_s", "test_input_period"}, {"remote_input_period_s", "remote_input_period"},
     {"tolerance_s", "pairing_tolerance"}, {"max_wait_s", "pairing_max_wait"}, {"window", "window"},
     {"step", "step"}, {"max_fill_s", "max_fill"}, {"max_fill", "max_fill"}, {"max_filled_fraction", "max_filled_fraction"},
     {"screen_baseline_s", "screen_baseline"}, {"screen_margin_s", "screen_margin"}, {"section_s", "section_length"},
@@ -199,7 +201,7 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
   try {
     s.window.validate();
     s.change.validate();
-    s.streams.decimation.validate();
+    s.streams.validate(!s.remote_topic.empty());
     WindowLayout{0, s.streams.window_s, s.streams.step_s}.validate();
   } catch (const InputError& e) {
     const auto it = kCoreFieldToParameter.find(e.where());
@@ -215,6 +217,16 @@ void load_streams(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   LiveStreamSettings& l = s.streams;
   l.input_period_s = param_double(p, "input_period", l.input_period_s);
   require_positive("input_period", l.input_period_s, "s");
+  // Streams of other rates than the reference's, or stamped at another phase: each low-passed
+  // onto the estimation epochs before pairing (plan_epochs, as calibrate_records does).
+  l.test_input_period_s = param_double(p, "test_input_period", l.input_period_s);
+  require_positive("test_input_period", l.test_input_period_s, "s");
+  if (p.hasParam("remote_input_period") && s.remote_topic.empty()) {
+    throw ParameterError("remote_input_period", "is used with ~remote_topic only");
+  }
+  l.remote_input_period_s = param_double(p, "remote_input_period", l.input_period_s);
+  require_positive("remote_input_period", l.remote_input_period_s, "s");
+  l.stamps_apart = param_bool(p, "stamps_apart", l.stamps_apart);
   l.decimation.output_period_s = param_double(p, "output_period", l.decimation.output_period_s);
   require_positive("output_period", l.decimation.output_period_s, "s");
   l.decimation.sigma_s = param_double(p, "decimation_sigma", l.decimation.sigma_s);
@@ -331,9 +343,10 @@ void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   s.silent_timeout_s = param_double(p, "silent_timeout", s.silent_timeout_s);
   require_positive("silent_timeout", s.silent_timeout_s, "s");
   s.time_jump_threshold_s = param_double(p, "time_jump_threshold", s.time_jump_threshold_s);
-  if (!(s.time_jump_threshold_s > s.streams.input_period_s)) {
+  const double slowest = std::max({s.streams.input_period_s, s.streams.test_period_s(), s.streams.remote_period_s()});
+  if (!(s.time_jump_threshold_s > slowest)) {
     throw ParameterError("time_jump_threshold",
-                         "must be longer than ~input_period (" + number_text(s.streams.input_period_s) + " s)");
+                         "must be longer than the slowest stream's period (" + number_text(slowest) + " s)");
   }
   s.streams.time_jump_threshold_s = s.time_jump_threshold_s;
   s.queue_size = param_int(p, "queue_size", s.queue_size);

@@ -141,6 +141,10 @@ class Harness {
     return calibrations_of_[topic];
   }
 
+  /// publish() sends every `stride`-th reference sample only (10 on a 10 Hz simulation: a 1 s
+  /// reference at its whole seconds beside the 10 Hz test). Call before publishing.
+  void publish_reference_every(std::size_t stride) { reference_stride_ = stride; }
+
   /// One raw test message (sample k of the simulation) with any stamp and frame_id.
   void publish_test_sample(std::size_t k, double stamp_s, const std::string& frame_id) {
     test_pub_.publish(field_message(ros::Time().fromSec(stamp_s), frame_id, pair_.test.values_nT.row(k), test_noise_rms_nT_));
@@ -188,7 +192,7 @@ class Harness {
         f.field = scalar_.value_nT[next_scalar_] * kTeslaPerNanotesla;
         scalar_pub_.publish(f);
       }
-      if (reference) reference_pub_.publish(field_message(stamp, "reference_frame", pair_.reference.values_nT.row(k), Eigen::Vector3d::Constant(0.01)));
+      if (reference && k % reference_stride_ == 0) reference_pub_.publish(field_message(stamp, "reference_frame", pair_.reference.values_nT.row(k), Eigen::Vector3d::Constant(0.01)));
       if (test && !temperature_C_.empty()) {
         sensor_msgs::Temperature t;
         t.header.stamp = stamp;
@@ -356,6 +360,7 @@ class Harness {
   ros::Publisher clock_pub_, reference_pub_, test_pub_, temperature_pub_, scalar_pub_;
   mic::ScalarRecord scalar_;     ///< published with the pair (empty: none)
   std::size_t next_scalar_ = 0;  ///< its first sample not yet published
+  std::size_t reference_stride_ = 1;  ///< publish() sends reference samples 0, stride, 2 stride, ...
   mic::HutTemperatureSettings hut_;
   std::vector<double> temperature_C_;  ///< thermometer reading per sample, deg C (empty: none published)
   ros::Subscriber calibration_sub_, diagnostics_sub_;

@@ -57,6 +57,14 @@ TEST(Calibration, BadParameters) {
            "/mic/fge.yaml",
        "parameter ~calibration_file: " + calibration + "/mic/fge.yaml: cannot create directory " + calibration + "/mic"},
       {calibration + " __name:=bad_tolerance" + ok + " _pairing_tolerance:=0.7", "parameter ~pairing_tolerance:"},
+      // Streams of other rates: a remote's period without a remote, a remote whose pairs with the
+      // reference would come every 30 s beside a 1 s pair, a kernel too short for a 1 s stream.
+      {calibration + " __name:=lone_remote_period" + ok + " _remote_input_period:=1",
+       "parameter ~remote_input_period: is used with ~remote_topic only"},
+      {calibration + " __name:=slow_remote" + ok + " _remote_topic:=/m _remote_input_period:=30",
+       "parameter ~remote_input_period: of 30 s puts the remote's pairs with the reference every 30 s, the tests' every 1 s"},
+      {calibration + " __name:=short_kernel" + ok + " _test_input_period:=0.1 _decimation_sigma:=0.01",
+       "parameter ~test_input_period: of 1 s: the filter's kernel (half-width 0.04 s) is shorter than it"},
       {calibration + " __name:=bad_method" + ok + " _method:=fast", "parameter ~method:"},
       {calibration + " __name:=bad_eiv" + ok + " _eiv:=deming", "parameter ~eiv:"},
       {calibration + " __name:=bad_noise" + ok + " _reference_noise_pT:=-10", "parameter ~reference_noise_pT:"},

@@ -200,9 +200,60 @@ TEST(Calibration, Decimation10Hz) {
   }
   const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
   ASSERT_NE(cal, nullptr);
-  EXPECT_EQ(cal->values.at("decimating"), "True");
+  EXPECT_EQ(cal->values.at("epoch alignment"), "paired_then_decimated");
   // The despiker holds each stream's last 2 x 15 samples: they are never paired.
   EXPECT_EQ(value_of(cal, "paired"), n - 30);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(Calibration, OneSecondReferenceBesideATenHertzTest) {
+  // An observatory's 1 s reference beside a 10 Hz test (~input_period 1, ~test_input_period 0.1):
+  // calibration_node low-passes each stream onto whole seconds before pairing, as calibrate_records
+  // prepares records of two rates; its windows are those of the offline preparation.
+  Harness h(simulation(2500.0, 17, 0.1));
+  h.publish_reference_every(10);  // the simulation's samples at whole seconds
+  ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  const double t0 = h.start_s();
+  ASSERT_DOUBLE_EQ(std::fmod(t0, 300.0), 0.0);
+  const std::size_t n = h.pair().reference.size();
+  h.publish(0, n, true, true);
+  EXPECT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 20.0));
+  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: sim"}, 20.0));
+
+  mic::VectorRecord reference = h.pair().reference;  // its samples 0, 10, 20, ...: whole seconds
+  const Eigen::Index count = (static_cast<Eigen::Index>(n) + 9) / 10;
+  reference.time_s.resize(static_cast<std::size_t>(count));
+  reference.values_nT.resize(count, 3);
+  for (Eigen::Index i = 0; i < count; ++i) {
+    reference.time_s[static_cast<std::size_t>(i)] = h.pair().reference.time_s[static_cast<std::size_t>(10 * i)];
+    reference.values_nT.row(i) = h.pair().reference.values_nT.row(10 * i);
+  }
+  mic::PreprocessReport report;
+  const mic::PreparedPair prepared = mic::prepare_pair(reference, h.pair().test, mic::PreprocessSettings{}, &report);
+  ASSERT_EQ(report.alignment, mic::EpochAlignment::kEachFiltered);
+  mic::WindowCalibrator calibrator{mic::WindowCalibrationSettings{}};
+  std::lock_guard<std::mutex> lock(h.mutex());
+  ASSERT_EQ(h.calibrations().size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto& c = h.calibrations()[i];
+    SCOPED_TRACE("calibration " + std::to_string(i));
+    EXPECT_TRUE(c.accepted) << c.quality_text;
+    EXPECT_DOUBLE_EQ(c.window_start.toSec(), t0 + 300.0 * (i + 1));
+    EXPECT_DOUBLE_EQ(c.sample_period, 1.0);
+    const std::size_t first = static_cast<std::size_t>(std::llround(c.window_start.toSec() - prepared.paired.time_s[0]));
+    const mic::CalibrationWindow o = calibrator.calibrate(mic::window_records(prepared, first, 1800, 60.0));
+    EXPECT_EQ(c.samples, o.estimate.samples);
+    EXPECT_EQ(c.filled_samples, o.missing());
+    for (int k = 0; k < 9; ++k) EXPECT_NEAR(c.matrix[k], o.estimate.n(k / 3, k % 3), 1e-7) << "entry " << k;
+    const Eigen::Matrix3d n_hat = matrix_of(c), se = stderr_of(c), n_true = h.pair().n_true;
+    for (int k = 0; k < 9; ++k) {
+      EXPECT_LE(std::abs(n_hat(k / 3, k % 3) - n_true(k / 3, k % 3)), 3.0 * se(k / 3, k % 3)) << "entry " << k;
+    }
+  }
+  const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
+  ASSERT_NE(cal, nullptr);
+  EXPECT_EQ(cal->values.at("epoch alignment"), "each_filtered");
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -36,7 +36,7 @@ target_compile_definitions(rostest_calibration PRIVATE
   SCALAR_SIMULATOR_PATH="$<TARGET_FILE:scalar_simulator>")
 # add_rostest_gtest does not make the test depend on the nodes it launches.
 add_dependencies(rostest_calibration calibration_node correction_node scalar_simulator)
-foreach(rostest_file silent_topic time_jump decimation two_instruments three_cornered_hat correction_reload correction_stream bad_parameters temperature scalar local_events)
+foreach(rostest_file silent_topic time_jump decimation two_rates two_instruments three_cornered_hat correction_reload correction_stream bad_parameters temperature scalar local_events)
   add_rostest(test/ros/${rostest_file}.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 endforeach()
 # ~publish_tf: the rotation part of n on /tf_static (and nothing from a node without it).

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/pipeline/epoch_alignment.hpp"
 #include "magnetometer_insitu_calibration/pipeline/window_calibration.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
@@ -55,17 +56,6 @@ struct CalibrationSettings {
 
   void validate() const;
 };
-
-/// How the two records came onto common epochs (pre-processing steps 2-3).
-enum class EpochAlignment {
-  kPairedStamps,         ///< paired by stamp at their own rate, the estimation period
-  kPairedThenDecimated,  ///< paired by stamp, then low-passed and decimated together
-  /// Two rates (a 1 s record beside a 10 Hz one), or one rate with the stamps of one record
-  /// further off the other's than the pairing tolerance (a logger stamping at half seconds):
-  /// each record low-passed onto the estimation epochs by the same Gaussian FIR, then paired.
-  kEachFiltered,
-};
-const char* epoch_alignment_name(EpochAlignment alignment);  ///< JSON: "paired_stamps", ...
 
 /// What pre-processing did, for the report and the diagnostics.
 struct PreprocessReport {

@@ -9,13 +9,17 @@
 //          -> StreamPairer (reference and test paired by stamp)
 //          -> StreamingDecimator, both on the same epochs (when the inputs are faster than the
 //             estimation period)
+//          (streams of two rates, or stamped at two phases: each through its StreamingDecimator
+//             onto the estimation epochs first, then the StreamPairer; plan_epochs decides, as
+//             it does for calibrate_records)
 //          -> SlidingWindowBuffer (windows [k step, k step + window) in UNIX time), with the
 //             test's thermometer samples around each window (TemperatureBuffer)
 //          -> CoincidentWindows (with two or more tests and the three-cornered hat: each window
 //             released with another test's window of the same epochs as its third instrument).
-// A remote observatory's stream (optional) goes the test's way, paired with the reference and
-// decimated like a test (as calibrate_records prepares --remote against the reference), into a
-// buffer from which every completed window takes the remote's samples of its epochs.
+// A remote observatory's stream (optional, at its own rate) goes the test's way, paired with the
+// reference and decimated like a test (as calibrate_records prepares --remote against the
+// reference), into a buffer from which every completed window takes the remote's samples of its
+// epochs.
 // An absolute scalar magnetometer's stream (optional) is kept at its own times (F is neither
 // despiked, paired nor decimated: calibrate_records gives every window its --scalar record as
 // read); every completed window takes the samples within kScalarMargin_s of its ends (the
@@ -24,6 +28,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/scalar_record.hpp"
+#include "magnetometer_insitu_calibration/pipeline/epoch_alignment.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
@@ -35,29 +40,52 @@
 #include <deque>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
 
 struct LiveStreamSettings {
-  double input_period_s = 1.0;         ///< nominal sample period of every input stream, s
-  DecimationSettings decimation;       ///< output_period_s: the estimation period when decimating, s
+  double input_period_s = 1.0;         ///< nominal sample period of the reference stream, s
+  /// The tests' nominal period when it is not the reference's (a 10 Hz LEMI-025 beside a 1 s
+  /// observatory stream), s; 0: input_period_s.
+  double test_input_period_s = 0.0;
+  /// The remote's nominal period when it is not the reference's (an observatory's 1 s stream
+  /// beside a 10 Hz pair), s; 0: input_period_s.
+  double remote_input_period_s = 0.0;
+  /// The tests' and the remote's stamps fall at another phase of the period than the
+  /// reference's (further off than pairing_tolerance_s): each stream is then low-passed onto
+  /// the estimation epochs before pairing, as streams of two rates always are.
+  bool stamps_apart = false;
+  DecimationSettings decimation;       ///< output_period_s: the estimation period asked for, s
   double pairing_tolerance_s = 0.010;  ///< largest |t_test - t_reference| of a pair, s
   double pairing_max_wait_s = 600.0;   ///< longest wait (stamp time) for a partner, s
   double window_s = 86400.0;           ///< window length, s
   double step_s = 3600.0;              ///< between window starts, s
   bool despike = true;                 ///< StreamingDespiker on every input stream
   DespikeSettings despike_settings;
-  /// A step of the paired stamps longer than this restarts the decimators, s.
+  /// A step of the paired stamps (or of one filtered stream's) longer than this restarts the
+  /// decimators, s.
   double time_jump_threshold_s = 60.0;
   /// Thermometer samples kept beyond each window's ends (the stage's temperature_max_gap_s), s.
   double temperature_margin_s = 60.0;
 
-  /// True when the inputs are low-passed and decimated to decimation.output_period_s.
-  bool decimating() const { return input_period_s < 0.99 * decimation.output_period_s; }
+  double test_period_s() const { return test_input_period_s > 0.0 ? test_input_period_s : input_period_s; }
+  double remote_period_s() const { return remote_input_period_s > 0.0 ? remote_input_period_s : input_period_s; }
+  /// How each test's stream and the reference's come onto common epochs (plan_epochs).
+  EpochPlan test_plan() const;
+  /// How the remote's stream and the reference's do.
+  EpochPlan remote_plan() const;
   /// Sample period of the windows, s.
-  double estimation_period_s() const { return decimating() ? decimation.output_period_s : input_period_s; }
+  double estimation_period_s() const { return test_plan().period_s; }
+  /// The filter the windows' pair went through, at the estimation period; none when paired by
+  /// stamp at the input rate.
+  std::optional<DecimationSettings> window_decimation() const;
+  /// Throws InputError naming the field when the streams cannot give windows: an impossible
+  /// period, a filter kernel shorter than a stream's period, and (with a remote) a remote whose
+  /// pairs with the reference come at another estimation period than the tests'.
+  void validate(bool remote) const;
 };
 
 /// One test instrument's part of the streams (its pairing with the reference onwards).
@@ -67,14 +95,16 @@ struct LiveTestStream {
   std::string name;              ///< names the instrument as a third ("test '<name>'")
   bool temperature = false;      ///< it has a thermometer
   StreamingDespiker despiker;
+  EpochAlignment alignment;  ///< kEachFiltered: the decimators come before the pairer, else after it
   StreamPairer pairer;
-  std::unique_ptr<StreamingDecimator> reference_decimator, test_decimator;  ///< when decimating
+  std::unique_ptr<StreamingDecimator> reference_decimator, test_decimator;  ///< unless kPairedStamps
   SlidingWindowBuffer windows;
   TemperatureBuffer thermometer;
   PairingCounters counters_before_reset;
   bool any_pair = false;
   double last_pair_s = 0.0;
-  std::size_t pipeline_resets = 0, decimator_restarts = 0;
+  std::size_t pipeline_resets = 0;
+  std::size_t decimator_restarts = 0;  ///< the decimators started again after a jump of the stamps
 
   /// Pairing counters since start, across restarts.
   PairingCounters counters() const;
@@ -87,9 +117,11 @@ struct LiveRemoteStream {
 
   std::string name;  ///< names the remote in texts (its topic)
   StreamingDespiker despiker;
+  EpochAlignment alignment;  ///< kEachFiltered: the decimators come before the pairer, else after it
   StreamPairer pairer;
-  std::unique_ptr<StreamingDecimator> reference_decimator, remote_decimator;  ///< when decimating
+  std::unique_ptr<StreamingDecimator> reference_decimator, remote_decimator;  ///< unless kPairedStamps
   std::deque<std::pair<double, Eigen::Vector3d>> samples;  ///< on the estimation grid, its own frame, nT
+  std::size_t decimator_restarts = 0;  ///< the decimators started again after a jump of the stamps
   bool any_pair = false;
   double last_pair_s = 0.0;
   std::size_t received = 0;
@@ -136,7 +168,8 @@ class LiveCalibrationStreams {
   std::vector<Completed> push_test(std::size_t test, double time_s, const Eigen::Vector3d& value_nT);
   /// The test's thermometer, deg C (NaN: none in that message).
   void push_temperature(std::size_t test, double time_s, double value_C);
-  /// A remote observatory's stream, named `name` in texts; call once, before any sample.
+  /// A remote observatory's stream, named `name` in texts; call once, before any sample. Throws
+  /// InputError when its period cannot give the windows' epochs (LiveStreamSettings::validate).
   void add_remote(const std::string& name);
   /// A remote sample (its own frame, nT); returns the windows that waited for it. A window the
   /// pair completes waits until the remote's samples reach its end, or until the pair is

@@ -15,15 +15,6 @@
 
 namespace magnetometer_insitu_calibration {
 
-const char* epoch_alignment_name(EpochAlignment alignment) {
-  switch (alignment) {
-    case EpochAlignment::kPairedStamps: return "paired_stamps";
-    case EpochAlignment::kPairedThenDecimated: return "paired_then_decimated";
-    case EpochAlignment::kEachFiltered: return "each_filtered";
-  }
-  return "unknown";
-}
-
 void PreprocessSettings::validate() const {
   if (!(pairing_tolerance_s >= 0.0) || !std::isfinite(pairing_tolerance_s))
     throw InputError("pairing_tolerance_s", "must be a finite time >= 0 s");
@@ -70,9 +61,6 @@ double median_sample_period(const VectorRecord& record) {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-/// Two sample periods within 1 % of each other are one rate.
-constexpr double kSameRate = 1.01;
 
 /// Where in each period of period_s the stamps fall: the circular mean of t mod period_s over up
 /// to 4096 evenly spread stamps, s in [-period/2, period/2). NaN when they have no common phase
@@ -182,9 +170,12 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     rep.duplicates = out.paired.duplicates;
   };
   const double native_period = std::max(rep.reference_period_s, rep.test_period_s);
-  const bool two_rates = native_period > kSameRate * std::min(rep.reference_period_s, rep.test_period_s);
-  if (!two_rates) rep.stamp_offset_s = stamp_offset_s(ref, tst, native_period);
-  if (two_rates || std::abs(rep.stamp_offset_s) > settings.pairing_tolerance_s) {
+  const bool one_rate = native_period <= kSameRateRatio * std::min(rep.reference_period_s, rep.test_period_s);
+  if (one_rate) rep.stamp_offset_s = stamp_offset_s(ref, tst, native_period);
+  const EpochPlan plan = plan_epochs(rep.reference_period_s, rep.test_period_s, settings.output_period_s,
+                                     std::abs(rep.stamp_offset_s) > settings.pairing_tolerance_s);
+  rep.alignment = plan.alignment;
+  if (plan.alignment == EpochAlignment::kEachFiltered) {
     // 2-3. Two rates (a 1 s observatory record beside a 10 Hz LEMI-025), or stamps that do not
     // pair (one logger stamping at half seconds): each record through the same Gaussian FIR onto
     // the same epochs, then paired. The slower one is filtered too, so the filter adds no
@@ -192,33 +183,31 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     // faster one's noise above the output Nyquist frequency is not folded into the band as a
     // subsampling would; the kernel centred on each epoch puts a record of another phase on it.
     DecimationSettings dec;
-    dec.output_period_s = std::max(settings.output_period_s, native_period);
+    dec.output_period_s = plan.period_s;
     std::size_t repeated = 0;
     out.paired = align_by_time(decimate(without_repeated_stamps(ref, repeated), dec),
                                decimate(without_repeated_stamps(tst, repeated), dec), settings.pairing_tolerance_s);
     count_pairs();
     rep.duplicates += repeated;
-    rep.alignment = EpochAlignment::kEachFiltered;
     out.decimation = dec;
   } else {
     // 2. Pairs by stamp.
     out.paired = align_by_time(ref, tst, settings.pairing_tolerance_s);
     count_pairs();
     // 3. Gaussian FIR and decimation when sampled faster than the estimation period.
-    if (native_period < 0.99 * settings.output_period_s) {
+    if (plan.alignment == EpochAlignment::kPairedThenDecimated) {
       DecimationSettings dec;
-      dec.output_period_s = settings.output_period_s;
+      dec.output_period_s = plan.period_s;
       const VectorRecord r = decimate(as_record(out.paired.time_s, out.paired.reference_nT, reference), dec);
       const VectorRecord t = decimate(as_record(out.paired.time_s, out.paired.test_nT, test), dec);
       out.paired.time_s = r.time_s;  // both decimated on the same epochs
       out.paired.reference_nT = r.values_nT;
       out.paired.test_nT = t.values_nT;
-      rep.alignment = EpochAlignment::kPairedThenDecimated;
       out.decimation = dec;
     }
   }
   // 4. Regular grid, common mask; the windows fill the gaps.
-  out.sample_period_s = rep.decimated() ? out.decimation->output_period_s : native_period;
+  out.sample_period_s = plan.period_s;
   regularize(out.paired, out.sample_period_s);
   rep.grid_samples = out.paired.size();
   count_missing(out, max_fill_s, rep);

@@ -1,8 +1,11 @@
 // The live streams of calibration: see live_streams.hpp.
 #include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
 
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <utility>
 
@@ -19,29 +22,113 @@ void add_counters(PairingCounters& total, const PairingCounters& more) {
   total.invalid += more.invalid;
 }
 
+/// The filter at a plan's estimation period.
+DecimationSettings filter_of(const LiveStreamSettings& settings, const EpochPlan& plan) {
+  DecimationSettings d = settings.decimation;
+  d.output_period_s = plan.period_s;
+  return d;
+}
+
+/// The two decimators of a plan: after the pairer, both at the reference's period (they see the
+/// paired stamps; the caller restarts them on a jump), or before it, each at its own stream's
+/// period and restarting itself on a jump of its stamps. None when paired by stamp.
+void make_decimators(const LiveStreamSettings& settings, double other_period_s, const EpochPlan& plan,
+                     std::unique_ptr<StreamingDecimator>& reference, std::unique_ptr<StreamingDecimator>& other) {
+  const DecimationSettings d = filter_of(settings, plan);
+  if (plan.alignment == EpochAlignment::kPairedThenDecimated) {
+    reference = std::make_unique<StreamingDecimator>(settings.input_period_s, d);
+    other = std::make_unique<StreamingDecimator>(settings.input_period_s, d);
+  } else if (plan.alignment == EpochAlignment::kEachFiltered) {
+    reference = std::make_unique<StreamingDecimator>(settings.input_period_s, d, settings.time_jump_threshold_s);
+    other = std::make_unique<StreamingDecimator>(other_period_s, d, settings.time_jump_threshold_s);
+  }
+}
+
+/// One sample of a stream filtered before pairing through its decimator; `to` takes each epoch it
+/// completes. Counts the decimator's restarts (a jump of the stream's stamps).
+template <typename To>
+void through_filter(StreamingDecimator& filter, double time_s, const Eigen::Vector3d& value_nT, std::size_t& restarts,
+                    To to) {
+  const std::size_t before = filter.restarts();
+  for (const auto& [epoch, filtered] : filter.push(time_s, value_nT)) to(epoch, filtered);
+  restarts += filter.restarts() - before;
+}
+
+void require_period(const char* field, double period_s, bool zero_allowed) {
+  if (!std::isfinite(period_s) || period_s < 0.0 || (!zero_allowed && period_s == 0.0)) {
+    throw InputError(field, zero_allowed ? "must be a finite time >= 0 s (0: the reference's)" : "must be a positive time in s");
+  }
+}
+
+/// The filter of a plan must span the period of the streams it takes.
+void require_kernel_covers(const LiveStreamSettings& settings, const EpochPlan& plan, double other_period_s,
+                           const char* field) {
+  if (plan.alignment == EpochAlignment::kPairedStamps) return;
+  const double slowest = plan.alignment == EpochAlignment::kEachFiltered
+                             ? std::max(settings.input_period_s, other_period_s)
+                             : settings.input_period_s;
+  const double half_width = filter_of(settings, plan).half_width_s();
+  if (half_width < slowest) {
+    char text[200];
+    std::snprintf(text, sizeof text, "of %g s: the filter's kernel (half-width %g s) is shorter than it", slowest,
+                  half_width);
+    throw InputError(field, text);
+  }
+}
+
 }  // namespace
+
+EpochPlan LiveStreamSettings::test_plan() const {
+  return plan_epochs(input_period_s, test_period_s(), decimation.output_period_s, stamps_apart);
+}
+
+EpochPlan LiveStreamSettings::remote_plan() const {
+  return plan_epochs(input_period_s, remote_period_s(), decimation.output_period_s, stamps_apart);
+}
+
+std::optional<DecimationSettings> LiveStreamSettings::window_decimation() const {
+  const EpochPlan plan = test_plan();
+  if (plan.alignment == EpochAlignment::kPairedStamps) return std::nullopt;
+  return filter_of(*this, plan);
+}
+
+void LiveStreamSettings::validate(bool remote) const {
+  require_period("input_period_s", input_period_s, false);
+  require_period("test_input_period_s", test_input_period_s, true);
+  require_period("remote_input_period_s", remote_input_period_s, true);
+  decimation.validate();
+  const EpochPlan test = test_plan();
+  require_kernel_covers(*this, test, test_period_s(), "test_input_period_s");
+  if (!remote) return;
+  const EpochPlan far = remote_plan();
+  require_kernel_covers(*this, far, remote_period_s(), "remote_input_period_s");
+  if (std::abs(far.period_s - test.period_s) > 1e-9 * test.period_s) {
+    char text[240];
+    std::snprintf(text, sizeof text,
+                  "of %g s puts the remote's pairs with the reference every %g s, the tests' every %g s: the windows "
+                  "need one estimation period",
+                  remote_period_s(), far.period_s, test.period_s);
+    throw InputError("remote_input_period_s", text);
+  }
+}
 
 LiveTestStream::LiveTestStream(const std::string& test_name, bool has_temperature, const LiveStreamSettings& settings)
     : name(test_name),
       temperature(has_temperature),
       despiker(settings.despike_settings),
+      alignment(settings.test_plan().alignment),
       pairer(settings.pairing_tolerance_s, settings.pairing_max_wait_s),
       windows(settings.window_s, settings.step_s, settings.estimation_period_s()),
       thermometer(settings.window_s + 2.0 * settings.temperature_margin_s) {
-  if (settings.decimating()) {
-    reference_decimator = std::make_unique<StreamingDecimator>(settings.input_period_s, settings.decimation);
-    test_decimator = std::make_unique<StreamingDecimator>(settings.input_period_s, settings.decimation);
-  }
+  make_decimators(settings, settings.test_period_s(), settings.test_plan(), reference_decimator, test_decimator);
 }
 
 LiveRemoteStream::LiveRemoteStream(const std::string& remote_name, const LiveStreamSettings& settings)
     : name(remote_name),
       despiker(settings.despike_settings),
+      alignment(settings.remote_plan().alignment),
       pairer(settings.pairing_tolerance_s, settings.pairing_max_wait_s) {
-  if (settings.decimating()) {
-    reference_decimator = std::make_unique<StreamingDecimator>(settings.input_period_s, settings.decimation);
-    remote_decimator = std::make_unique<StreamingDecimator>(settings.input_period_s, settings.decimation);
-  }
+  make_decimators(settings, settings.remote_period_s(), settings.remote_plan(), reference_decimator, remote_decimator);
 }
 
 std::shared_ptr<VectorRecord> LiveRemoteStream::copy(double low_s, double high_s) const {
@@ -92,6 +179,7 @@ PairingCounters LiveTestStream::counters() const {
 LiveCalibrationStreams::LiveCalibrationStreams(const LiveStreamSettings& settings,
                                                const std::vector<std::pair<std::string, bool>>& tests, bool coincident)
     : settings_(settings), reference_despiker_(settings.despike_settings) {
+  settings_.validate(false);
   for (const auto& [name, temperature] : tests) tests_.push_back(std::make_unique<LiveTestStream>(name, temperature, settings));
   if (coincident && tests_.size() >= 2) coincident_ = std::make_unique<CoincidentWindows>(tests_.size());
 }
@@ -102,12 +190,24 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
   StreamingDespiker::Sample s{time_s, value_nT};
   if (settings_.despike && !reference_despiker_.push(time_s, value_nT, s)) return out;
   if (remote_) {  // first: its samples of a window are in before the window completes
-    remote_->pairer.push_reference(s.time_s, s.value_nT);
+    LiveRemoteStream& r = *remote_;
+    if (r.alignment == EpochAlignment::kEachFiltered) {
+      through_filter(*r.reference_decimator, s.time_s, s.value_nT, r.decimator_restarts,
+                     [&r](double epoch, const Eigen::Vector3d& v) { r.pairer.push_reference(epoch, v); });
+    } else {
+      r.pairer.push_reference(s.time_s, s.value_nT);
+    }
     drain_remote();
   }
   newest_pair_s_ = std::max(newest_pair_s_, s.time_s);
   for (std::size_t i = 0; i < tests_.size(); ++i) {
-    tests_[i]->pairer.push_reference(s.time_s, s.value_nT);
+    LiveTestStream& t = *tests_[i];
+    if (t.alignment == EpochAlignment::kEachFiltered) {
+      through_filter(*t.reference_decimator, s.time_s, s.value_nT, t.decimator_restarts,
+                     [&t](double epoch, const Eigen::Vector3d& v) { t.pairer.push_reference(epoch, v); });
+    } else {
+      t.pairer.push_reference(s.time_s, s.value_nT);
+    }
     drain(i, out);
   }
   release_waiting(out);
@@ -115,6 +215,7 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
 }
 
 void LiveCalibrationStreams::add_remote(const std::string& name) {
+  settings_.validate(true);
   remote_ = std::make_unique<LiveRemoteStream>(name, settings_);
 }
 
@@ -138,8 +239,14 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_remo
   if (!remote_) return out;
   ++remote_->received;
   StreamingDespiker::Sample s{time_s, value_nT};
-  if (settings_.despike && !remote_->despiker.push(time_s, value_nT, s)) return out;
-  remote_->pairer.push_test(s.time_s, s.value_nT);
+  LiveRemoteStream& r = *remote_;
+  if (settings_.despike && !r.despiker.push(time_s, value_nT, s)) return out;
+  if (r.alignment == EpochAlignment::kEachFiltered) {
+    through_filter(*r.remote_decimator, s.time_s, s.value_nT, r.decimator_restarts,
+                   [&r](double epoch, const Eigen::Vector3d& v) { r.pairer.push_test(epoch, v); });
+  } else {
+    r.pairer.push_test(s.time_s, s.value_nT);
+  }
   drain_remote();
   release_waiting(out);
   return out;
@@ -169,12 +276,13 @@ void LiveCalibrationStreams::drain_remote() {
       pair.reference_nT.setConstant(std::numeric_limits<double>::quiet_NaN());
       pair.test_nT.setConstant(std::numeric_limits<double>::quiet_NaN());
     }
-    if (!r.reference_decimator) {
+    if (r.alignment != EpochAlignment::kPairedThenDecimated) {  // at the input rate, or filtered already
       r.samples.emplace_back(pair.time_s, pair.test_nT);
     } else {
       if (r.any_pair && pair.time_s - r.last_pair_s > settings_.time_jump_threshold_s) {
         r.reference_decimator->reset();
         r.remote_decimator->reset();
+        ++r.decimator_restarts;
       }
       const auto a = r.reference_decimator->push(pair.time_s, pair.reference_nT);
       const auto b = r.remote_decimator->push(pair.time_s, pair.test_nT);
@@ -198,7 +306,12 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_test
   StreamingDespiker::Sample s{time_s, value_nT};
   if (settings_.despike && !t.despiker.push(time_s, value_nT, s)) return out;
   newest_pair_s_ = std::max(newest_pair_s_, s.time_s);
-  t.pairer.push_test(s.time_s, s.value_nT);
+  if (t.alignment == EpochAlignment::kEachFiltered) {
+    through_filter(*t.test_decimator, s.time_s, s.value_nT, t.decimator_restarts,
+                   [&t](double epoch, const Eigen::Vector3d& v) { t.pairer.push_test(epoch, v); });
+  } else {
+    t.pairer.push_test(s.time_s, s.value_nT);
+  }
   drain(test, out);
   if (remote_) release_waiting(out);
   return out;
@@ -222,7 +335,7 @@ void LiveCalibrationStreams::drain(std::size_t test, std::vector<Completed>& out
     if (completed) t.thermometer.drop_before(t.windows.next_start_s() - t.windows.period_s() - margin);
   };
   for (const PairedSample& pair : t.pairer.take_pairs()) {
-    if (!t.reference_decimator) {
+    if (t.alignment != EpochAlignment::kPairedThenDecimated) {  // at the input rate, or filtered already
       feed(pair.time_s, pair.reference_nT, pair.test_nT);
     } else {
       // A jump in the paired stamps would make the decimator emit one (NaN) output per missing
@@ -259,7 +372,7 @@ void LiveCalibrationStreams::finish_window(std::size_t test, WindowRecords&& win
   if (scalar_) {
     window.scalar = scalar_->copy(window.start_s - LiveScalarStream::kMargin_s, window.end_s() + LiveScalarStream::kMargin_s);
   }
-  if (settings_.decimating()) window.decimation = settings_.decimation;
+  window.decimation = settings_.window_decimation();
   if (!coincident_) {
     out.push_back(Completed{test, std::move(window), 0});
     return;

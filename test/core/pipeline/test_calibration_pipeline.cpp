@@ -7,6 +7,7 @@
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include "busy_road.hpp"
+#include "ten_hz_station.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,8 @@
 #include <cstdio>
 
 namespace mic = magnetometer_insitu_calibration;
+using mic::test::every_tenth;
+using mic::test::ten_hz_station;
 
 namespace {
 
@@ -25,30 +28,6 @@ void expect_within(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth, d
     EXPECT_LT(std::abs(e.n(r, c) - truth(r, c)), k * se(r, c))
         << what << ": n(" << r << "," << c << ") = " << e.n(r, c) << " truth " << truth(r, c) << " se " << se(r, c);
   }
-}
-
-mic::SimulationSettings ten_hz_station(std::uint64_t seed) {
-  mic::SimulationSettings s;
-  s.seed = seed;
-  s.duration_s = 6 * 3600.0;
-  s.sample_period_s = 0.1;
-  s.start_time_s = 1747180800.0 - 0.3;  // LEMI-025 grid: samples at x.7, x.8, ... after the -0.3 s shift
-  s.keep_clean_field = false;
-  return s;
-}
-
-/// A 1 s record from a 10 Hz one: samples first, first + 10, ... (on the ten_hz_station grid
-/// x.7, x.8, ...: whole seconds from index 3, x.3 from index 6).
-mic::VectorRecord every_tenth(const mic::VectorRecord& r, Eigen::Index first) {
-  mic::VectorRecord out = r;
-  const Eigen::Index count = (static_cast<Eigen::Index>(r.size()) - first) / 10;
-  out.time_s.resize(static_cast<std::size_t>(count));
-  out.values_nT.resize(count, 3);
-  for (Eigen::Index i = 0; i < count; ++i) {
-    out.time_s[static_cast<std::size_t>(i)] = r.time_s[static_cast<std::size_t>(first + 10 * i)];
-    out.values_nT.row(i) = r.values_nT.row(first + 10 * i);
-  }
-  return out;
 }
 
 }  // namespace

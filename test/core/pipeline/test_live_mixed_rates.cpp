@@ -1,0 +1,208 @@
+// Live streams of two rates or two phases (pipeline/live_streams.hpp, epoch_alignment.hpp): a
+// 1 s reference beside a 10 Hz test, a 1 s remote beside a 10 Hz pair, and one rate stamped at two
+// phases. Each stream is low-passed onto the estimation epochs before pairing, as calibrate_records
+// prepares the same records; every window must carry the values the offline preparation gives it.
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
+#include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
+#include "magnetometer_insitu_calibration/simulation/simulator.hpp"
+
+#include "ten_hz_station.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace mic = magnetometer_insitu_calibration;
+using mic::test::every_tenth;
+
+namespace {
+
+/// Three hours of a LEMI-025 pair at 10 Hz, with 25 spikes of 50 nT in either instrument: the
+/// despikers work too.
+mic::SimulationSettings three_hours_with_spikes(std::uint64_t seed) {
+  mic::SimulationSettings s = mic::test::ten_hz_station(seed, 3.0);
+  s.spikes_per_day = 200;
+  return s;
+}
+
+enum class Stream { kReference, kTest, kRemote };
+
+/// Every sample of the records pushed in time order, as the messages of their topics arrive;
+/// returns the windows completed.
+std::vector<mic::WindowRecords> push_in_time_order(mic::LiveCalibrationStreams& streams, const mic::VectorRecord& reference,
+                                                   const mic::VectorRecord& test, const mic::VectorRecord* remote) {
+  std::vector<std::tuple<double, Stream, std::size_t>> order;
+  for (std::size_t i = 0; i < reference.size(); ++i) order.emplace_back(reference.time_s[i], Stream::kReference, i);
+  for (std::size_t i = 0; i < test.size(); ++i) order.emplace_back(test.time_s[i], Stream::kTest, i);
+  if (remote != nullptr) {
+    for (std::size_t i = 0; i < remote->size(); ++i) order.emplace_back(remote->time_s[i], Stream::kRemote, i);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [](const auto& a, const auto& b) { return std::get<0>(a) < std::get<0>(b); });
+  std::vector<mic::WindowRecords> windows;
+  for (const auto& [time, stream, i] : order) {
+    const auto row = [i = i](const mic::VectorRecord& r) {
+      return Eigen::Vector3d(r.values_nT.row(static_cast<Eigen::Index>(i)).transpose());
+    };
+    std::vector<mic::LiveCalibrationStreams::Completed> done;
+    if (stream == Stream::kReference) done = streams.push_reference(time, row(reference));
+    if (stream == Stream::kTest) done = streams.push_test(0, time, row(test));
+    if (stream == Stream::kRemote) done = streams.push_remote(time, row(*remote));
+    for (auto& c : done) windows.push_back(std::move(c.window));
+  }
+  return windows;
+}
+
+/// Largest |a - b| over the finite values, nT; infinity when their shapes or NaNs differ.
+double largest_difference(const mic::Readings& a, const mic::Readings& b) {
+  if (a.rows() != b.rows()) return std::numeric_limits<double>::infinity();
+  double largest = 0.0;
+  for (Eigen::Index i = 0; i < a.rows(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const double u = a(i, c), v = b(i, c);
+      if (std::isnan(u) != std::isnan(v)) return std::numeric_limits<double>::infinity();
+      if (!std::isnan(u)) largest = std::max(largest, std::abs(u - v));
+    }
+  }
+  return largest;
+}
+
+/// Each live window against the offline window of the same epochs, both on their grid: times,
+/// values (the streaming and batch filters agree to rounding) and, with a remote, its samples;
+/// then the same n.
+void expect_offline_windows(const std::vector<mic::WindowRecords>& windows, const mic::PreparedPair& prepared,
+                            const mic::PreparedSides* sides) {
+  const mic::CalibrationSettings settings;
+  mic::WindowCalibrator calibrator{settings.window};
+  for (const mic::WindowRecords& w : windows) {
+    const auto first = static_cast<std::size_t>(std::llround((w.start_s - prepared.paired.time_s[0]) / w.period_s));
+    const mic::WindowRecords offline = mic::window_records(prepared, first, w.expected_samples, 60.0, sides);
+    mic::PairedRecord a = w.paired, b = offline.paired;  // on the grid, a NaN in either masking both
+    mic::regularize(a, w.period_s);
+    mic::regularize(b, w.period_s);
+    EXPECT_EQ(a.time_s, b.time_s) << w.start_s;
+    EXPECT_LT(largest_difference(a.reference_nT, b.reference_nT), 1e-9) << w.start_s;
+    EXPECT_LT(largest_difference(a.test_nT, b.test_nT), 1e-9) << w.start_s;
+    ASSERT_TRUE(w.decimation.has_value());
+    EXPECT_DOUBLE_EQ(w.decimation->output_period_s, offline.decimation->output_period_s);
+    if (sides != nullptr && sides->remote) {
+      ASSERT_TRUE(w.remote && offline.remote) << w.start_s;
+      EXPECT_EQ(w.remote->time_s, offline.remote->time_s) << w.start_s;
+      EXPECT_LT(largest_difference(w.remote->values_nT, offline.remote->values_nT), 1e-9) << w.start_s;
+    }
+    const mic::CalibrationWindow live_result = calibrator.calibrate(w), offline_result = calibrator.calibrate(offline);
+    ASSERT_EQ(live_result.estimate.quality, mic::Quality::kOk) << live_result.estimate.quality_text;
+    EXPECT_LT((live_result.estimate.n - offline_result.estimate.n).cwiseAbs().maxCoeff(), 1e-9) << w.start_s;
+    if (sides != nullptr && sides->remote) EXPECT_TRUE(live_result.estimate.remote.used) << live_result.estimate.remote.text;
+  }
+}
+
+}  // namespace
+
+// An observatory's 1 s reference beside a 10 Hz LEMI-025 under test: each stream through the
+// Gaussian FIR onto whole seconds, then paired, as calibrate_records prepares them.
+TEST(LiveMixedRates, AOneSecondReferenceBesideATenHertzTestGivesTheOfflineWindows) {
+  const mic::SimulatedPair pair = mic::simulate_pair(three_hours_with_spikes(41));
+  const mic::VectorRecord reference = every_tenth(pair.reference, 3);
+  mic::LiveStreamSettings live;
+  live.input_period_s = 1.0;
+  live.test_input_period_s = 0.1;
+  live.window_s = 3600.0;
+  live.step_s = 1800.0;
+  EXPECT_EQ(live.test_plan().alignment, mic::EpochAlignment::kEachFiltered);
+  mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
+  const std::vector<mic::WindowRecords> windows = push_in_time_order(streams, reference, pair.test, nullptr);
+  // Starts 0.5, 1 and 1.5 h: the first window lacks the kernel's first seconds, the 2 h one its last.
+  ASSERT_EQ(windows.size(), 3u);
+  EXPECT_GT(streams.test(0).despiker.spikes() + streams.reference_spikes(), 5u);
+
+  mic::PreprocessReport report;
+  const mic::PreparedPair prepared = mic::prepare_pair(reference, pair.test, mic::PreprocessSettings{}, &report);
+  ASSERT_EQ(report.alignment, mic::EpochAlignment::kEachFiltered);
+  expect_offline_windows(windows, prepared, nullptr);
+}
+
+// A 10 Hz pair with a neighbouring observatory's 1 s record as its remote reference: the pair is
+// paired then decimated, the remote and the reference each filtered onto whole seconds, as
+// calibrate_records --remote prepares them.
+TEST(LiveMixedRates, AOneSecondRemoteBesideATenHertzPairGivesTheOfflineRemote) {
+  mic::SimulationSettings s = three_hours_with_spikes(43);
+  s.keep_clean_field = true;  // the remote sees it
+  const mic::SimulatedPair pair = mic::simulate_pair(s);
+  const mic::VectorRecord remote = every_tenth(mic::simulate_remote_observatory(s, pair, mic::RemoteObservatorySettings{}), 3);
+  mic::LiveStreamSettings live;
+  live.input_period_s = 0.1;
+  live.remote_input_period_s = 1.0;
+  live.window_s = 3600.0;
+  live.step_s = 1800.0;
+  mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
+  streams.add_remote("/remote/magnetic_field");
+  EXPECT_EQ(streams.test(0).alignment, mic::EpochAlignment::kPairedThenDecimated);
+  EXPECT_EQ(streams.remote()->alignment, mic::EpochAlignment::kEachFiltered);
+  const std::vector<mic::WindowRecords> windows = push_in_time_order(streams, pair.reference, pair.test, &remote);
+  ASSERT_EQ(windows.size(), 3u);
+
+  const mic::CalibrationSettings settings;
+  const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
+  const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);
+  expect_offline_windows(windows, prepared, &sides);
+}
+
+// One rate, two phases: a 1 s test stamped 0.3 s after the reference's seconds pairs with nothing
+// by stamp; with stamps_apart each stream is filtered onto whole seconds first.
+TEST(LiveMixedRates, StreamsStampedAtTwoPhasesAreFilteredOntoCommonEpochs) {
+  const mic::SimulatedPair pair = mic::simulate_pair(three_hours_with_spikes(47));
+  const mic::VectorRecord reference = every_tenth(pair.reference, 3), test = every_tenth(pair.test, 6);
+  ASSERT_NEAR(test.time_s[0] - reference.time_s[0], 0.3, 1e-6);
+  mic::LiveStreamSettings live;
+  live.window_s = 3600.0;
+  live.step_s = 1800.0;
+  {
+    mic::LiveCalibrationStreams by_stamp(live, {{"test", false}}, false);
+    EXPECT_TRUE(push_in_time_order(by_stamp, reference, test, nullptr).empty());
+    EXPECT_EQ(by_stamp.test(0).counters().paired, 0u);
+  }
+  live.stamps_apart = true;
+  mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
+  const std::vector<mic::WindowRecords> windows = push_in_time_order(streams, reference, test, nullptr);
+  ASSERT_EQ(windows.size(), 3u);
+  mic::PreprocessReport report;
+  const mic::PreparedPair prepared = mic::prepare_pair(reference, test, mic::PreprocessSettings{}, &report);
+  ASSERT_EQ(report.alignment, mic::EpochAlignment::kEachFiltered);
+  expect_offline_windows(windows, prepared, nullptr);
+}
+
+// Periods that cannot give the windows are refused by name before any sample.
+TEST(LiveMixedRates, PeriodsThatCannotGiveWindowsAreRefusedByName) {
+  const auto where = [](const mic::LiveStreamSettings& live, bool remote) -> std::string {
+    try {
+      mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
+      if (remote) streams.add_remote("/remote");
+    } catch (const mic::InputError& e) {
+      return e.where() + ": " + e.problem();
+    }
+    return "accepted";
+  };
+  mic::LiveStreamSettings live;
+  live.remote_input_period_s = 60.0;  // minute means beside a 1 s pair: its pairs every 60 s
+  EXPECT_EQ(where(live, false), "accepted");
+  EXPECT_NE(where(live, true).find("remote_input_period_s: of 60 s puts the remote's pairs with the reference every 60 s"),
+            std::string::npos)
+      << where(live, true);
+  live = mic::LiveStreamSettings{};
+  live.input_period_s = 0.1;
+  live.test_input_period_s = 1.0;
+  live.decimation.sigma_s = 0.1;  // a kernel of +-0.4 s cannot filter a 1 s stream
+  EXPECT_EQ(where(live, false).rfind("test_input_period_s: of 1 s: the filter's kernel", 0), 0u) << where(live, false);
+  live = mic::LiveStreamSettings{};
+  live.test_input_period_s = -1.0;
+  EXPECT_EQ(where(live, false).rfind("test_input_period_s", 0), 0u);
+}
