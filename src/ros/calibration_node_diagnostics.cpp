@@ -30,6 +30,7 @@ double add_stream_keys(const StreamMonitor& m, const std::string& prefix, double
   status.add(prefix + "stamp jumps forward", m.jumps_forward);
   status.add(prefix + "stamp jumps backward", m.jumps_backward);
   status.add(prefix + "stray stamps", m.stray);
+  status.add(prefix + "measured period (s)", m.measured_period_s());
   const double silence = m.silence_s(now_s, started_s);
   status.add(prefix + "silent for (s)", silence);
   return silence;
@@ -126,6 +127,8 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
     status.mergeSummary(DiagnosticStatus::WARN, silence_problem(reference_, "reference", silence));
   }
+  const std::string period = period_mismatch(reference_, settings_.streams.input_period_s, "reference", "~input_period");
+  if (!period.empty()) status.mergeSummary(DiagnosticStatus::ERROR, period);
   if (const LiveScalarStream* f = streams_->scalar()) {  // the scalar magnetometer's stream
     status.add("scalar topic", nh_.resolveName(scalar_.topic));
     const double scalar_silence = add_stream_keys(scalar_, "scalar ", now, started_s_, status);
@@ -144,6 +147,18 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   if (started_s_ > 0.0 && remote_silence > settings_.silent_timeout_s) {
     status.mergeSummary(DiagnosticStatus::WARN, silence_problem(remote_, "remote", remote_silence));
   }
+  const std::string remote_period =
+      period_mismatch(remote_, settings_.streams.remote_period_s(), "remote", "~remote_input_period");
+  if (!remote_period.empty()) status.mergeSummary(DiagnosticStatus::ERROR, remote_period);
+}
+
+std::string CalibrationNode::period_mismatch(const StreamMonitor& monitor, double nominal_s, const std::string& stream,
+                                             const std::string& parameter) {
+  const std::string problem = monitor.period_problem(nominal_s);
+  if (problem.empty()) return "";
+  const std::string text = stream + " " + problem + " (" + parameter + "): give the stream's period";
+  if (period_logged_.insert(stream).second) ROS_ERROR("%s: %s", node_name_.c_str(), text.c_str());
+  return text;
 }
 
 void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrapper& status) {
@@ -159,6 +174,9 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
     problems.emplace_back(DiagnosticStatus::WARN, silence_problem(ch.test, "test", silence));
   }
+  const std::string period = period_mismatch(ch.test, settings_.streams.test_period_s(),
+                                             "test '" + ch.settings.name + "'", "~test_input_period, else ~input_period");
+  if (!period.empty()) problems.emplace_back(DiagnosticStatus::ERROR, period);
   diagnose_stream(index, status, problems);
   diagnose_results(ch, status, problems);
   for (const auto& problem : problems) status.mergeSummary(problem.first, problem.second);

@@ -229,7 +229,7 @@ TEST(Calibration, OneSecondReferenceBesideATenHertzTest) {
   const std::size_t n = h.pair().reference.size();
   h.publish(0, n, true, true);
   EXPECT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 20.0));
-  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: sim"}, 20.0));
+  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: sim", "calibration_sim: reference", "calibration_wrong: wrong"}, 20.0));
 
   mic::VectorRecord reference = h.pair().reference;  // its samples 0, 10, 20, ...: whole seconds
   const Eigen::Index count = (static_cast<Eigen::Index>(n) + 9) / 10;
@@ -247,6 +247,20 @@ TEST(Calibration, OneSecondReferenceBesideATenHertzTest) {
   const DiagnosticRecord* cal = h.latest_diagnostic("calibration_sim: sim");
   ASSERT_NE(cal, nullptr);
   EXPECT_EQ(cal->values.at("epoch alignment"), "each_filtered");
+  // Each stream's period measured on its stamps: those the parameters give, no error. The node
+  // given no periods (the default 1 s for both) is told that the test's stamps step by 0.1 s.
+  EXPECT_NEAR(std::stod(cal->values.at("test measured period (s)")), 0.1, 1e-4);
+  EXPECT_EQ(cal->message.find("stamps step by"), std::string::npos) << cal->message;  // silent by now: WARN
+  const DiagnosticRecord* reference_status = h.latest_diagnostic("calibration_sim: reference");
+  ASSERT_NE(reference_status, nullptr);
+  EXPECT_NEAR(std::stod(reference_status->values.at("measured period (s)")), 1.0, 1e-4);
+  EXPECT_EQ(reference_status->message.find("stamps step by"), std::string::npos) << reference_status->message;
+  const DiagnosticRecord* wrong = h.latest_diagnostic("calibration_wrong: wrong");
+  ASSERT_NE(wrong, nullptr);
+  EXPECT_EQ(wrong->level, 2);
+  EXPECT_NE(wrong->message.find("test 'wrong' stamps step by 0.1 s, not 1 s (~test_input_period, else ~input_period)"),
+            std::string::npos)
+      << wrong->message;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -27,6 +27,9 @@ namespace magnetometer_insitu_calibration {
 ///    backward jump (a clock set back), which is counted and returned as kBackward once, so
 ///    that the caller restarts the pipeline (the pairer would otherwise drop every later sample
 ///    as late).
+/// It also measures the stream's sample period on its stamps, so that a stream at another rate
+/// than its parameter says (a LEMI-025 at 10 Hz under the default ~input_period of 1 s) is told
+/// within seconds, not when its first window fails a day later.
 struct StreamMonitor {
   enum class Jump { kNone, kForward, kBackward };
   std::string topic;
@@ -42,8 +45,22 @@ struct StreamMonitor {
   /// ROS-time seconds since the last message (or since `since_s` when none yet).
   double silence_s(double now_s, double since_s) const;
 
+  /// Steps kept for the period: the stream's last kPeriodSteps steps forward between
+  /// consecutive stamps, shorter than the jump threshold.
+  static constexpr std::size_t kPeriodSteps = 101;
+  /// Fewer steps than this: no period measured yet.
+  static constexpr std::size_t kMinPeriodSteps = 20;
+  /// The stream's sample period measured on its stamps: the median of the steps kept, s; NaN
+  /// before kMinPeriodSteps of them.
+  double measured_period_s() const;
+  /// "" when the measured period is within 10 % of nominal_period_s (or not measured yet), else
+  /// what differs: "stamps step by 0.1 s, not 1 s".
+  std::string period_problem(double nominal_period_s) const;
+
  private:
   bool behind_ = false;  ///< the previous sample was far behind the newest stamp
+  double previous_stamp_s_ = 0.0;  ///< the stamp of the previous message, UNIX s
+  std::deque<double> steps_;       ///< the last steps forward, s
 };
 
 /// The thermometer's samples of one test instrument, kept for the windows still to complete:

@@ -52,6 +52,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <utility>
@@ -162,6 +163,10 @@ class CalibrationNode {
   /// The worker's results (under the channel's results_mutex): windows, last estimate, resume,
   /// change check, TF, file.
   void diagnose_results(Channel& channel, diagnostic_updater::DiagnosticStatusWrapper& status, Problems& problems);
+  /// "" or, when a stream's measured period is not its parameter's, the problem naming both
+  /// (ROS_ERROR once per stream).
+  std::string period_mismatch(const StreamMonitor& monitor, double nominal_s, const std::string& stream,
+                              const std::string& parameter);
 
   ros::NodeHandle nh_, private_nh_;
   CalibrationNodeSettings settings_;
@@ -176,6 +181,7 @@ class CalibrationNode {
   /// then by the worker thread only.
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_broadcaster_;
   double started_s_ = 0.0;  ///< ROS time of the first non-zero clock, s
+  std::set<std::string> period_logged_;  ///< streams whose period mismatch was logged (diagnostics)
 
   std::mutex queue_mutex_;
   std::condition_variable queue_cv_;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 
@@ -13,6 +14,12 @@ StreamMonitor::Jump StreamMonitor::observe(double stamp_s, double arrival_s, con
   ++messages;
   last_arrival_s = arrival_s;
   frame_id = frame;
+  const double step = stamp_s - previous_stamp_s_;
+  if (messages > 1 && step > 0.0 && step < threshold_s) {
+    steps_.push_back(step);
+    if (steps_.size() > kPeriodSteps) steps_.pop_front();
+  }
+  previous_stamp_s_ = stamp_s;
   if (messages == 1 || !std::isfinite(newest_stamp_s)) {
     newest_stamp_s = stamp_s;
     return Jump::kNone;
@@ -38,6 +45,22 @@ StreamMonitor::Jump StreamMonitor::observe(double stamp_s, double arrival_s, con
 
 double StreamMonitor::silence_s(double now_s, double since_s) const {
   return now_s - (messages > 0 ? last_arrival_s : since_s);
+}
+
+double StreamMonitor::measured_period_s() const {
+  if (steps_.size() < kMinPeriodSteps) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> steps(steps_.begin(), steps_.end());
+  const auto middle = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+  std::nth_element(steps.begin(), middle, steps.end());
+  return *middle;
+}
+
+std::string StreamMonitor::period_problem(double nominal_period_s) const {
+  const double measured = measured_period_s();
+  if (!std::isfinite(measured) || std::abs(measured - nominal_period_s) <= 0.1 * nominal_period_s) return "";
+  char text[96];
+  std::snprintf(text, sizeof text, "stamps step by %.4g s, not %.4g s", measured, nominal_period_s);
+  return text;
 }
 
 SlidingWindowBuffer::SlidingWindowBuffer(double window_s, double step_s, double period_s)

@@ -2,9 +2,12 @@
 // 1 s reference beside a 10 Hz test, a 1 s remote beside a 10 Hz pair, and one rate stamped at two
 // phases. Each stream is low-passed onto the estimation epochs before pairing, as calibrate_records
 // prepares the same records; every window must carry the values the offline preparation gives it.
+// And the period a stream monitor measures on a stream's stamps (live_windows.hpp), which tells a
+// stream at another rate than its parameter says.
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
+#include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
@@ -205,4 +208,31 @@ TEST(LiveMixedRates, PeriodsThatCannotGiveWindowsAreRefusedByName) {
   live = mic::LiveStreamSettings{};
   live.test_input_period_s = -1.0;
   EXPECT_EQ(where(live, false).rfind("test_input_period_s", 0), 0u);
+}
+
+// The period a stream's stamps step by, against the one its parameter gives: a LEMI-025 at 10 Hz
+// under the default 1 s is told after 20 steps, whatever its gaps and jumps.
+TEST(StreamMonitor, MeasuresTheStreamsPeriodOnItsStamps) {
+  mic::StreamMonitor m;
+  const double threshold = 60.0;  // s
+  double t = 1747180799.7;
+  for (int k = 0; k < 19; ++k) m.observe(t += 0.1, 0.0, "f", threshold);
+  EXPECT_TRUE(std::isnan(m.measured_period_s()));  // 18 steps: not yet
+  EXPECT_EQ(m.period_problem(1.0), "");
+  m.observe(t += 0.1, 0.0, "f", threshold);
+  m.observe(t += 0.1, 0.0, "f", threshold);
+  EXPECT_NEAR(m.measured_period_s(), 0.1, 1e-6);  // stamps of 1.7e9 s carry 2.4e-7 s
+  EXPECT_EQ(m.period_problem(1.0), "stamps step by 0.1 s, not 1 s");
+  EXPECT_EQ(m.period_problem(0.1), "");
+  EXPECT_EQ(m.period_problem(0.095), "");  // within 10 %
+  // Gaps of a few samples, a jump of an hour and a stray stamp leave the median where it is.
+  for (int k = 0; k < 300; ++k) m.observe(t += (k % 10 == 9 ? 0.5 : 0.1), 0.0, "f", threshold);
+  m.observe(t += 3600.0, 0.0, "f", threshold);
+  m.observe(0.0, 0.0, "f", threshold);
+  for (int k = 0; k < 5; ++k) m.observe(t += 0.1, 0.0, "f", threshold);
+  EXPECT_NEAR(m.measured_period_s(), 0.1, 1e-6);  // stamps of 1.7e9 s carry 2.4e-7 s
+  // A 1 s stream where 0.1 s is given.
+  mic::StreamMonitor slow;
+  for (int k = 0; k < 40; ++k) slow.observe(1747180800.0 + k, 0.0, "f", threshold);
+  EXPECT_EQ(slow.period_problem(0.1), "stamps step by 1 s, not 0.1 s");
 }
