@@ -5,10 +5,12 @@
 
 #include "calibration_node_channel.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
+#include "magnetometer_insitu_calibration/common/time_steps.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <utility>
 
@@ -140,16 +142,18 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   if (remote_.topic.empty()) return;  // the remote observatory's stream beside the reference's
   status.add("remote topic", nh_.resolveName(remote_.topic));
   const double remote_silence = add_stream_keys(remote_, "remote ", now, started_s_, status);
-  if (const LiveRemoteStream* r = streams_->remote()) {
-    status.add("remote epoch alignment", epoch_alignment_name(r->alignment));
-    status.add("remote decimator restarts", r->decimator_restarts);
-  }
   if (started_s_ > 0.0 && remote_silence > settings_.silent_timeout_s) {
     status.mergeSummary(DiagnosticStatus::WARN, silence_problem(remote_, "remote", remote_silence));
   }
   const std::string remote_period =
       period_mismatch(remote_, settings_.streams.remote_period_s(), "remote", "~remote_input_period");
   if (!remote_period.empty()) status.mergeSummary(DiagnosticStatus::ERROR, remote_period);
+  if (const LiveRemoteStream* r = streams_->remote()) {
+    status.add("remote epoch alignment", epoch_alignment_name(r->alignment));
+    status.add("remote decimator restarts", r->decimator_restarts);
+    const std::string phase = phase_mismatch(remote_, r->alignment, "remote");
+    if (!phase.empty()) status.mergeSummary(DiagnosticStatus::ERROR, phase);
+  }
 }
 
 std::string CalibrationNode::period_mismatch(const StreamMonitor& monitor, double nominal_s, const std::string& stream,
@@ -157,7 +161,22 @@ std::string CalibrationNode::period_mismatch(const StreamMonitor& monitor, doubl
   const std::string problem = monitor.period_problem(nominal_s);
   if (problem.empty()) return "";
   const std::string text = stream + " " + problem + " (" + parameter + "): give the stream's period";
-  if (period_logged_.insert(stream).second) ROS_ERROR("%s: %s", node_name_.c_str(), text.c_str());
+  if (problems_logged_.insert(stream).second) ROS_ERROR("%s: %s", node_name_.c_str(), text.c_str());
+  return text;
+}
+
+std::string CalibrationNode::phase_mismatch(const StreamMonitor& monitor, EpochAlignment alignment,
+                                            const std::string& stream) {
+  if (alignment == EpochAlignment::kEachFiltered) return "";  // filtered onto the epochs: any phase
+  const double period = settings_.streams.input_period_s;
+  const double offset = phase_offset_s(monitor.stamp_phase_s(period), reference_.stamp_phase_s(period), period);
+  if (!std::isfinite(offset) || std::abs(offset) <= settings_.streams.pairing_tolerance_s) return "";
+  char text[240];
+  std::snprintf(text, sizeof text,
+                "%s stamps fall %+.3g s off the reference's in each %g s, beyond ~pairing_tolerance (%g s): nothing "
+                "pairs; give ~stamps_apart true",
+                stream.c_str(), offset, period, settings_.streams.pairing_tolerance_s);
+  if (problems_logged_.insert(stream + " phase").second) ROS_ERROR("%s: %s", node_name_.c_str(), text);
   return text;
 }
 
@@ -177,6 +196,8 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   const std::string period = period_mismatch(ch.test, settings_.streams.test_period_s(),
                                              "test '" + ch.settings.name + "'", "~test_input_period, else ~input_period");
   if (!period.empty()) problems.emplace_back(DiagnosticStatus::ERROR, period);
+  const std::string phase = phase_mismatch(ch.test, streams_->test(index).alignment, "test '" + ch.settings.name + "'");
+  if (!phase.empty()) problems.emplace_back(DiagnosticStatus::ERROR, phase);
   diagnose_stream(index, status, problems);
   diagnose_results(ch, status, problems);
   for (const auto& problem : problems) status.mergeSummary(problem.first, problem.second);

@@ -87,14 +87,17 @@ class Harness {
   }
 
   /// Also publishes the test stream on `topic` with `frame_id` (a second test instrument).
-  void add_test_copy(const std::string& topic, const std::string& frame_id) {
-    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id, {}});
+  /// With `stride`, only its samples first, first + stride, ... (a 1 s stream at another phase of
+  /// the second than the reference's, from a 10 Hz simulation).
+  void add_test_copy(const std::string& topic, const std::string& frame_id, std::size_t stride = 1,
+                     std::size_t first = 0) {
+    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id, {}, stride, first});
   }
 
   /// Also publishes another test instrument on `topic` with `frame_id`: its readings `values_nT`
   /// (N x 3, nT, one row per sample of the pair, its own frame), at the test's stamps.
   void add_test_instrument(const std::string& topic, const std::string& frame_id, const mic::Readings& values_nT) {
-    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id, values_nT});
+    test_copies_.push_back({nh_.advertise<sensor_msgs::MagneticField>(topic, 100000), frame_id, values_nT, 1, 0});
   }
 
   /// The test sees a hut's temperature (hut_temperature.hpp; the pair's test readings change), and
@@ -204,6 +207,7 @@ class Harness {
       if (test) {
         test_pub_.publish(field_message(stamp, "test_frame", pair_.test.values_nT.row(k), test_noise_rms_nT_));
         for (auto& copy : test_copies_) {
+          if (k % copy.stride != copy.first) continue;
           const mic::Readings& values = copy.values_nT.rows() > 0 ? copy.values_nT : pair_.test.values_nT;
           copy.publisher.publish(field_message(stamp, copy.frame_id, values.row(k), test_noise_rms_nT_));
         }
@@ -369,6 +373,7 @@ class Harness {
     ros::Publisher publisher;
     std::string frame_id;
     mic::Readings values_nT;  ///< empty: the pair's test readings
+    std::size_t stride = 1, first = 0;  ///< publishes samples k with k % stride == first
   };
   std::vector<TestCopy> test_copies_;
   Eigen::Vector3d test_noise_rms_nT_ = Eigen::Vector3d::Zero();

@@ -224,12 +224,15 @@ TEST(Calibration, OneSecondReferenceBesideATenHertzTest) {
   // prepares records of two rates; its windows are those of the offline preparation.
   Harness h(simulation(2500.0, 17, 0.1));
   h.publish_reference_every(10);  // the simulation's samples at whole seconds
+  h.add_test_copy("/sim/test_apart/magnetic_field", "test_frame", 10, 3);  // 1 s, 0.3 s after them
   ASSERT_TRUE(h.wait_for_connections(1, 1)) << "nodes did not connect";
+  ASSERT_TRUE(h.wait([&] { return h.test_subscribers(0) >= 1; }, 20.0));
   ASSERT_DOUBLE_EQ(std::fmod(h.start_s(), 300.0), 0.0);
   const std::size_t n = h.pair().reference.size();
   h.publish(0, n, true, true);
   EXPECT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 20.0));
-  EXPECT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: sim", "calibration_sim: reference", "calibration_wrong: wrong"}, 20.0));
+  EXPECT_TRUE(h.wait_fresh_diagnostics(
+      {"calibration_sim: sim", "calibration_sim: reference", "calibration_wrong: wrong", "calibration_apart: apart"}, 20.0));
 
   mic::VectorRecord reference = h.pair().reference;  // its samples 0, 10, 20, ...: whole seconds
   const Eigen::Index count = (static_cast<Eigen::Index>(n) + 9) / 10;
@@ -261,6 +264,16 @@ TEST(Calibration, OneSecondReferenceBesideATenHertzTest) {
   EXPECT_NE(wrong->message.find("test 'wrong' stamps step by 0.1 s, not 1 s (~test_input_period, else ~input_period)"),
             std::string::npos)
       << wrong->message;
+  // A 1 s test stamped 0.3 s after the reference's seconds, paired by stamp: nothing pairs, and
+  // the node says why.
+  const DiagnosticRecord* apart = h.latest_diagnostic("calibration_apart: apart");
+  ASSERT_NE(apart, nullptr);
+  EXPECT_EQ(apart->level, 2);
+  EXPECT_NE(apart->message.find("test 'apart' stamps fall +0.3 s off the reference's in each 1 s, beyond "
+                                "~pairing_tolerance (0.01 s): nothing pairs; give ~stamps_apart true"),
+            std::string::npos)
+      << apart->message;
+  EXPECT_EQ(apart->values.at("paired"), "0");
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -56,11 +56,18 @@ struct StreamMonitor {
   /// "" when the measured period is within 10 % of nominal_period_s (or not measured yet), else
   /// what differs: "stamps step by 0.1 s, not 1 s".
   std::string period_problem(double nominal_period_s) const;
+  /// Where in each period of period_s its last kPeriodSteps stamps (stray ones left out) fall:
+  /// their circular mean phase, s in [-period/2, period/2) (stamp_phase_s of time_steps.hpp);
+  /// NaN before kMinPeriodSteps stamps, or when they share no phase.
+  double stamp_phase_s(double period_s) const;
 
  private:
+  void keep_stamp(double stamp_s);
+
   bool behind_ = false;  ///< the previous sample was far behind the newest stamp
   double previous_stamp_s_ = 0.0;  ///< the stamp of the previous message, UNIX s
   std::deque<double> steps_;       ///< the last steps forward, s
+  std::deque<double> stamps_;      ///< the last stamps, stray ones left out, UNIX s
 };
 
 /// The thermometer's samples of one test instrument, kept for the windows still to complete:

@@ -167,6 +167,10 @@ class CalibrationNode {
   /// (ROS_ERROR once per stream).
   std::string period_mismatch(const StreamMonitor& monitor, double nominal_s, const std::string& stream,
                               const std::string& parameter);
+  /// "" or, for a stream paired with the reference by stamp, the problem when its stamps fall
+  /// further from the reference's than ~pairing_tolerance in each period (nothing pairs; ROS_ERROR
+  /// once per stream).
+  std::string phase_mismatch(const StreamMonitor& monitor, EpochAlignment alignment, const std::string& stream);
 
   ros::NodeHandle nh_, private_nh_;
   CalibrationNodeSettings settings_;
@@ -181,7 +185,7 @@ class CalibrationNode {
   /// then by the worker thread only.
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_broadcaster_;
   double started_s_ = 0.0;  ///< ROS time of the first non-zero clock, s
-  std::set<std::string> period_logged_;  ///< streams whose period mismatch was logged (diagnostics)
+  std::set<std::string> problems_logged_;  ///< streams' period or phase problems logged (diagnostics)
 
   std::mutex queue_mutex_;
   std::condition_variable queue_cv_;

@@ -60,30 +60,11 @@ double median_sample_period(const VectorRecord& record) {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-/// Where in each period of period_s the stamps fall: the circular mean of t mod period_s over up
-/// to 4096 evenly spread stamps, s in [-period/2, period/2). NaN when they have no common phase
-/// (the mean resultant length under 0.5: stamps off any grid).
-double stamp_phase_s(const std::vector<double>& time_s, double period_s) {
-  const std::size_t stride = std::max<std::size_t>(1, time_s.size() / 4096);
-  double c = 0.0, s = 0.0;
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < time_s.size(); i += stride, ++count) {
-    const double angle = 2.0 * kPi * std::fmod(time_s[i], period_s) / period_s;
-    c += std::cos(angle);
-    s += std::sin(angle);
-  }
-  if (count == 0 || std::hypot(c, s) < 0.5 * static_cast<double>(count)) return std::numeric_limits<double>::quiet_NaN();
-  return std::atan2(s, c) / (2.0 * kPi) * period_s;
-}
-
 /// The test's stamps' phase against the reference's at one rate, s in [-period/2, period/2]; 0
 /// when either has no common phase (pairing by stamp decides then).
 double stamp_offset_s(const VectorRecord& reference, const VectorRecord& test, double period_s) {
-  const double d = stamp_phase_s(test.time_s, period_s) - stamp_phase_s(reference.time_s, period_s);
-  if (!std::isfinite(d)) return 0.0;
-  return d - period_s * std::round(d / period_s);
+  const double d = phase_offset_s(stamp_phase_s(test.time_s, period_s), stamp_phase_s(reference.time_s, period_s), period_s);
+  return std::isfinite(d) ? d : 0.0;
 }
 
 VectorRecord as_record(const std::vector<double>& time_s, const Readings& values, const VectorRecord& like) {

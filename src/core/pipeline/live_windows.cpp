@@ -1,6 +1,8 @@
 // The live buffers of calibration: see live_windows.hpp.
 #include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
 
+#include "magnetometer_insitu_calibration/common/time_steps.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +24,7 @@ StreamMonitor::Jump StreamMonitor::observe(double stamp_s, double arrival_s, con
   previous_stamp_s_ = stamp_s;
   if (messages == 1 || !std::isfinite(newest_stamp_s)) {
     newest_stamp_s = stamp_s;
+    keep_stamp(stamp_s);
     return Jump::kNone;
   }
   if (stamp_s < newest_stamp_s - threshold_s) {
@@ -34,9 +37,11 @@ StreamMonitor::Jump StreamMonitor::observe(double stamp_s, double arrival_s, con
     --stray;
     ++jumps_backward;
     newest_stamp_s = stamp_s;
+    keep_stamp(stamp_s);
     return Jump::kBackward;
   }
   behind_ = false;
+  keep_stamp(stamp_s);
   const Jump jump = stamp_s > newest_stamp_s + threshold_s ? Jump::kForward : Jump::kNone;
   if (jump == Jump::kForward) ++jumps_forward;
   newest_stamp_s = std::max(newest_stamp_s, stamp_s);
@@ -45,6 +50,17 @@ StreamMonitor::Jump StreamMonitor::observe(double stamp_s, double arrival_s, con
 
 double StreamMonitor::silence_s(double now_s, double since_s) const {
   return now_s - (messages > 0 ? last_arrival_s : since_s);
+}
+
+void StreamMonitor::keep_stamp(double stamp_s) {
+  if (!std::isfinite(stamp_s)) return;
+  stamps_.push_back(stamp_s);
+  if (stamps_.size() > kPeriodSteps) stamps_.pop_front();
+}
+
+double StreamMonitor::stamp_phase_s(double period_s) const {
+  if (stamps_.size() < kMinPeriodSteps) return std::numeric_limits<double>::quiet_NaN();
+  return magnetometer_insitu_calibration::stamp_phase_s(std::vector<double>(stamps_.begin(), stamps_.end()), period_s);
 }
 
 double StreamMonitor::measured_period_s() const {

@@ -2,9 +2,10 @@
 // 1 s reference beside a 10 Hz test, a 1 s remote beside a 10 Hz pair, and one rate stamped at two
 // phases. Each stream is low-passed onto the estimation epochs before pairing, as calibrate_records
 // prepares the same records; every window must carry the values the offline preparation gives it.
-// And the period a stream monitor measures on a stream's stamps (live_windows.hpp), which tells a
-// stream at another rate than its parameter says.
+// And the period and phase a stream monitor measures on a stream's stamps (live_windows.hpp),
+// which tell a stream at another rate than its parameter says, or stamped where nothing pairs.
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_steps.hpp"
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
@@ -235,4 +236,24 @@ TEST(StreamMonitor, MeasuresTheStreamsPeriodOnItsStamps) {
   mic::StreamMonitor slow;
   for (int k = 0; k < 40; ++k) slow.observe(1747180800.0 + k, 0.0, "f", threshold);
   EXPECT_EQ(slow.period_problem(0.1), "stamps step by 1 s, not 0.1 s");
+}
+
+// Where in each period a stream's stamps fall: 1 s stamps 0.3 s after the seconds against a
+// reference on them (what keeps them from pairing by stamp), a stray stamp left out.
+TEST(StreamMonitor, MeasuresWhereInEachPeriodTheStampsFall) {
+  mic::StreamMonitor test, reference;
+  const double threshold = 60.0, t0 = 1747180800.0;  // s
+  for (int k = 0; k < 19; ++k) test.observe(t0 + k + 0.3, 0.0, "f", threshold);
+  EXPECT_TRUE(std::isnan(test.stamp_phase_s(1.0)));  // 19 stamps: not yet
+  test.observe(t0 + 19.3, 0.0, "f", threshold);
+  test.observe(0.0, 0.0, "f", threshold);  // a stray stamp
+  for (int k = 20; k < 200; ++k) test.observe(t0 + k + 0.3, 0.0, "f", threshold);
+  for (int k = 0; k < 200; ++k) reference.observe(t0 + k, 0.0, "f", threshold);
+  EXPECT_NEAR(test.stamp_phase_s(1.0), 0.3, 1e-6);
+  EXPECT_NEAR(mic::phase_offset_s(test.stamp_phase_s(1.0), reference.stamp_phase_s(1.0), 1.0), 0.3, 1e-6);
+  EXPECT_NEAR(mic::phase_offset_s(reference.stamp_phase_s(1.0), test.stamp_phase_s(1.0), 1.0), -0.3, 1e-6);
+  // 0.9 s after is 0.1 s before.
+  mic::StreamMonitor late;
+  for (int k = 0; k < 40; ++k) late.observe(t0 + k + 0.9, 0.0, "f", threshold);
+  EXPECT_NEAR(mic::phase_offset_s(late.stamp_phase_s(1.0), reference.stamp_phase_s(1.0), 1.0), -0.1, 1e-6);
 }
