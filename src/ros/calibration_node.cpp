@@ -40,8 +40,8 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   updater_.setHardwareID("reference " + nh_.resolveName(settings_.reference_topic));
   updater_.add("reference", [this](DiagnosticStatusWrapper& status) { diagnose_reference(status); });
-  std::vector<std::pair<std::string, bool>> tests;
-  for (const TestInstrumentSettings& t : settings_.tests) tests.emplace_back(t.name, !t.temperature_topic.empty());
+  std::vector<LiveTestInput> tests;
+  for (const TestInstrumentSettings& t : settings_.tests) tests.push_back({t.name, !t.temperature_topic.empty(), t.input_period_s});
   streams_ = std::make_unique<LiveCalibrationStreams>(settings_.streams, tests, settings_.hat_active());
   if (!settings_.remote_topic.empty()) {
     remote_.topic = settings_.remote_topic;

@@ -193,8 +193,9 @@ void CalibrationNode::diagnose_channel(std::size_t index, DiagnosticStatusWrappe
   if (started_s_ > 0.0 && silence > settings_.silent_timeout_s) {
     problems.emplace_back(DiagnosticStatus::WARN, silence_problem(ch.test, "test", silence));
   }
-  const std::string period = period_mismatch(ch.test, settings_.streams.test_period_s(),
-                                             "test '" + ch.settings.name + "'", "~test_input_period, else ~input_period");
+  const std::string period =
+      period_mismatch(ch.test, streams_->test(index).input_period_s, "test '" + ch.settings.name + "'",
+                      ch.settings.input_period_s > 0.0 ? "its input_period in ~tests" : "~test_input_period, else ~input_period");
   if (!period.empty()) problems.emplace_back(DiagnosticStatus::ERROR, period);
   const std::string phase = phase_mismatch(ch.test, streams_->test(index).alignment, "test '" + ch.settings.name + "'");
   if (!phase.empty()) problems.emplace_back(DiagnosticStatus::ERROR, phase);

@@ -120,20 +120,20 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     p.getParam("tests", list);
     if (list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0) {
       throw ParameterError("tests", "must be a non-empty list of {name, topic, calibration_file, calibration_topic (optional), "
-                                    "temperature_topic (optional)}");
+                                    "temperature_topic (optional), input_period (optional)}");
     }
     for (int i = 0; i < list.size(); ++i) {
       const std::string where = "tests[" + std::to_string(i) + "]";
       XmlRpc::XmlRpcValue& entry = list[i];
       if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
         throw ParameterError(where, "must be a map {name, topic, calibration_file, calibration_topic (optional), "
-                                    "temperature_topic (optional)}");
+                                    "temperature_topic (optional), input_period (optional)}");
       }
       for (const auto& member : entry) {
         if (member.first != "name" && member.first != "topic" && member.first != "calibration_topic" &&
-            member.first != "calibration_file" && member.first != "temperature_topic") {
-          throw ParameterError(where + "." + member.first,
-                               "unknown key (name, topic, calibration_topic, calibration_file, temperature_topic)");
+            member.first != "calibration_file" && member.first != "temperature_topic" && member.first != "input_period") {
+          throw ParameterError(where + "." + member.first, "unknown key (name, topic, calibration_topic, calibration_file, "
+                                                           "temperature_topic, input_period)");
         }
       }
       TestInstrumentSettings t;
@@ -142,6 +142,15 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
       t.calibration_topic = struct_string(entry, "calibration_topic", where, false, t.name + "/calibration");
       t.calibration_file = struct_string(entry, "calibration_file", where, true, "");
       t.temperature_topic = optional_topic(entry, "temperature_topic", where);
+      if (entry.hasMember("input_period")) {  // this test's own period (checked with the streams below)
+        XmlRpc::XmlRpcValue& v = entry["input_period"];
+        if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) t.input_period_s = static_cast<double>(v);
+        else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) t.input_period_s = static_cast<int>(v);
+        else throw ParameterError(where + ".input_period", "must be a number (s)");
+        if (!(t.input_period_s > 0.0) || !std::isfinite(t.input_period_s)) {
+          throw ParameterError(where + ".input_period", "must be > 0 s");
+        }
+      }
       require_topic_name(where + ".topic", t.topic);
       require_topic_name(where + ".calibration_topic", t.calibration_topic);
       s.tests.push_back(t);
@@ -202,6 +211,14 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     s.window.validate();
     s.change.validate();
     s.streams.validate(!s.remote_topic.empty());
+    for (std::size_t i = 0; i < s.tests.size(); ++i) {
+      if (s.tests[i].input_period_s <= 0.0) continue;
+      try {
+        s.streams.validate_test_period(s.tests[i].input_period_s);
+      } catch (const InputError& e) {
+        throw ParameterError("tests[" + std::to_string(i) + "].input_period", e.problem());
+      }
+    }
     WindowLayout{0, s.streams.window_s, s.streams.step_s}.validate();
   } catch (const InputError& e) {
     const auto it = kCoreFieldToParameter.find(e.where());
@@ -343,7 +360,8 @@ void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   s.silent_timeout_s = param_double(p, "silent_timeout", s.silent_timeout_s);
   require_positive("silent_timeout", s.silent_timeout_s, "s");
   s.time_jump_threshold_s = param_double(p, "time_jump_threshold", s.time_jump_threshold_s);
-  const double slowest = std::max({s.streams.input_period_s, s.streams.test_period_s(), s.streams.remote_period_s()});
+  double slowest = std::max({s.streams.input_period_s, s.streams.test_period_s(), s.streams.remote_period_s()});
+  for (const TestInstrumentSettings& t : s.tests) slowest = std::max(slowest, t.input_period_s);
   if (!(s.time_jump_threshold_s > slowest)) {
     throw ParameterError("time_jump_threshold",
                          "must be longer than the slowest stream's period (" + number_text(slowest) + " s)");

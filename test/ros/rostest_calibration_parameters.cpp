@@ -65,6 +65,11 @@ TEST(Calibration, BadParameters) {
        "parameter ~remote_input_period: of 30 s puts the remote's pairs with the reference every 30 s, the tests' every 1 s"},
       {calibration + " __name:=short_kernel" + ok + " _test_input_period:=0.1 _decimation_sigma:=0.01",
        "parameter ~test_input_period: of 1 s: the filter's kernel (half-width 0.04 s) is shorter than it"},
+      // A list of tests is no command-line value: set on the master first, as a launch file does.
+      {"rosparam set /slow_listed_test/tests '[{name: a, topic: /a, calibration_file: /tmp/unused_a.yaml}, "
+       "{name: b, topic: /b, calibration_file: /tmp/unused_b.yaml, input_period: 30}]' && " +
+           calibration + " __name:=slow_listed_test _reference_topic:=/r",
+       "parameter ~tests[1].input_period: of 30 s puts the test's pairs with the reference every 30 s, the others' every 1 s"},
       {calibration + " __name:=bad_method" + ok + " _method:=fast", "parameter ~method:"},
       {calibration + " __name:=bad_eiv" + ok + " _eiv:=deming", "parameter ~eiv:"},
       {calibration + " __name:=bad_noise" + ok + " _reference_noise_pT:=-10", "parameter ~reference_noise_pT:"},

@@ -73,29 +73,43 @@ struct LiveStreamSettings {
 
   double test_period_s() const { return test_input_period_s > 0.0 ? test_input_period_s : input_period_s; }
   double remote_period_s() const { return remote_input_period_s > 0.0 ? remote_input_period_s : input_period_s; }
-  /// How each test's stream and the reference's come onto common epochs (plan_epochs).
-  EpochPlan test_plan() const;
+  /// How a test's stream of period_s (0: test_period_s()) and the reference's come onto common
+  /// epochs (plan_epochs).
+  EpochPlan test_plan(double period_s = 0.0) const;
   /// How the remote's stream and the reference's do.
   EpochPlan remote_plan() const;
-  /// Sample period of the windows, s.
+  /// Sample period of the windows, s: every test's stream must give it (validate_test_period).
   double estimation_period_s() const { return test_plan().period_s; }
-  /// The filter the windows' pair went through, at the estimation period; none when paired by
-  /// stamp at the input rate.
-  std::optional<DecimationSettings> window_decimation() const;
+  /// The filter a window's pair went through with a test of period_s (0: test_period_s()), at the
+  /// estimation period; none when paired by stamp at the input rate.
+  std::optional<DecimationSettings> window_decimation(double period_s = 0.0) const;
+  /// Throws InputError("input_period_s", ...) when a test of period_s cannot give the windows: a
+  /// filter kernel shorter than its period, or pairs with the reference at another estimation
+  /// period than estimation_period_s() (a test given its own period in a list of tests).
+  void validate_test_period(double period_s) const;
   /// Throws InputError naming the field when the streams cannot give windows: an impossible
   /// period, a filter kernel shorter than a stream's period, and (with a remote) a remote whose
   /// pairs with the reference come at another estimation period than the tests'.
   void validate(bool remote) const;
 };
 
+/// A test instrument as the streams take it.
+struct LiveTestInput {
+  std::string name;            ///< names the instrument as a third ("test '<name>'")
+  bool temperature = false;    ///< it has a thermometer
+  double input_period_s = 0.0; ///< its nominal sample period, s; 0: LiveStreamSettings::test_period_s()
+};
+
 /// One test instrument's part of the streams (its pairing with the reference onwards).
 struct LiveTestStream {
-  LiveTestStream(const std::string& name, bool temperature, const LiveStreamSettings& settings);
+  LiveTestStream(const LiveTestInput& input, const LiveStreamSettings& settings);
 
   std::string name;              ///< names the instrument as a third ("test '<name>'")
   bool temperature = false;      ///< it has a thermometer
+  double input_period_s;         ///< its nominal sample period, s
   StreamingDespiker despiker;
   EpochAlignment alignment;  ///< kEachFiltered: the decimators come before the pairer, else after it
+  std::optional<DecimationSettings> decimation;  ///< the filter its windows' pair went through
   StreamPairer pairer;
   std::unique_ptr<StreamingDecimator> reference_decimator, test_decimator;  ///< unless kPairedStamps
   SlidingWindowBuffer windows;
@@ -152,10 +166,11 @@ struct LiveScalarStream {
 
 class LiveCalibrationStreams {
  public:
-  /// `tests`: names and whether each has a thermometer; `coincident`: release each window with
-  /// another test's window of the same epochs (the three-cornered hat; two or more tests).
-  LiveCalibrationStreams(const LiveStreamSettings& settings, const std::vector<std::pair<std::string, bool>>& tests,
-                         bool coincident);
+  /// `tests`: names, whether each has a thermometer, and a period of its own where given;
+  /// `coincident`: release each window with another test's window of the same epochs (the
+  /// three-cornered hat; two or more tests). Throws InputError for settings or a test's period
+  /// that cannot give windows (LiveStreamSettings::validate, validate_test_period).
+  LiveCalibrationStreams(const LiveStreamSettings& settings, const std::vector<LiveTestInput>& tests, bool coincident);
 
   /// A window completed by a sample, for the per-window stage.
   struct Completed {

@@ -67,6 +67,7 @@ struct TestInstrumentSettings {
   std::string calibration_topic;  ///< MagnetometerCalibration output (latched)
   std::string calibration_file;   ///< YAML of the latest accepted calibration (atomic writes)
   std::string temperature_topic;  ///< its sensor_msgs/Temperature (deg C); "" = none (no temperature terms)
+  double input_period_s = 0.0;    ///< its own nominal sample period, s (a ~tests entry's input_period); 0: ~test_input_period
 };
 
 /// Every parameter of calibration_node, read and validated once at start-up

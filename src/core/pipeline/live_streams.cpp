@@ -78,16 +78,17 @@ void require_kernel_covers(const LiveStreamSettings& settings, const EpochPlan& 
 
 }  // namespace
 
-EpochPlan LiveStreamSettings::test_plan() const {
-  return plan_epochs(input_period_s, test_period_s(), decimation.output_period_s, stamps_apart);
+EpochPlan LiveStreamSettings::test_plan(double period_s) const {
+  return plan_epochs(input_period_s, period_s > 0.0 ? period_s : test_period_s(), decimation.output_period_s,
+                     stamps_apart);
 }
 
 EpochPlan LiveStreamSettings::remote_plan() const {
   return plan_epochs(input_period_s, remote_period_s(), decimation.output_period_s, stamps_apart);
 }
 
-std::optional<DecimationSettings> LiveStreamSettings::window_decimation() const {
-  const EpochPlan plan = test_plan();
+std::optional<DecimationSettings> LiveStreamSettings::window_decimation(double period_s) const {
+  const EpochPlan plan = test_plan(period_s);
   if (plan.alignment == EpochAlignment::kPairedStamps) return std::nullopt;
   return filter_of(*this, plan);
 }
@@ -112,15 +113,31 @@ void LiveStreamSettings::validate(bool remote) const {
   }
 }
 
-LiveTestStream::LiveTestStream(const std::string& test_name, bool has_temperature, const LiveStreamSettings& settings)
-    : name(test_name),
-      temperature(has_temperature),
+void LiveStreamSettings::validate_test_period(double period_s) const {
+  require_period("input_period_s", period_s, false);
+  const EpochPlan plan = test_plan(period_s);
+  require_kernel_covers(*this, plan, period_s, "input_period_s");
+  if (std::abs(plan.period_s - estimation_period_s()) > 1e-9 * estimation_period_s()) {
+    char text[240];
+    std::snprintf(text, sizeof text,
+                  "of %g s puts the test's pairs with the reference every %g s, the others' every %g s: the windows "
+                  "need one estimation period",
+                  period_s, plan.period_s, estimation_period_s());
+    throw InputError("input_period_s", text);
+  }
+}
+
+LiveTestStream::LiveTestStream(const LiveTestInput& input, const LiveStreamSettings& settings)
+    : name(input.name),
+      temperature(input.temperature),
+      input_period_s(input.input_period_s > 0.0 ? input.input_period_s : settings.test_period_s()),
       despiker(settings.despike_settings),
-      alignment(settings.test_plan().alignment),
+      alignment(settings.test_plan(input_period_s).alignment),
+      decimation(settings.window_decimation(input_period_s)),
       pairer(settings.pairing_tolerance_s, settings.pairing_max_wait_s),
       windows(settings.window_s, settings.step_s, settings.estimation_period_s()),
       thermometer(settings.window_s + 2.0 * settings.temperature_margin_s) {
-  make_decimators(settings, settings.test_period_s(), settings.test_plan(), reference_decimator, test_decimator);
+  make_decimators(settings, input_period_s, settings.test_plan(input_period_s), reference_decimator, test_decimator);
 }
 
 LiveRemoteStream::LiveRemoteStream(const std::string& remote_name, const LiveStreamSettings& settings)
@@ -176,11 +193,14 @@ PairingCounters LiveTestStream::counters() const {
   return total;
 }
 
-LiveCalibrationStreams::LiveCalibrationStreams(const LiveStreamSettings& settings,
-                                               const std::vector<std::pair<std::string, bool>>& tests, bool coincident)
+LiveCalibrationStreams::LiveCalibrationStreams(const LiveStreamSettings& settings, const std::vector<LiveTestInput>& tests,
+                                               bool coincident)
     : settings_(settings), reference_despiker_(settings.despike_settings) {
   settings_.validate(false);
-  for (const auto& [name, temperature] : tests) tests_.push_back(std::make_unique<LiveTestStream>(name, temperature, settings));
+  for (const LiveTestInput& test : tests) {
+    if (test.input_period_s > 0.0) settings_.validate_test_period(test.input_period_s);
+    tests_.push_back(std::make_unique<LiveTestStream>(test, settings));
+  }
   if (coincident && tests_.size() >= 2) coincident_ = std::make_unique<CoincidentWindows>(tests_.size());
 }
 
@@ -372,7 +392,7 @@ void LiveCalibrationStreams::finish_window(std::size_t test, WindowRecords&& win
   if (scalar_) {
     window.scalar = scalar_->copy(window.start_s - LiveScalarStream::kMargin_s, window.end_s() + LiveScalarStream::kMargin_s);
   }
-  window.decimation = settings_.window_decimation();
+  window.decimation = tests_[test]->decimation;
   if (!coincident_) {
     out.push_back(Completed{test, std::move(window), 0});
     return;
