@@ -70,6 +70,10 @@ TEST(Calibration, BadParameters) {
        "{name: b, topic: /b, calibration_file: /tmp/unused_b.yaml, input_period: 30}]' && " +
            calibration + " __name:=slow_listed_test _reference_topic:=/r",
        "parameter ~tests[1].input_period: of 30 s puts the test's pairs with the reference every 30 s, the others' every 1 s"},
+      {"rosparam set /unlike_hat_tests/tests '[{name: a, topic: /a, calibration_file: /tmp/unused_a.yaml}, "
+       "{name: b, topic: /b, calibration_file: /tmp/unused_b.yaml, input_period: 0.1}]' && " +
+           calibration + " __name:=unlike_hat_tests _reference_topic:=/r",
+       "parameter ~tests[1].input_period: puts this test's windows through the Gaussian FIR where tests[0]'s are not"},
       {calibration + " __name:=bad_method" + ok + " _method:=fast", "parameter ~method:"},
       {calibration + " __name:=bad_eiv" + ok + " _eiv:=deming", "parameter ~eiv:"},
       {calibration + " __name:=bad_noise" + ok + " _reference_noise_pT:=-10", "parameter ~reference_noise_pT:"},

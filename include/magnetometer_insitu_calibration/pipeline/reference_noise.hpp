@@ -18,6 +18,7 @@
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
 #include "magnetometer_insitu_calibration/estimation/three_cornered_hat.hpp"
 #include "magnetometer_insitu_calibration/estimation/two_instrument_noise.hpp"
+#include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include <Eigen/Core>
@@ -94,9 +95,16 @@ bool fit_hat_instrument(const ThreeCorneredHatResult& hat, std::size_t instrumen
 /// remapped twice), whose noises then come out zero to rounding. That case is reported as not
 /// identified (no correction), and the text says so. A quiet test's own estimate scatters about
 /// zero (of either sign) and is not refused: the reference's estimate is not affected.
+///
+/// `filter`: the Gaussian FIR the three records went through on their way to the grid (the
+/// window's decimation), or null. Its power gain falls across the bins above the band (0.1 at
+/// 0.25 Hz for 1 s epochs), which a white + 1/f fit would take for 1/f noise: each bin is divided
+/// by the filter's mean power gain over it, so that the fit is of the noise before the filter,
+/// which the band (gain 0.996 or more at 1 s) keeps.
 IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
                                          double sample_period_s, double band_low_hz, double band_high_hz,
-                                         int bins = 4, const std::string& third_name = "--third");
+                                         int bins = 4, const std::string& third_name = "--third",
+                                         const DecimationSettings* filter = nullptr);
 
 /// The reference's noise from the pair alone, without a third instrument or a maker's figure
 /// (two_instrument_noise.hpp): over [max(band_high_hz, 0.03 / sample_period_s), 0.25 /
@@ -110,10 +118,16 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
 ///  - the estimate is not finite, the band's top is at or above 0.25 / dt, or a bin holds fewer
 ///    than 8 harmonics (a run shorter than about an hour at 1 s),
 ///  - the bins support no positive level on any axis (fit_white_and_pink).
+/// `filter`: the Gaussian FIR the pair went through (the window's decimation), or null: each bin
+/// divided by its mean power gain, as for the hat.
 IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readings>& reference_nT,
                                                    const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
                                                    const WindowEstimate& estimate, const ResponseModel& model,
-                                                   double band_high_hz);
+                                                   double band_high_hz, const DecimationSettings* filter = nullptr);
+
+/// The mean power gain exp(-4 pi^2 sigma^2 f^2) of the Gaussian FIR of `filter` over [low_hz,
+/// high_hz): what a record low-passed by it keeps of a flat PSD in that bin.
+double mean_power_gain(const DecimationSettings& filter, double low_hz, double high_hz);
 
 /// The pair's noise is measured over kPairNoiseBins log-spaced bins from kPairNoiseLowOfNyquist
 /// (0.03 Hz at 1 s, 3x the default band's top: there the field's part of the reference's PSD is

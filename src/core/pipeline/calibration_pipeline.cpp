@@ -339,7 +339,18 @@ std::vector<WindowEstimate> disjoint_window_estimates(const std::vector<Calibrat
 PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& prepared, const SideRecords& sides,
                             const CalibrationSettings& settings) {
   PreparedSides out;
-  if (sides.third != nullptr) out.third = prepare_side(reference, *sides.third, prepared, settings, "--third");
+  if (sides.third != nullptr) {
+    out.third = prepare_side(reference, *sides.third, prepared, settings, "--third");
+    // The hat compares the three records' spectra above the band, where the Gaussian FIR's gain
+    // falls: a third filtered where the pair is not (or the reverse) would show the filter as noise.
+    if (out.third->decimation.has_value() != prepared.decimation.has_value()) {
+      throw InputError("--third", std::string("comes onto the epochs ") +
+                                      (out.third->decimation ? "through the Gaussian FIR" : "paired by stamp") +
+                                      ", the pair " + (prepared.decimation ? "through the Gaussian FIR" : "paired by stamp") +
+                                      ": the three-cornered hat needs the three records filtered alike (records of one "
+                                      "rate and phase, or --output-period longer than their period)");
+    }
+  }
   if (sides.scalar != nullptr) out.scalar = std::make_shared<ScalarRecord>(*sides.scalar);
   if (sides.remote != nullptr) {
     out.remote = prepare_side(reference, *sides.remote, prepared, settings, "--remote");

@@ -201,7 +201,17 @@ LiveCalibrationStreams::LiveCalibrationStreams(const LiveStreamSettings& setting
     if (test.input_period_s > 0.0) settings_.validate_test_period(test.input_period_s);
     tests_.push_back(std::make_unique<LiveTestStream>(test, settings));
   }
-  if (coincident && tests_.size() >= 2) coincident_ = std::make_unique<CoincidentWindows>(tests_.size());
+  if (coincident && tests_.size() >= 2) {
+    // The hat compares the tests' spectra above the band, where the filter's gain falls.
+    for (const auto& t : tests_) {
+      if (t->decimation.has_value() != tests_[0]->decimation.has_value()) {
+        throw InputError("input_period_s", "test '" + t->name + "' and test '" + tests_[0]->name +
+                                               "' come onto the epochs one through the Gaussian FIR, one paired by "
+                                               "stamp: the three-cornered hat needs the tests filtered alike");
+      }
+    }
+    coincident_ = std::make_unique<CoincidentWindows>(tests_.size());
+  }
 }
 
 std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_reference(double time_s,

@@ -9,11 +9,25 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <map>
 
 namespace magnetometer_insitu_calibration {
 
 namespace {
+
+/// Each bin of each of `bins` (PSDs of bins [low, high) Hz, their standard deviations or floors,
+/// nT^2/Hz) divided by the filter's mean power gain over it: the PSD before the filter.
+void undo_filter(const DecimationSettings* filter, const std::vector<double>& low, const std::vector<double>& high,
+                 std::initializer_list<std::vector<Eigen::Vector3d>*> bins) {
+  if (filter == nullptr) return;
+  for (std::size_t b = 0; b < low.size(); ++b) {
+    const double gain = mean_power_gain(*filter, low[b], high[b]);
+    for (std::vector<Eigen::Vector3d>* values : bins) {
+      if (b < values->size()) (*values)[b] /= gain;
+    }
+  }
+}
 
 /// min |a x - b| over x >= 0 in two unknowns (a has at least one row): the unconstrained
 /// solution when both are >= 0, else the better of the two one-term fits (zero when neither is
@@ -215,9 +229,20 @@ std::vector<double> hat_bin_edges(double duration_s, double sample_period_s, dou
 
 }  // namespace
 
+double mean_power_gain(const DecimationSettings& filter, double low_hz, double high_hz) {
+  constexpr int kPoints = 64;  // midpoints: the gain is smooth over a bin
+  double sum = 0.0;
+  for (int k = 0; k < kPoints; ++k) {
+    const double f = low_hz + (high_hz - low_hz) * (k + 0.5) / kPoints;
+    const double g = gaussian_gain(filter.effective_sigma_s(), f);
+    sum += g * g;
+  }
+  return sum / kPoints;
+}
+
 IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
                                          double sample_period_s, double band_low_hz, double band_high_hz, int bins,
-                                         const std::string& third_name) {
+                                         const std::string& third_name, const DecimationSettings* filter) {
   IdentifiedNoise out;
   out.sample_period_s = sample_period_s;
   const std::map<long long, Eigen::Index> test_rows = finite_epoch_rows(with_test, sample_period_s);
@@ -255,6 +280,11 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
   hs.bin_edges_hz = hat_bin_edges(static_cast<double>(n) * sample_period_s, sample_period_s, band_low_hz,
                                   band_high_hz, bins);
   out.hat = three_cornered_hat(r, t, c, out.sample_period_s, hs);
+  for (std::size_t k = 0; k < 3; ++k) {
+    undo_filter(filter, out.hat.bin_low_hz, out.hat.bin_high_hz,
+                {&out.hat.psd_nT2_per_hz[k], &out.hat.psd_sd_nT2_per_hz[k], &out.hat.psd_floor_nT2_per_hz[k],
+                 &out.hat.pair_psd_nT2_per_hz[k]});
+  }
   char text[320];
   const std::string shared = one_record_twice(out.hat, third_name);
   if (!shared.empty()) {
@@ -296,7 +326,7 @@ ReferenceNoiseModel IdentifiedNoise::model(NoiseSource source, const std::string
 IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readings>& reference_nT,
                                                    const Eigen::Ref<const Readings>& test_nT, double sample_period_s,
                                                    const WindowEstimate& estimate, const ResponseModel& model,
-                                                   double band_high_hz) {
+                                                   double band_high_hz, const DecimationSettings* filter) {
   IdentifiedNoise out;
   out.sample_period_s = sample_period_s;
   const double nyquist = 0.5 / sample_period_s;  // Hz
@@ -333,6 +363,8 @@ IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readin
   } catch (const InputError& e) {
     return refuse(e.problem());
   }
+  undo_filter(filter, out.pair.bin_low_hz, out.pair.bin_high_hz,
+              {&out.pair.reference_psd, &out.pair.reference_psd_sd, &out.pair.coherent_psd});
   fit_white_and_pink(out.pair.reference_psd, out.pair.reference_psd_sd, out.pair.bin_low_hz, out.pair.bin_high_hz,
                      sample_period_s, out.white_nT, out.pink_nT_per_sqrt_hz, &out.level_covariance);
   out.identified = (out.white_nT.array() > 0.0).any() || (out.pink_nT_per_sqrt_hz.array() > 0.0).any();

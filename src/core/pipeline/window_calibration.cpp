@@ -208,7 +208,7 @@ ReferenceNoiseModel WindowCalibrator::noise_before_estimate(CalibrationWindow& w
   try {
     w.reference_noise = identify_reference_noise(filled, *window.third, window.period_s,
                                                  settings_.estimator.band_low_hz, settings_.estimator.band_high_hz, 4,
-                                                 window.third_name);
+                                                 window.third_name, window.decimation ? &*window.decimation : nullptr);
   } catch (const std::exception& e) {
     w.reference_noise = IdentifiedNoise{};
     w.reference_noise.text =
@@ -269,7 +269,8 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
     try {
       w.reference_noise = identify_reference_noise_from_pair(window.paired.reference_nT, window.paired.test_nT, period,
                                                              w.estimate, w.response_model,
-                                                             settings_.estimator.band_high_hz);
+                                                             settings_.estimator.band_high_hz,
+                                                             window.decimation ? &*window.decimation : nullptr);
     } catch (const std::exception& e) {
       w.reference_noise = IdentifiedNoise{};
       w.reference_noise.text = std::string("reference noise not identified from the pair: ") + e.what();

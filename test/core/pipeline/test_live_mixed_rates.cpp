@@ -231,6 +231,34 @@ TEST(LiveMixedRates, TwoTestsOfTwoRatesBesideOneReferenceGiveTheirOfflineWindows
   }
 }
 
+// The three-cornered hat compares the instruments' spectra above the band, where the Gaussian
+// FIR's gain falls (0.1 in power at 0.25 Hz for 1 s epochs): a third filtered where the pair is
+// not, or tests of a list filtered unlike, are refused rather than show the filter as noise.
+TEST(LiveMixedRates, TheHatRefusesInstrumentsFilteredUnlike) {
+  const mic::SimulatedPair pair = mic::simulate_pair(three_hours_with_spikes(59));
+  const mic::VectorRecord reference = every_tenth(pair.reference, 3), test = every_tenth(pair.test, 3);
+  try {  // offline: a 1 s pair paired by stamp, a 10 Hz third filtered onto the seconds
+    mic::calibrate_records(reference, test, mic::CalibrationSettings{}, {&pair.test, nullptr, nullptr});
+    FAIL() << "a third filtered unlike the pair accepted";
+  } catch (const mic::InputError& e) {
+    EXPECT_EQ(e.where(), "--third");
+    EXPECT_NE(e.problem().find("the three-cornered hat needs the three records filtered alike"), std::string::npos)
+        << e.problem();
+  }
+  mic::LiveStreamSettings live;
+  try {  // live: two tests of a list at two rates, windows released together for the hat
+    mic::LiveCalibrationStreams streams(live, {{"fge", false, 0.0}, {"lemi", false, 0.1}}, true);
+    FAIL() << "tests filtered unlike accepted for the hat";
+  } catch (const mic::InputError& e) {
+    EXPECT_EQ(e.where(), "input_period_s");
+    EXPECT_NE(e.problem().find("the three-cornered hat needs the tests filtered alike"), std::string::npos) << e.problem();
+  }
+  // Filtered alike, both are accepted: the 10 Hz third beside a 10 Hz pair, two 10 Hz tests.
+  EXPECT_NO_THROW(mic::prepare_sides(pair.reference, mic::prepare_pair(pair.reference, pair.test, mic::PreprocessSettings{}),
+                                     {&pair.test, nullptr, nullptr}, mic::CalibrationSettings{}));
+  EXPECT_NO_THROW(mic::LiveCalibrationStreams(live, {{"a", false, 0.1}, {"b", false, 0.1}}, true));
+}
+
 // Periods that cannot give the windows are refused by name before any sample.
 TEST(LiveMixedRates, PeriodsThatCannotGiveWindowsAreRefusedByName) {
   const auto where = [](const mic::LiveStreamSettings& live, bool remote) -> std::string {
