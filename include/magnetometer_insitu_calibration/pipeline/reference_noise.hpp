@@ -132,8 +132,10 @@ double mean_power_gain(const DecimationSettings& filter, double low_hz, double h
 /// The pair's noise is measured over kPairNoiseBins log-spaced bins from kPairNoiseLowOfNyquist
 /// (0.03 Hz at 1 s, 3x the default band's top: there the field's part of the reference's PSD is
 /// tens of times its noise on the simulated stations, not hundreds, so that the first estimate's
-/// attenuation leaves a few per cent of it) to kPairNoiseTopOfNyquist (0.25 Hz at 1 s: below the
-/// anti-alias and decimation filters' roll-off of 1 s observatory data) of the Nyquist frequency.
+/// attenuation leaves a few per cent of it) to kPairNoiseTopOfNyquist (0.25 Hz at 1 s) of the
+/// Nyquist frequency. The package's own Gaussian FIR keeps only 0.1 of the power at 0.25 Hz for
+/// 1 s epochs: its gain is undone bin by bin (`filter`). An observatory's own anti-alias filter,
+/// unknown here, is not.
 constexpr int kPairNoiseBins = 6;
 constexpr double kPairNoiseLowOfNyquist = 0.06;
 constexpr double kPairNoiseTopOfNyquist = 0.5;
