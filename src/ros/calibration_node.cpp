@@ -40,9 +40,7 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   updater_.setHardwareID("reference " + nh_.resolveName(settings_.reference_topic));
   updater_.add("reference", [this](DiagnosticStatusWrapper& status) { diagnose_reference(status); });
-  std::vector<LiveTestInput> tests;
-  for (const TestInstrumentSettings& t : settings_.tests) tests.push_back({t.name, !t.temperature_topic.empty(), t.input_period_s});
-  streams_ = std::make_unique<LiveCalibrationStreams>(settings_.streams, tests, settings_.hat_active());
+  streams_ = std::make_unique<LiveCalibrationStreams>(settings_.streams, settings_.live_tests(), settings_.hat_active());
   if (!settings_.remote_topic.empty()) {
     remote_.topic = settings_.remote_topic;
     streams_->add_remote(nh_.resolveName(settings_.remote_topic));

@@ -211,22 +211,13 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     s.window.validate();
     s.change.validate();
     s.streams.validate(!s.remote_topic.empty());
-    for (std::size_t i = 0; i < s.tests.size(); ++i) {
-      if (s.tests[i].input_period_s <= 0.0) continue;
+    // Each test's own period, and the hat's tests filtered alike: the streams' own check.
+    const std::vector<LiveTestInput> tests = s.live_tests();
+    for (std::size_t i = 0; i < tests.size(); ++i) {
       try {
-        s.streams.validate_test_period(s.tests[i].input_period_s);
+        s.streams.validate_test(tests, i, s.hat_active());
       } catch (const InputError& e) {
         throw ParameterError("tests[" + std::to_string(i) + "].input_period", e.problem());
-      }
-    }
-    // The hat compares the tests' spectra above the band, where the Gaussian FIR's gain falls.
-    for (std::size_t i = 1; i < s.tests.size() && s.hat_active(); ++i) {
-      if (s.streams.window_decimation(s.tests[i].input_period_s).has_value() !=
-          s.streams.window_decimation(s.tests[0].input_period_s).has_value()) {
-        throw ParameterError("tests[" + std::to_string(i) + "].input_period",
-                             "puts this test's windows through the Gaussian FIR where tests[0]'s are not, or the "
-                             "reverse: the three-cornered hat needs the tests filtered alike (give them one period, "
-                             "or ~three_cornered_hat false)");
       }
     }
     WindowLayout{0, s.streams.window_s, s.streams.step_s}.validate();

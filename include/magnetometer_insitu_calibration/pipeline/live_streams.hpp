@@ -46,6 +46,13 @@
 
 namespace magnetometer_insitu_calibration {
 
+/// A test instrument as the streams take it.
+struct LiveTestInput {
+  std::string name;            ///< names the instrument as a third ("test '<name>'")
+  bool temperature = false;    ///< it has a thermometer
+  double input_period_s = 0.0; ///< its nominal sample period, s; 0: LiveStreamSettings::test_period_s()
+};
+
 struct LiveStreamSettings {
   double input_period_s = 1.0;         ///< nominal sample period of the reference stream, s
   /// The tests' nominal period when it is not the reference's (a 10 Hz LEMI-025 beside a 1 s
@@ -87,17 +94,15 @@ struct LiveStreamSettings {
   /// filter kernel shorter than its period, or pairs with the reference at another estimation
   /// period than estimation_period_s() (a test given its own period in a list of tests).
   void validate_test_period(double period_s) const;
+  /// Throws InputError("input_period_s", ...) when tests[i] cannot give the windows: its own
+  /// period (validate_test_period) or, for the three-cornered hat (`coincident`), a filter unlike
+  /// tests[0]'s (the hat compares the tests' spectra above the band, where the filter's gain
+  /// falls). LiveCalibrationStreams checks every test so; calibration_node names the entry.
+  void validate_test(const std::vector<LiveTestInput>& tests, std::size_t i, bool coincident) const;
   /// Throws InputError naming the field when the streams cannot give windows: an impossible
   /// period, a filter kernel shorter than a stream's period, and (with a remote) a remote whose
   /// pairs with the reference come at another estimation period than the tests'.
   void validate(bool remote) const;
-};
-
-/// A test instrument as the streams take it.
-struct LiveTestInput {
-  std::string name;            ///< names the instrument as a third ("test '<name>'")
-  bool temperature = false;    ///< it has a thermometer
-  double input_period_s = 0.0; ///< its nominal sample period, s; 0: LiveStreamSettings::test_period_s()
 };
 
 /// One test instrument's part of the streams (its pairing with the reference onwards).

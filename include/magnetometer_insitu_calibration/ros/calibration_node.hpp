@@ -97,6 +97,12 @@ struct CalibrationNodeSettings {
   /// Windows go to the worker with another test's window of the same epochs (the three-cornered
   /// hat): two or more tests, ~three_cornered_hat, a correction that uses a noise model and no
   /// maker's figure.
+  /// The tests as the live streams take them (name, thermometer, own period).
+  std::vector<LiveTestInput> live_tests() const {
+    std::vector<LiveTestInput> out;
+    for (const TestInstrumentSettings& t : tests) out.push_back({t.name, !t.temperature_topic.empty(), t.input_period_s});
+    return out;
+  }
   bool hat_active() const {
     return window.three_cornered_hat && tests.size() >= 2 && window.corrects_reference_noise() &&
            !window.reference_noise_figure.any();

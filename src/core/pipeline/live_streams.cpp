@@ -44,14 +44,19 @@ void make_decimators(const LiveStreamSettings& settings, double other_period_s, 
   }
 }
 
-/// One sample of a stream filtered before pairing through its decimator; `to` takes each epoch it
-/// completes. Counts the decimator's restarts (a jump of the stream's stamps).
+/// One sample of a stream on its way to its pairer (`to`): as it is, or, when each stream is
+/// filtered before pairing (kEachFiltered), through the stream's own decimator, each epoch it
+/// completes; the decimator's restarts (a jump of the stream's stamps) counted.
 template <typename To>
-void through_filter(StreamingDecimator& filter, double time_s, const Eigen::Vector3d& value_nT, std::size_t& restarts,
-                    To to) {
-  const std::size_t before = filter.restarts();
-  for (const auto& [epoch, filtered] : filter.push(time_s, value_nT)) to(epoch, filtered);
-  restarts += filter.restarts() - before;
+void to_pairer(EpochAlignment alignment, StreamingDecimator* filter, double time_s, const Eigen::Vector3d& value_nT,
+               std::size_t& restarts, To to) {
+  if (alignment != EpochAlignment::kEachFiltered) {
+    to(time_s, value_nT);
+    return;
+  }
+  const std::size_t before = filter->restarts();
+  for (const auto& [epoch, filtered] : filter->push(time_s, value_nT)) to(epoch, filtered);
+  restarts += filter->restarts() - before;
 }
 
 void require_period(const char* field, double period_s, bool zero_allowed) {
@@ -127,6 +132,16 @@ void LiveStreamSettings::validate_test_period(double period_s) const {
   }
 }
 
+void LiveStreamSettings::validate_test(const std::vector<LiveTestInput>& tests, std::size_t i, bool coincident) const {
+  const double period = tests.at(i).input_period_s;
+  if (period > 0.0) validate_test_period(period);
+  if (coincident && i > 0 && window_decimation(period).has_value() != window_decimation(tests[0].input_period_s).has_value()) {
+    throw InputError("input_period_s", "puts this test's windows through the Gaussian FIR where tests[0]'s are not, or "
+                                       "the reverse: the three-cornered hat needs the tests filtered alike (give them "
+                                       "one period, or no hat)");
+  }
+}
+
 LiveTestStream::LiveTestStream(const LiveTestInput& input, const LiveStreamSettings& settings)
     : name(input.name),
       temperature(input.temperature),
@@ -197,21 +212,12 @@ LiveCalibrationStreams::LiveCalibrationStreams(const LiveStreamSettings& setting
                                                bool coincident)
     : settings_(settings), reference_despiker_(settings.despike_settings) {
   settings_.validate(false);
-  for (const LiveTestInput& test : tests) {
-    if (test.input_period_s > 0.0) settings_.validate_test_period(test.input_period_s);
-    tests_.push_back(std::make_unique<LiveTestStream>(test, settings));
+  const bool hat = coincident && tests.size() >= 2;
+  for (std::size_t i = 0; i < tests.size(); ++i) {
+    settings_.validate_test(tests, i, hat);
+    tests_.push_back(std::make_unique<LiveTestStream>(tests[i], settings));
   }
-  if (coincident && tests_.size() >= 2) {
-    // The hat compares the tests' spectra above the band, where the filter's gain falls.
-    for (const auto& t : tests_) {
-      if (t->decimation.has_value() != tests_[0]->decimation.has_value()) {
-        throw InputError("input_period_s", "test '" + t->name + "' and test '" + tests_[0]->name +
-                                               "' come onto the epochs one through the Gaussian FIR, one paired by "
-                                               "stamp: the three-cornered hat needs the tests filtered alike");
-      }
-    }
-    coincident_ = std::make_unique<CoincidentWindows>(tests_.size());
-  }
+  if (hat) coincident_ = std::make_unique<CoincidentWindows>(tests_.size());
 }
 
 std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_reference(double time_s,
@@ -221,23 +227,15 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
   if (settings_.despike && !reference_despiker_.push(time_s, value_nT, s)) return out;
   if (remote_) {  // first: its samples of a window are in before the window completes
     LiveRemoteStream& r = *remote_;
-    if (r.alignment == EpochAlignment::kEachFiltered) {
-      through_filter(*r.reference_decimator, s.time_s, s.value_nT, r.decimator_restarts,
-                     [&r](double epoch, const Eigen::Vector3d& v) { r.pairer.push_reference(epoch, v); });
-    } else {
-      r.pairer.push_reference(s.time_s, s.value_nT);
-    }
+    to_pairer(r.alignment, r.reference_decimator.get(), s.time_s, s.value_nT, r.decimator_restarts,
+              [&r](double t, const Eigen::Vector3d& v) { r.pairer.push_reference(t, v); });
     drain_remote();
   }
   newest_pair_s_ = std::max(newest_pair_s_, s.time_s);
   for (std::size_t i = 0; i < tests_.size(); ++i) {
     LiveTestStream& t = *tests_[i];
-    if (t.alignment == EpochAlignment::kEachFiltered) {
-      through_filter(*t.reference_decimator, s.time_s, s.value_nT, t.decimator_restarts,
-                     [&t](double epoch, const Eigen::Vector3d& v) { t.pairer.push_reference(epoch, v); });
-    } else {
-      t.pairer.push_reference(s.time_s, s.value_nT);
-    }
+    to_pairer(t.alignment, t.reference_decimator.get(), s.time_s, s.value_nT, t.decimator_restarts,
+              [&t](double time, const Eigen::Vector3d& v) { t.pairer.push_reference(time, v); });
     drain(i, out);
   }
   release_waiting(out);
@@ -271,12 +269,8 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_remo
   StreamingDespiker::Sample s{time_s, value_nT};
   LiveRemoteStream& r = *remote_;
   if (settings_.despike && !r.despiker.push(time_s, value_nT, s)) return out;
-  if (r.alignment == EpochAlignment::kEachFiltered) {
-    through_filter(*r.remote_decimator, s.time_s, s.value_nT, r.decimator_restarts,
-                   [&r](double epoch, const Eigen::Vector3d& v) { r.pairer.push_test(epoch, v); });
-  } else {
-    r.pairer.push_test(s.time_s, s.value_nT);
-  }
+  to_pairer(r.alignment, r.remote_decimator.get(), s.time_s, s.value_nT, r.decimator_restarts,
+            [&r](double t, const Eigen::Vector3d& v) { r.pairer.push_test(t, v); });
   drain_remote();
   release_waiting(out);
   return out;
@@ -336,12 +330,8 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_test
   StreamingDespiker::Sample s{time_s, value_nT};
   if (settings_.despike && !t.despiker.push(time_s, value_nT, s)) return out;
   newest_pair_s_ = std::max(newest_pair_s_, s.time_s);
-  if (t.alignment == EpochAlignment::kEachFiltered) {
-    through_filter(*t.test_decimator, s.time_s, s.value_nT, t.decimator_restarts,
-                   [&t](double epoch, const Eigen::Vector3d& v) { t.pairer.push_test(epoch, v); });
-  } else {
-    t.pairer.push_test(s.time_s, s.value_nT);
-  }
+  to_pairer(t.alignment, t.test_decimator.get(), s.time_s, s.value_nT, t.decimator_restarts,
+            [&t](double time, const Eigen::Vector3d& v) { t.pairer.push_test(time, v); });
   drain(test, out);
   if (remote_) release_waiting(out);
   return out;
