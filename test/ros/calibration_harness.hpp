@@ -7,6 +7,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/scalar_record.hpp"
+#include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
@@ -21,6 +22,7 @@
 #include <sensor_msgs/MagneticField.h>
 #include <sensor_msgs/Temperature.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -28,6 +30,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -36,6 +39,9 @@ namespace mic = magnetometer_insitu_calibration;
 namespace calibration_rostest {
 
 inline constexpr double kTeslaPerNanotesla = 1e-9;
+/// Wall seconds any wait of these tests allows for its condition: a bound that turns a broken
+/// node into a failure, never reached by a working one on a slow or loaded machine.
+inline constexpr double kPatience_s = 90.0;
 
 struct DiagnosticRecord {
   double sim_time_s = 0.0;   ///< /clock when it arrived
@@ -173,8 +179,10 @@ class Harness {
     }, timeout_s);
   }
 
-  /// Publishes samples [first, last) of the simulation: /clock = start + k * period (never
-  /// jumps), stamps = that + stamp_offset_s; reference and/or test. ~rate samples per wall second.
+  /// Publishes samples [first, last) of the simulation: stamps = start + k * period +
+  /// stamp_offset_s; /clock = start + k * period, never back (after wait_received's ticks it
+  /// stays where they left it until the samples catch up); reference and/or test. ~rate samples
+  /// per wall second.
   void publish(std::size_t first, std::size_t last, bool reference, bool test, double stamp_offset_s = 0.0,
                double rate = -1.0) {
     if (rate < 0.0) {
@@ -183,11 +191,12 @@ class Harness {
     }
     const ros::WallTime started = ros::WallTime::now();
     for (std::size_t k = first; k < last; ++k) {
-      const double clock_s = pair_.reference.time_s[k];
+      const double sample_s = pair_.reference.time_s[k];
+      const double clock_s = std::max(sample_s, last_clock_s_.load());
       rosgraph_msgs::Clock clock;
       clock.clock = ros::Time().fromSec(clock_s);
       clock_pub_.publish(clock);
-      const ros::Time stamp = ros::Time().fromSec(clock_s + stamp_offset_s);
+      const ros::Time stamp = ros::Time().fromSec(sample_s + stamp_offset_s);
       for (; next_scalar_ < scalar_.size() && scalar_.time_s[next_scalar_] <= stamp.toSec() + settings_.sample_period_s; ++next_scalar_) {
         mic::ScalarField f;
         f.header.stamp = ros::Time().fromSec(scalar_.time_s[next_scalar_]);
@@ -254,6 +263,23 @@ class Harness {
       ros::WallDuration(0.02).sleep();
     }
     return wait(done, 0.0);
+  }
+
+  /// Waits until the node's diagnostics count, for each {status name part, key, count}, at least
+  /// that many messages (e.g. {"calibration_sim: reference", "messages", 2400}), advancing /clock
+  /// a second every 20 ms so that the diagnostics go out: every message published before has then
+  /// reached the node, and what follows meets no lag of one stream's connection behind the other's
+  /// (the pairer ages samples in stamp time: a stamp jump while the other stream's samples are
+  /// still in transit would leave them without partners).
+  bool wait_received(const std::vector<std::tuple<std::string, std::string, std::size_t>>& counts, double timeout_s = 60.0) {
+    return wait_ticking([&] {
+      for (const auto& [part, key, count] : counts) {
+        const DiagnosticRecord* d = latest_diagnostic(part);
+        const auto it = d == nullptr ? std::map<std::string, std::string>::const_iterator() : d->values.find(key);
+        if (d == nullptr || it == d->values.end() || std::stoull(it->second) < count) return false;
+      }
+      return true;
+    }, timeout_s);
   }
 
   /// Advances /clock by `tick_s` (more than the nodes' diagnostic period), then waits (wall time,
@@ -398,6 +424,15 @@ inline Eigen::Matrix3d matrix_of(const mic::MagnetometerCalibration& c) {
   Eigen::Matrix3d n;
   for (int k = 0; k < 9; ++k) n(k / 3, k % 3) = c.matrix[k];
   return n;
+}
+
+/// The bound, in 95 % half-widths of calibration c, that `parameters` of its estimates exceed
+/// together with probability below 1e-6 (Bonferroni: each its two-sided 1e-6 / parameters quantile
+/// of Student's t with the window's covariance_cells dof; a standard error is ci95 /
+/// interval_quantile). Live tests check the truth only at such bounds: a test that fails by
+/// chance is a defect; how well the estimates match the truth is the Monte Carlo programs' to say.
+inline double truth_bound(const mic::MagnetometerCalibration& c, int parameters) {
+  return mic::student_t_two_sided_quantile(1e-6 / parameters, c.covariance_cells) / c.interval_quantile;
 }
 
 inline Eigen::Matrix3d stderr_of(const mic::MagnetometerCalibration& c) {

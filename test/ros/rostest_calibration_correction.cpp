@@ -28,7 +28,7 @@ TEST(Calibration, CorrectionFileReload) {
 
   // 1. No file: nothing corrected.
   h.publish(0, 100, false, true, 0.0, 1000.0);
-  ASSERT_TRUE(h.wait([&] { return value_of(diagnostic(), "received") == 100; }, 10.0));
+  ASSERT_TRUE(h.wait([&] { return value_of(diagnostic(), "received") == 100; }, kPatience_s));
   {
     std::lock_guard<std::mutex> lock(h.mutex());
     EXPECT_TRUE(h.corrected(corrected).empty());
@@ -58,9 +58,9 @@ TEST(Calibration, CorrectionFileReload) {
   ASSERT_TRUE(h.wait([&] {
     const DiagnosticRecord* d = diagnostic();
     return d != nullptr && d->values.count("calibration source") && d->values.at("calibration source") == "file " + file;
-  }, 10.0)) << "the file was not adopted";
+  }, kPatience_s)) << "the file was not adopted";
   h.publish(100, 200, false, true, 0.0, 1000.0);
-  ASSERT_TRUE(h.wait([&] { return h.corrected(corrected).size() == 100; }, 10.0));
+  ASSERT_TRUE(h.wait([&] { return h.corrected(corrected).size() == 100; }, kPatience_s));
 
   // 3. A half-written file (not atomic): refused, the calibration in use is kept.
   const std::string text = mic::calibration_to_yaml(c, "test");
@@ -71,14 +71,14 @@ TEST(Calibration, CorrectionFileReload) {
   ASSERT_TRUE(h.wait([&] {
     const DiagnosticRecord* d = diagnostic();
     return d != nullptr && d->message.find("calibration file unusable") != std::string::npos;
-  }, 10.0)) << "no diagnostic for the half-written file";
+  }, kPatience_s)) << "no diagnostic for the half-written file";
   {
     std::lock_guard<std::mutex> lock(h.mutex());
     EXPECT_EQ(diagnostic()->level, 1) << diagnostic()->message;  // a warning: still correcting
     EXPECT_EQ(diagnostic()->values.at("calibration source"), "file " + file);
   }
   h.publish(200, 300, false, true, 0.0, 1000.0);
-  ASSERT_TRUE(h.wait([&] { return h.corrected(corrected).size() == 200; }, 10.0));
+  ASSERT_TRUE(h.wait([&] { return h.corrected(corrected).size() == 200; }, kPatience_s));
 
   // 4. A new valid file: adopted.
   mic::MagnetometerCalibration next = c;
@@ -90,9 +90,9 @@ TEST(Calibration, CorrectionFileReload) {
     const DiagnosticRecord* d = diagnostic();
     return d != nullptr && d->values.count("calibration window") &&
            d->values.at("calibration window").find("00:05:00") != std::string::npos && d->level == 0;
-  }, 10.0)) << "the new file was not adopted";
+  }, kPatience_s)) << "the new file was not adopted";
   h.publish(300, 400, false, true, 0.0, 1000.0);
-  ASSERT_TRUE(h.wait([&] { return h.corrected(corrected).size() == 300; }, 10.0));
+  ASSERT_TRUE(h.wait([&] { return h.corrected(corrected).size() == 300; }, kPatience_s));
 
   std::lock_guard<std::mutex> lock(h.mutex());
   const auto& out = h.corrected(corrected);

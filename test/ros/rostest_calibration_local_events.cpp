@@ -31,7 +31,7 @@ TEST(Calibration, LocalEvents) {
   ASSERT_GT(report.vehicles, 500u);
   ASSERT_TRUE(h.wait_for_connections(1, 2)) << "nodes did not connect";
   h.publish(0, kLocalEventSamples, true, true);
-  ASSERT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, 60.0)) << "timed out waiting for the calibrations";
+  ASSERT_TRUE(h.wait([&] { return h.calibrations().size() >= 2; }, kPatience_s)) << "timed out waiting for the calibrations";
   const std::string main_status = "calibration_sim: sim", tolerances_status = "calibration_sim: sim tolerances";
   ASSERT_TRUE(h.wait_fresh_diagnostics({main_status, tolerances_status}, 20.0)) << "no diagnostics after the windows";
   std::lock_guard<std::mutex> lock(h.mutex());

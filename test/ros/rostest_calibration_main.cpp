@@ -2,8 +2,8 @@
 // n_true, 1 Hz) published with a /clock much faster than real time into calibration_node and
 // correction_node (launched by the .test files of this folder). One TEST per .test file, picked
 // with --gtest_filter (sources: rostest_calibration_<topic>.cpp, harness: calibration_harness.hpp):
-//   Calibration.Nominal        nominal.test       accepted calibration within 4 se of n_true,
-//                                                 offset within its interval, YAML file, corrected
+//   Calibration.Nominal        nominal.test       accepted calibration near n_true (truth_bound),
+//                                                 offset near the truth, YAML file, corrected
 //                                                 stream equal to the clean field (absolute level),
 //                                                 bad calibration files
 //   Calibration.ChangeDetected test_calibration_change.test  scale ratio steps mid-run: change WARN

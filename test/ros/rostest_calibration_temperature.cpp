@@ -32,10 +32,16 @@ TEST(Calibration, TemperatureTerms) {
   ASSERT_FALSE(file.empty());
   std::remove(file.c_str());
   ASSERT_TRUE(h.wait_for_connections(1, 4)) << "nodes did not connect";
-  ASSERT_TRUE(h.wait([&] { return h.temperature_subscribers() >= 3; }, 30.0)) << "temperature not subscribed";
+  ASSERT_TRUE(h.wait([&] { return h.temperature_subscribers() >= 3; }, kPatience_s)) << "temperature not subscribed";
 
+  // The window's samples and a minute more (the despiker's delay), then, once the calibration
+  // is out, the rest: the two hours after the window are corrected with it however long the
+  // estimate took on this machine.
   const std::size_t n = h.pair().reference.size();
-  h.publish(0, n, true, true);
+  const std::size_t window_done = static_cast<std::size_t>(window_s) + 60;
+  h.publish(0, window_done, true, true);
+  ASSERT_TRUE(h.wait([&] { return !h.calibrations().empty(); }, kPatience_s)) << "no calibration of the window";
+  h.publish(window_done, n, true, true);
   const double last_stamp = h.pair().reference.time_s.back();
   ASSERT_TRUE(h.wait([&] {
     for (const std::string& topic : {with, without, with_full}) {
@@ -43,7 +49,7 @@ TEST(Calibration, TemperatureTerms) {
       if (c.empty() || c.back().stamp_s < last_stamp) return false;
     }
     return !h.calibrations().empty();
-  }, 60.0)) << "no calibration, or the corrected streams did not reach the last sample";
+  }, kPatience_s)) << "no calibration, or the corrected streams did not reach the last sample";
   ASSERT_TRUE(h.wait_fresh_diagnostics({"calibration_sim: sim", "correction_sim", "correction_plain", "correction_full"}, 30.0));
 
   std::lock_guard<std::mutex> lock(h.mutex());
@@ -67,7 +73,8 @@ TEST(Calibration, TemperatureTerms) {
                 l, c.temperature_apparent_nT_per_C[l], c.temperature_apparent_ci95_nT_per_C[l], truth,
                 c.temperature_scale_ppm_per_C[l], c.temperature_scale_ci95_ppm_per_C[l], hut.scale_ppm_per_C(l),
                 c.temperature_offset_nT_per_C[l], c.temperature_offset_ci95_nT_per_C[l], hut.offset_nT_per_C(l));
-    EXPECT_LT(std::abs(c.temperature_apparent_nT_per_C[l] - truth), c.temperature_apparent_ci95_nT_per_C[l])
+    // The three exceed this bound together with probability below 1e-6 (truth_bound).
+    EXPECT_LT(std::abs(c.temperature_apparent_nT_per_C[l] - truth), truth_bound(c, 3) * c.temperature_apparent_ci95_nT_per_C[l])
         << "component " << l;
   }
   // The YAML file carries the terms.
