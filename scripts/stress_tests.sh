@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Runs the ctest suite N times and prints, per test, in how many runs it failed: the check that
-# the suite does not flake. It does NOT build: build first (bash scripts/run_tests.sh
-# once, or scripts/build.sh tests all); it stops if build/ has no tests.
+# the suite does not flake. Without --fresh-clones it does NOT build: build first (bash
+# scripts/run_tests.sh once, or scripts/build.sh tests all); it stops if build/ has no tests.
 #
-#   bash scripts/stress_tests.sh N [--hog K] [--ptys] [--logs DIR] [-- CTEST_ARGS...]
+#   bash scripts/stress_tests.sh N [--fresh-clones] [--hog K] [--ptys] [--logs DIR] [-- CTEST_ARGS...]
 #
 #   N            number of runs of the test command's ctest (scripts/ctest_two_cores.sh)
+#   --fresh-clones  each run is the README's whole test command (scripts/run_tests.sh: install
+#                check, build, every test) on a new clone of this checkout's HEAD, as CI runs
+#                it; the clone is removed after its run (its log is kept)
 #   --hog K      beside K busy-loop processes (each keeps one core busy), started before the
 #                first run and stopped at the end (by their process ids)
 #   --ptys       beside a process that opens a pseudo-terminal every 0.1 s and keeps each 20 s
@@ -18,7 +21,8 @@
 # runs / runs" per test that failed at least once. Exit status 0 only when every test passed
 # in every run (and every run found tests).
 #
-# Example: bash scripts/stress_tests.sh 5 --hog 2    # five whole-suite runs beside two hogs
+# Examples: bash scripts/stress_tests.sh 5 --hog 2         # five built-suite runs beside two hogs
+#           bash scripts/stress_tests.sh 5 --fresh-clones  # the test command on five new clones
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
@@ -28,26 +32,30 @@ runs=$1
 shift
 hogs=0
 ptys=0
+fresh=0
 logs=""
 extra=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --hog) [[ $# -ge 2 && "$2" =~ ^[0-9]+$ ]] || usage; hogs=$2; shift 2 ;;
     --ptys) ptys=1; shift ;;
+    --fresh-clones) fresh=1; shift ;;
     --logs) [[ $# -ge 2 ]] || usage; logs=$2; shift 2 ;;
     --) shift; extra=("$@"); break ;;
     *) usage ;;
   esac
 done
 
-if [[ ! -f build/CTestTestfile.cmake || ! -f build/devel/setup.bash ]]; then
+if [[ $fresh -eq 0 ]] && [[ ! -f build/CTestTestfile.cmake || ! -f build/devel/setup.bash ]]; then
   echo "stress_tests.sh: no build/ with tests: build first (bash scripts/run_tests.sh)" >&2
   exit 2
 fi
-# setup.bash reads unset variables: source it before set -u matters (ros1-on-debian.md).
-set +u
-source build/devel/setup.bash
-set -u
+if [[ $fresh -eq 0 ]]; then
+  # setup.bash reads unset variables: source it before set -u matters (ros1-on-debian.md).
+  set +u
+  source build/devel/setup.bash
+  set -u
+fi
 logs=${logs:-$(mktemp -d /tmp/stress_tests.XXXXXX)}
 mkdir -p "$logs"
 
@@ -78,15 +86,24 @@ fi
 
 declare -A failed_runs=()
 any_failed=0
-echo "stress_tests.sh: $runs run(s) of ctest -j3 (two cores) ${extra[*]:-} beside $hogs busy loop(s)$( ((ptys)) && echo " and a pty churn"); logs in $logs"
+what="ctest -j3 (two cores) ${extra[*]:-}"
+((fresh)) && what="the test command on a fresh clone"
+echo "stress_tests.sh: $runs run(s) of $what beside $hogs busy loop(s)$( ((ptys)) && echo " and a pty churn"); logs in $logs"
 for ((i = 1; i <= runs; ++i)); do
   log="$logs/run_$i.log"
   # A fresh ROS_HOME per run: logs and pty links of one run never meet the next's.
   ROS_HOME=$(mktemp -d "$logs/ros_home_$i.XXXXXX")
   export ROS_HOME ROS_LOG_DIR="$ROS_HOME/log" ROS_HOSTNAME=localhost
   start=$(date +%s)
-  bash scripts/ctest_two_cores.sh "${extra[@]}" > "$log" 2>&1
-  status=$?
+  if ((fresh)); then
+    clone=$(mktemp -d /tmp/stress_clone.XXXXXX)
+    git clone -q "$PWD" "$clone/repo" && (cd "$clone/repo" && bash scripts/run_tests.sh) > "$log" 2>&1
+    status=$?
+    rm -rf "$clone"
+  else
+    bash scripts/ctest_two_cores.sh "${extra[@]}" > "$log" 2>&1
+    status=$?
+  fi
   seconds=$(( $(date +%s) - start ))
   # ctest prints "  1/53 Test #38: <name> ....***Failed  12.3 sec" (also ***Timeout, ***Exception).
   failed=$(sed -n 's/^ *[0-9]*\/[0-9]* Test *#[0-9]*: \([^ ]*\) .*\*\*\*.*/\1/p' "$log" | sort -u)
