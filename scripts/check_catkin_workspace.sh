@@ -48,7 +48,7 @@ for f in lib/magnetometer_insitu_calibration/calibrate_records lib/magnetometer_
          lib/magnetometer_insitu_calibration/lemi025_simulator lib/magnetometer_insitu_calibration/lemi025_driver \
          lib/magnetometer_insitu_calibration/calibration_node lib/magnetometer_insitu_calibration/correction_node \
          lib/magnetometer_insitu_calibration/records_to_bag lib/magnetometer_insitu_calibration/export_corrected \
-         lib/magnetometer_insitu_calibration/plot_calibration lib/libmagnetometer_insitu_calibration_core.so \
+         lib/magnetometer_insitu_calibration/plot_calibration lib/magnetometer_insitu_calibration/play_bag lib/libmagnetometer_insitu_calibration_core.so \
          lib/libmagnetometer_insitu_calibration_nodelets.so share/magnetometer_insitu_calibration/nodelets.xml \
          share/magnetometer_insitu_calibration/launch/include/lemi025_simulator.launch \
          share/magnetometer_insitu_calibration/config/calibration.yaml \

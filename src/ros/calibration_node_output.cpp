@@ -99,6 +99,13 @@ void CalibrationNode::drop_resumed_if_not_of_stream(Channel& ch, const sensor_ms
       m.test_name, m.test_frame_id, RecordTime{m.window_end.sec, m.window_end.nsec},
       {ch.settings.name, first.header.frame_id, RecordTime{first.header.stamp.sec, first.header.stamp.nsec}});
   if (reason.empty()) return;
+  // The file's message, latched since the start, is replaced at once by its retraction (before
+  // the diagnostics report the refusal): a subscriber connecting later must not get another
+  // stream's calibration as accepted.
+  MagnetometerCalibration retraction = m;
+  retraction.accepted = false;
+  retraction.quality_text = "calibration file refused at the stream's first sample, not of this stream: " + reason;
+  ch.publisher.publish(retraction);
   // No window can have been estimated before the stream's first sample: the baseline is the file's.
   std::lock_guard<std::mutex> lock(ch.results_mutex);
   ch.baseline.reset();
@@ -108,7 +115,8 @@ void CalibrationNode::drop_resumed_if_not_of_stream(Channel& ch, const sensor_ms
   ch.last_accepted_stamp.clear();
   ch.resume_state = "resumed file refused, not of this stream: " + reason;
   ch.resume_refused = true;
-  ROS_WARN("%s: test '%s': the calibration resumed from %s is refused at the stream's first sample: %s",
+  ROS_WARN("%s: test '%s': the calibration resumed from %s is refused at the stream's first sample and retracted "
+           "(published again with accepted false): %s",
            node_name_.c_str(), ch.settings.name.c_str(), ch.settings.calibration_file.c_str(), reason.c_str());
 }
 

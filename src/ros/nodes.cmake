@@ -70,3 +70,5 @@ install(TARGETS ${PROJECT_NAME}_nodelets ${PROJECT_NAME}_nodes ${PROJECT_NAME}_r
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
 install(FILES nodelets.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+# launch/replay.launch's player (rosbag play of the bag in its ~bag parameter).
+catkin_install_python(PROGRAMS scripts/play_bag DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})

@@ -7,6 +7,9 @@
 //                                                                 and (~publish_tf) its rotation
 //                                                                 on /tf_static; a third,
 //                                                                 on another frame, refuses it
+//   Calibration.ResumeRetractsAFileRefusedAtTheFirstSample  test_calibration_resume.test
+//                                  a file ending after the stream's first sample: published at
+//                                  start, retracted (accepted false) when refused
 //   Calibration.CorrectionRefusesACalibrationOfAnotherStream  correction_stream.test
 //                                  correction_node's file of a later window, another frame or
 //                                  test refused at the first sample; the day before adopted
@@ -141,6 +144,29 @@ struct Child {
     return clean;
   }
 };
+
+/// An accepted calibration file's content: test `test_name` on `frame_id`, n = `n`, a window of
+/// 30 min of 1-s samples ending at `window_end_s`, estimated a minute after it.
+mic::MagnetometerCalibration accepted_calibration(const std::string& test_name, const std::string& frame_id,
+                                                  double window_end_s, const Eigen::Matrix3d& n) {
+  mic::MagnetometerCalibration c;
+  c.header.stamp = ros::Time().fromSec(window_end_s + 60.0);
+  c.header.frame_id = c.reference_frame_id = "reference_frame";
+  c.test_frame_id = frame_id;
+  c.test_name = test_name;
+  c.window_end = ros::Time().fromSec(window_end_s);
+  c.window_start = ros::Time().fromSec(window_end_s - 1799.0);
+  c.sample_period = 1.0;
+  c.samples = 1800;
+  c.quality = mic::MagnetometerCalibration::QUALITY_OK;
+  c.quality_text = "ok";
+  c.accepted = true;
+  for (int m = 0; m < 9; ++m) c.matrix[m] = n(m / 3, m % 3);
+  for (int m = 0; m < 9; ++m) c.matrix_covariance[10 * m] = 1e-12;
+  c.covariance_cells = 200.0;
+  c.interval_quantile = mic::student_t_two_sided_quantile(0.05, 200.0);
+  return c;
+}
 
 }  // namespace
 
@@ -291,6 +317,59 @@ TEST(Calibration, ResumeRefusesAFileOfAnotherStream) {
   std::remove(file.c_str());
 }
 
+TEST(Calibration, ResumeRetractsAFileRefusedAtTheFirstSample) {
+  // A second replay of a bag: calibration_node starts with the first replay's file (this test
+  // and frame, its window ending 1000 s after the stream's first sample). The node publishes the
+  // file at start (a restarted station resumes at once); at the first test sample it refuses it
+  // and replaces the latched message: a subscriber connecting after the refusal must not get
+  // the file as accepted, but the same calibration with accepted false and the reason.
+  const std::string file = param("calibration_file") + ".replay.yaml";
+  Harness h(simulation(600.0, 37));
+  const double first_s = h.start_s();
+  const mic::MagnetometerCalibration earlier = accepted_calibration("resume", "test_frame", first_s + 1000.0, h.pair().n_true);
+  mic::write_file_atomically(file, mic::calibration_to_yaml(earlier, "test"));
+  const std::vector<std::string> arguments = {
+      "__name:=resume_calibration_node", "_reference_topic:=" + param("reference_topic"), "_test_topic:=" + param("test_topic"),
+      "_calibration_topic:=" + param("calibration_topic"), "_calibration_file:=" + file, "_test_name:=resume",
+      "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5"};
+  Child node{spawn(CALIBRATION_NODE_PATH, arguments)};
+  ASSERT_GT(node.pid, 0);
+  ASSERT_TRUE(h.wait_for_connections(1, 1, 60.0)) << "calibration_node did not connect";
+  const bool resumed = h.wait([&] { return !h.calibrations().empty(); }, 60.0);
+  h.publish_test_sample(0, first_s, "test_frame");
+  const bool refused = h.wait_ticking([&] {
+    const DiagnosticRecord* d = h.latest_diagnostic("resume_calibration_node: resume");
+    return d != nullptr && d->values.count("resume at start") &&
+           d->values.at("resume at start").rfind("resumed file refused", 0) == 0;
+  }, 60.0);
+  // After the refusal, a new subscriber: the latched message it gets is the latest published.
+  std::vector<mic::MagnetometerCalibration> late;  // under h.mutex()
+  ros::NodeHandle nh;
+  ros::Subscriber late_sub;
+  if (refused) {
+    late_sub = nh.subscribe<mic::MagnetometerCalibration>(
+        param("calibration_topic"), 10, [&](const mic::MagnetometerCalibration::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(h.mutex());
+          late.push_back(*m);
+        });
+  }
+  const bool latched = refused && h.wait([&] { return !late.empty(); }, 60.0);
+  late_sub.shutdown();
+  const bool stopped = node.stop();
+  std::remove(file.c_str());
+  std::lock_guard<std::mutex> lock(h.mutex());
+  ASSERT_TRUE(resumed) << "the file was not published at start";
+  EXPECT_TRUE(h.calibrations().front().accepted) << "the file published at start";
+  ASSERT_TRUE(refused) << "the file of an earlier replay was not refused";
+  ASSERT_TRUE(latched) << "a subscriber connecting after the refusal got no message";
+  const mic::MagnetometerCalibration& last = late.front();
+  EXPECT_FALSE(last.accepted) << "the refused file is still the latched calibration, accepted";
+  EXPECT_EQ(last.window_end, earlier.window_end) << "not the file's calibration";
+  EXPECT_NE(last.quality_text.find("window_end"), std::string::npos) << last.quality_text;
+  EXPECT_FALSE(h.calibrations().back().accepted) << "the last message of the topic is the accepted file";
+  EXPECT_TRUE(stopped);
+}
+
 TEST(Calibration, CorrectionRefusesACalibrationOfAnotherStream) {
   // correction_node started by the test once per case, with a calibration file it loads at
   // start; the first test sample decides whether the file belongs to the stream
@@ -319,22 +398,8 @@ TEST(Calibration, CorrectionRefusesACalibrationOfAnotherStream) {
     SCOPED_TRACE(std::string("case ") + std::to_string(i) + ": " + (*k.field ? k.field : "adopted"));
     const std::size_t first = i * samples;
     const double first_s = h.start_s() + static_cast<double>(first);
-    mic::MagnetometerCalibration c;
-    c.header.stamp = ros::Time().fromSec(first_s + k.end_after_first_s + 60.0);
-    c.header.frame_id = c.reference_frame_id = "reference_frame";
-    c.test_frame_id = k.frame_id;
-    c.test_name = k.test_name;
-    c.window_end = ros::Time().fromSec(first_s + k.end_after_first_s);
-    c.window_start = ros::Time().fromSec(first_s + k.end_after_first_s - 1799.0);
-    c.sample_period = 1.0;
-    c.quality = mic::MagnetometerCalibration::QUALITY_OK;
-    c.quality_text = "ok";
-    c.accepted = true;
-    for (int m = 0; m < 9; ++m) c.matrix[m] = n_true(m / 3, m % 3);
-    for (int m = 0; m < 9; ++m) c.matrix_covariance[10 * m] = 1e-12;
-    c.covariance_cells = 200.0;
-    c.interval_quantile = mic::student_t_two_sided_quantile(0.05, 200.0);
-    mic::write_file_atomically(file, mic::calibration_to_yaml(c, "test"));
+    mic::write_file_atomically(
+        file, mic::calibration_to_yaml(accepted_calibration(k.test_name, k.frame_id, first_s + k.end_after_first_s, n_true), "test"));
     const std::string name = "correction_stream_" + std::to_string(i);
     Child node{spawn(CORRECTION_NODE_PATH, {"__name:=" + name, "_test_topic:=" + param("test_topic"),
                                             "_calibration_topic:=" + param("calibration_topic"),

@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """The launch files as roslaunch reads them (no master): what a user's command line gives.
 
-- replay.launch bag:=pair.bag (a path relative to the user's shell) plays $PWD/pair.bag: rosbag
-  play runs in ROS_HOME, where a relative path does not resolve;
+- replay.launch bag:=pair.bag (a path relative to the folder roslaunch runs in) plays that
+  folder's pair.bag, whatever the environment variable PWD says (a script's subprocess started
+  in another folder inherits it): rosbag play runs in ROS_HOME, where a relative path does not
+  resolve;
 - replay.launch ends when calibration_node or rosbag play ends (required), so that a bag that
   does not open or an impossible parameter ends the launch with the node's message last, instead
   of idle nodes waiting for data;
@@ -28,7 +30,9 @@ import argparse
 import os
 import re
 import shlex
+import subprocess
 import sys
+import tempfile
 import unittest
 
 import roslaunch.config
@@ -47,16 +51,28 @@ class LaunchFiles(unittest.TestCase):
         self.assertEqual(len(nodes), 1, type_name)
         return nodes[0]
 
-    def test_relative_bag_is_made_absolute(self):
-        config = self.load("replay.launch", "bag:=pair.bag")
-        play = self.node(config, "play")
-        self.assertIn(os.path.join(os.environ.get("PWD", "."), "pair.bag"), play.args.split())
-        config = self.load("replay.launch", "bag:=/data/pair.bag")
-        self.assertIn("/data/pair.bag", self.node(config, "play").args.split())
+    def replay_bag(self, bag, cwd, pwd):
+        """The bag replay.launch plays (its player's ~bag) as roslaunch resolves it in a process
+        started in folder `cwd` with the environment variable PWD set to `pwd`."""
+        script = ("import sys, roslaunch.config\n"
+                  "c = roslaunch.config.load_config_default([(sys.argv[1], sys.argv[2:])], None, verbose=False)\n"
+                  "sys.stdout.write(c.params['/replay_test/bag'].value)\n")
+        path = os.path.abspath(os.path.join(self.launch_dir, "replay.launch"))
+        run = subprocess.run([sys.executable, "-c", script, path, "bag:=" + bag], cwd=cwd, env=dict(os.environ, PWD=pwd),
+                             stdout=subprocess.PIPE, universal_newlines=True, check=True)
+        return run.stdout.rstrip("\n")
+
+    def test_relative_bag_is_relative_to_the_working_directory(self):
+        with tempfile.TemporaryDirectory() as cwd, tempfile.TemporaryDirectory() as pwd:
+            real_cwd = os.path.realpath(cwd)
+            self.assertEqual(self.replay_bag("records/pair.bag", cwd, pwd), os.path.join(real_cwd, "records", "pair.bag"))
+            self.assertEqual(self.replay_bag("/data/pair.bag", cwd, pwd), "/data/pair.bag")
+        play = self.node(self.load("replay.launch", "bag:=pair.bag"), "play_bag")
+        self.assertNotIn("pair.bag", play.args)  # the player's only bag is ~bag
 
     def test_replay_ends_when_its_nodes_end(self):
         config = self.load("replay.launch", "bag:=pair.bag")
-        self.assertTrue(self.node(config, "play").required)
+        self.assertTrue(self.node(config, "play_bag").required)
         self.assertTrue(self.node(config, "calibration_node").required)
         config = self.load("replay.launch", "bag:=pair.bag", "required:=false")
         self.assertFalse(self.node(config, "calibration_node").required)
@@ -64,7 +80,7 @@ class LaunchFiles(unittest.TestCase):
     def test_remote_topic_reaches_the_calibration_node(self):
         config = self.load("replay.launch", "bag:=pair.bag", "remote_topic:=/remote/magnetic_field")
         self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/remote/magnetic_field")
-        self.assertIn("/remote/magnetic_field", self.node(config, "play").args.split())
+        self.assertIn("/remote/magnetic_field", self.node(config, "play_bag").args.split())
 
     def test_replay_plays_the_test_temperature(self):
         # records_to_bag writes the driver's topic names: a station's bag and an archive's replay
@@ -72,7 +88,7 @@ class LaunchFiles(unittest.TestCase):
         config = self.load("replay.launch", "bag:=pair.bag", "temperature_topic:=/test/temperature/sensor")
         self.assertEqual(config.params["/calibration_test/temperature_topic"].value, "/test/temperature/sensor")
         self.assertEqual(config.params["/correction_test/temperature_topic"].value, "/test/temperature/sensor")
-        self.assertIn("/test/temperature/sensor", self.node(config, "play").args.split())
+        self.assertIn("/test/temperature/sensor", self.node(config, "play_bag").args.split())
 
     def test_station_takes_a_remote_topic(self):
         # The README's station command with a remote: the argument reaches the node (it was

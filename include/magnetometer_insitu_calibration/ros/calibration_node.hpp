@@ -153,7 +153,8 @@ class CalibrationNode {
   std::string publish_calibration(Channel& channel, const MagnetometerCalibration& message);
   void resume_from_file(Channel& channel);
   /// At the test's first sample: a calibration resumed from the file that is not of this stream
-  /// (another test name or frame, or a window ending after the sample) stops being the change
+  /// (another test name or frame, or a window ending after the sample) is retracted (its latched
+  /// message published again with accepted false and the reason), stops being the change
   /// check's baseline, and the diagnostics say why.
   void drop_resumed_if_not_of_stream(Channel& channel, const sensor_msgs::MagneticField& first);
   // TF (calibration_node_tf.cpp): the rotation part of an accepted n on /tf_static.
