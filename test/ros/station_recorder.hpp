@@ -24,6 +24,7 @@ namespace mic = magnetometer_insitu_calibration;
 struct PairUnderTest {
   std::string label;  ///< for messages, e.g. "a/t1"
   std::string test_topic, temperature_topic;  ///< the test driver's raw field and thermometer ("" = none)
+  std::string reference_topic;                ///< the reference driver's raw field ("" = not recorded)
   std::string calibration_topic, corrected_topic;
   std::string reference_frame_id, test_frame_id;
   std::uint64_t seed = 1;
@@ -39,6 +40,9 @@ class StationRecorder {
     calibration_sub_ = nh.subscribe(pair.calibration_topic, 1000, &StationRecorder::on_calibration, this);
     test_sub_ = nh.subscribe(pair.test_topic, 100000, &StationRecorder::on_test, this);
     corrected_sub_ = nh.subscribe(pair.corrected_topic, 100000, &StationRecorder::on_corrected, this);
+    if (!pair.reference_topic.empty()) {
+      reference_sub_ = nh.subscribe(pair.reference_topic, 100000, &StationRecorder::on_reference, this);
+    }
     if (!pair.temperature_topic.empty()) {
       temperature_sub_ = nh.subscribe(pair.temperature_topic, 100000, &StationRecorder::on_temperature, this);
     }
@@ -52,6 +56,11 @@ class StationRecorder {
   std::map<std::uint64_t, Eigen::Vector3d> test() {
     std::lock_guard<std::mutex> lock(mutex_);
     return test_;
+  }
+  /// Raw reference samples by stamp (ns), nT, reference frame (empty unless reference_topic).
+  std::map<std::uint64_t, Eigen::Vector3d> reference() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return reference_;
   }
   /// Thermometer readings by stamp (ns), deg C.
   std::map<std::uint64_t, double> temperature() {
@@ -84,6 +93,10 @@ class StationRecorder {
     std::lock_guard<std::mutex> lock(mutex_);
     test_[m->header.stamp.toNSec()] = field_nT(*m);
   }
+  void on_reference(const sensor_msgs::MagneticField::ConstPtr& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    reference_[m->header.stamp.toNSec()] = field_nT(*m);
+  }
   void on_temperature(const sensor_msgs::Temperature::ConstPtr& m) {
     std::lock_guard<std::mutex> lock(mutex_);
     temperature_[m->header.stamp.toNSec()] = m->temperature;
@@ -98,10 +111,10 @@ class StationRecorder {
 
   std::mutex mutex_;
   std::vector<mic::MagnetometerCalibration> calibrations_;
-  std::map<std::uint64_t, Eigen::Vector3d> test_, corrected_;
+  std::map<std::uint64_t, Eigen::Vector3d> reference_, test_, corrected_;
   std::map<std::uint64_t, double> temperature_;
   std::vector<std::string> corrected_frame_ids_;  ///< each change of frame_id once
-  ros::Subscriber calibration_sub_, test_sub_, corrected_sub_, temperature_sub_;
+  ros::Subscriber calibration_sub_, reference_sub_, test_sub_, corrected_sub_, temperature_sub_;
 };
 
 }  // namespace station_rostest

@@ -50,9 +50,10 @@ add_rostest(test/ros/test_calibration_resume.test DEPENDENCIES rostest_calibrati
 # (_recordings.cpp) and with impossible parameters (_parameters.cpp), and the simulated station.
 add_rostest_gtest(test_lemi025_driver test/ros/test_lemi025_driver.test test/ros/test_lemi025_driver.cpp
   test/ros/test_lemi025_driver_recordings.cpp test/ros/test_lemi025_driver_parameters.cpp
-  test/ros/lemi025_test_packets.cpp test/ros/driver_process.cpp test/ros/test_simulated_station.cpp
+  test/ros/lemi025_test_packets.cpp test/ros/driver_process.cpp test/ros/test_simulated_station.cpp test/ros/station_offline_window.cpp
   test/ros/pty_link.cpp test/ros/driver_test_support.cpp)
-target_link_libraries(test_lemi025_driver ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+# _nodes: calibration_node's settings loader (station_offline_window.cpp reads the node's parameters).
+target_link_libraries(test_lemi025_driver ${PROJECT_NAME}_nodes ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 add_dependencies(test_lemi025_driver lemi025_driver lemi025_simulator scalar_simulator calibration_node correction_node)
 add_rostest(test/ros/test_simulated_station.test DEPENDENCIES test_lemi025_driver)
 # The same station with the test in a field hut: temperature from the packets to both nodes.
