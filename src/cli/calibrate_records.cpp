@@ -13,6 +13,8 @@
 
 #include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error
+
 #include <CLI/CLI.hpp>
 
 #include <unistd.h>
@@ -270,7 +272,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<mic::BagInputOptions> bag;
   add_input_options(app, o, settings, bag);
   add_estimator_options(app, o, settings.window);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   bool any_ok = false;
   try {

@@ -25,6 +25,8 @@
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/cli)
+
 #include <CLI/CLI.hpp>
 
 #include <array>
@@ -236,7 +238,7 @@ int main(int argc, char** argv) {
   app.add_option("--max-condition", max_condition, "refuse a matrix n with a larger condition number")
       ->capture_default_str();
   app.add_flag("--allow-flagged", allow_flagged, "apply a window whose quality is not ok");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   try {
     if (test_paths.empty() && bag_path.empty()) throw mic::InputError("--test", "is required (or --bag with --test-topic)");

@@ -20,6 +20,8 @@
 #include "bag_records.hpp"  // src/tools
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/cli)
+
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -221,7 +223,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "no progress display");
   app.add_option("--progress-delay", progress_delay_s, "seconds into a step before its progress is shown")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   try {
     const Clock::time_point start = Clock::now();

@@ -36,6 +36,7 @@ target_link_libraries(benchmark_bag_read ${PROJECT_NAME}_bag)
 add_dependencies(benchmarks benchmark_bag_read)
 
 foreach(program records_to_bag export_corrected benchmark_bag_read)
+  target_include_directories(${program} PRIVATE src/cli)  # command_line.hpp, shared with src/cli's programs
   mic_use_precompiled_headers(${program} EXE_ROS)
   target_compile_options(${program} PRIVATE -Wall -Wextra)
 endforeach()
