@@ -258,7 +258,7 @@ void apply_options(const Options& o, mic::CalibrationSettings& settings) {
 mic::VectorRecord read_side(const std::vector<std::string>& paths) {
   std::vector<std::string> warnings;
   mic::VectorRecord out = mic::read_records(paths, &warnings);
-  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  mic::print_warnings("calibrate_records", warnings);
   return out;
 }
 

@@ -1,9 +1,13 @@
-// The command line of every program (CLI11) and the exit status docs/programs.md gives for it.
+// The command line of every program (CLI11), the exit status docs/programs.md gives for it and
+// the programs' warnings on stderr.
 #pragma once
 
 #include <CLI/CLI.hpp>
 
+#include <iostream>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace magnetometer_insitu_calibration {
 
@@ -17,6 +21,12 @@ inline std::optional<int> parse_command_line(CLI::App& app, int argc, char** arg
   } catch (const CLI::ParseError& error) {
     return app.exit(error) == 0 ? 0 : 1;
   }
+}
+
+/// The readers' warnings (a last line dropped, LEMI records skipped, overlaps between files), each
+/// on stderr as "<program>: warning: <warning>", alike in every program.
+inline void print_warnings(const std::string& program, const std::vector<std::string>& warnings) {
+  for (const std::string& warning : warnings) std::cerr << program << ": warning: " << warning << "\n";
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -262,7 +262,7 @@ int main(int argc, char** argv) {
       // line and column, before any output is written (one rule for bad input in every program).
       std::vector<std::string> warnings;
       record = mic::read_records(test_paths, &warnings);
-      for (const std::string& w : warnings) std::cerr << "export_corrected: warning: " << w << "\n";
+      mic::print_warnings("export_corrected", warnings);
     }
     if (bag_path.empty()) check_components(applied, record, test_name, calibration_path);  // a bag names none
     else check_frame(applied, record, calibration_path);  // a file names no frame

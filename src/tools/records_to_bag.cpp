@@ -168,7 +168,7 @@ mic::ArchiveRecord read_one(const std::string& role, const std::string& path, co
   progress.finish();
   if (!skip_damaged) refuse_damaged_text(path, r);
   for (std::size_t i = 0; i < r.problems.size() && i < max_problems; ++i) {
-    std::cerr << "records_to_bag: " << r.problems[i] << "\n";
+    std::cerr << "records_to_bag: warning: " << r.problems[i] << "\n";
   }
   if (r.problems.size() > max_problems) {
     std::cerr << "records_to_bag: ... and " << (r.problems.size() - max_problems) << " more problems in " << path
@@ -247,7 +247,7 @@ int main(int argc, char** argv) {
       for (const mic::ArchiveRecord& part : parts) printed += part.problems.size();
       mic::ArchiveRecord joined = mic::join_archive_records(std::move(parts));
       for (std::size_t i = printed; i < joined.problems.size(); ++i) {
-        std::cerr << "records_to_bag: " << joined.problems[i] << "\n";
+        std::cerr << "records_to_bag: warning: " << joined.problems[i] << "\n";
       }
       std::cout << role << ": " << paths.size() << " files joined: " << joined.record.size() << " samples, "
                 << time_range(joined.record) << "\n";
