@@ -13,6 +13,8 @@
 
 #include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error
+
 #include <CLI/CLI.hpp>
 
 #include <unistd.h>
@@ -95,6 +97,7 @@ struct Options {
   bool no_trend = false, no_despike = false;
   double reference_noise_pT = 0.0;
   CLI::Option* model_option = nullptr;
+  CLI::Option* intervals_option = nullptr;
 };
 
 /// Inputs, windows and pre-processing options.
@@ -122,7 +125,8 @@ void add_input_options(CLI::App& app, Options& o, mic::CalibrationSettings& sett
                  "YAML with the tolerances of the summary's verdicts (scale_percent, nonorthogonality_deg, "
                  "misalignment_deg; docs/programs.md); default INTERMAGNET's 1-second standard");
   auto* intervals = app.add_option("--intervals", settings.windows.intervals,
-                                   "K equal intervals, then the whole record (the paper's layout)");
+                                   "K >= 1 equal intervals, then the whole record (the paper's layout)");
+  o.intervals_option = intervals;
   auto* window = app.add_option("--window", settings.windows.window_s, "sliding window length, s");
   auto* step = app.add_option("--step", settings.windows.step_s, "sliding window step, s");
   intervals->excludes(window)->excludes(step);
@@ -222,6 +226,11 @@ void apply_options(const Options& o, mic::CalibrationSettings& settings) {
   mic::WindowCalibrationSettings& window_settings = settings.window;
   mic::EstimatorSettings& estimator = window_settings.estimator;
   parse_band(o.band, estimator);
+  if (o.intervals_option->count() > 0 && settings.windows.intervals < 1) {
+    throw mic::InputError("--intervals", "must be >= 1, got " + std::to_string(settings.windows.intervals) +
+                                             " (for the whole record as one window, leave out --intervals, --window "
+                                             "and --step)");
+  }
   estimator.trend = !o.no_trend;
   settings.preprocess.despike = !o.no_despike;
   estimator.method = mic::parse_estimator_method(o.method, "--method");
@@ -256,7 +265,7 @@ void apply_options(const Options& o, mic::CalibrationSettings& settings) {
 mic::VectorRecord read_side(const std::vector<std::string>& paths) {
   std::vector<std::string> warnings;
   mic::VectorRecord out = mic::read_records(paths, &warnings);
-  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  mic::print_warnings("calibrate_records", warnings);
   return out;
 }
 
@@ -270,7 +279,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<mic::BagInputOptions> bag;
   add_input_options(app, o, settings, bag);
   add_estimator_options(app, o, settings.window);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   bool any_ok = false;
   try {

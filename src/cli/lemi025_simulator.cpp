@@ -21,6 +21,8 @@
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error
+
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -258,7 +260,7 @@ int main(int argc, char** argv) {
   CLI::App app{"LEMI-025 simulator on a pseudo-terminal: packets of a simulated 10 Hz record."};
   Options o;
   add_options(app, o);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   try {
     const mic::ChecksumMode checksum = check_options(o);

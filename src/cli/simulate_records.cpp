@@ -12,6 +12,8 @@
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error
+
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -452,7 +454,7 @@ int main(int argc, char** argv) {
   add_disturbance_options(app, o);
   add_hut_and_format_options(app, o);
   add_remote_options(app, o);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   try {
     read_texts(o);

@@ -372,7 +372,7 @@ ArchiveRecord read_archive_record(const std::string& path, const ArchiveReadOpti
     try {
       ArchiveRecord out;
       out.format = format;
-      out.record = read_record(path);
+      out.record = read_record(path, options.lemi, &out.problems);  // a dropped last line's warning
       return out;
     } catch (const InputError& error) {
       // Only a damaged data line is worth a second, tolerant pass; anything else (missing file,

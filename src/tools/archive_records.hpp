@@ -45,7 +45,8 @@ struct ArchiveRecord {
   RecordFormat format = RecordFormat::kCsv;
   RecordTemperatures temperatures;
   /// One message per damaged record, skipped run of bytes or out-of-order sample, each naming
-  /// its position: "<path>:<line>: ..." (text) or "<path> byte <offset>: ..." (LEMI).
+  /// its position: "<path>:<line>: ..." (text) or "<path> byte <offset>: ..." (LEMI); a text
+  /// file's last line dropped, cut short (read_record's warning), is one too, not counted skipped.
   std::vector<std::string> problems;
   /// Records skipped: damaged lines and out-of-order samples (text); damaged records, skipped
   /// byte runs and dropped readings (LEMI: one per reader warning).

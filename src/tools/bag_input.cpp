@@ -5,6 +5,7 @@
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "bag_records.hpp"  // src/tools
+#include "command_line.hpp"  // print_warnings (src/cli)
 
 #include <cmath>
 #include <iostream>
@@ -72,7 +73,7 @@ bool BagInputOptions::remote(VectorRecord& out) const {
   std::vector<std::string> warnings;
   out = std::move(read_bag_records(bag_, {remote_topic_}, &warnings).front());
   out.station = bag_topic_name(remote_topic_);  // names it in the windows' texts
-  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  print_warnings("calibrate_records", warnings);
   return true;
 }
 
@@ -90,12 +91,12 @@ std::pair<VectorRecord, VectorRecord> BagInputOptions::records(const std::string
     std::vector<std::string> warnings;  // LEMI formats: damaged records skipped, with their offsets
     std::pair<VectorRecord, VectorRecord> out{read_record(reference_path, LemiReadOptions(), &warnings),
                                               read_record(test_path, LemiReadOptions(), &warnings)};
-    for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+    print_warnings("calibrate_records", warnings);
     return out;
   }
   std::vector<std::string> warnings;
   std::vector<VectorRecord> records = read_bag_records(bag_, {reference_topic_, test_topic_}, &warnings);
-  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  print_warnings("calibrate_records", warnings);
   attach_bag_temperature(bag_, test_topic_, records[1]);
   return {std::move(records[0]), std::move(records[1])};
 }
@@ -111,7 +112,7 @@ std::pair<VectorRecord, VectorRecord> BagInputOptions::records(const std::vector
   }
   std::vector<std::string> warnings;
   std::pair<VectorRecord, VectorRecord> out{read_records(reference_paths, &warnings), read_records(test_paths, &warnings)};
-  for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+  print_warnings("calibrate_records", warnings);
   return out;
 }
 

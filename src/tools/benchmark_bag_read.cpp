@@ -17,6 +17,8 @@
 #include "bag_records.hpp"  // src/tools
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/cli)
+
 #include <CLI/CLI.hpp>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -80,7 +82,7 @@ int main(int argc, char** argv) {
   app.add_option("--keep", keep, "write the simulated bag here and keep it");
   app.add_option("--repeat", repeat, "timed passes of each kind")->capture_default_str();
   app.add_option("--compression", compression, "none, bz2 or lz4 (simulated bag)")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   std::filesystem::path temp_dir;
   if (bag_path.empty()) {

@@ -25,6 +25,8 @@
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/cli)
+
 #include <CLI/CLI.hpp>
 
 #include <array>
@@ -236,7 +238,7 @@ int main(int argc, char** argv) {
   app.add_option("--max-condition", max_condition, "refuse a matrix n with a larger condition number")
       ->capture_default_str();
   app.add_flag("--allow-flagged", allow_flagged, "apply a window whose quality is not ok");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   try {
     if (test_paths.empty() && bag_path.empty()) throw mic::InputError("--test", "is required (or --bag with --test-topic)");
@@ -260,7 +262,7 @@ int main(int argc, char** argv) {
       // line and column, before any output is written (one rule for bad input in every program).
       std::vector<std::string> warnings;
       record = mic::read_records(test_paths, &warnings);
-      for (const std::string& w : warnings) std::cerr << "export_corrected: warning: " << w << "\n";
+      mic::print_warnings("export_corrected", warnings);
     }
     if (bag_path.empty()) check_components(applied, record, test_name, calibration_path);  // a bag names none
     else check_frame(applied, record, calibration_path);  // a file names no frame

@@ -20,6 +20,8 @@
 #include "bag_records.hpp"  // src/tools
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/cli)
+
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -166,7 +168,7 @@ mic::ArchiveRecord read_one(const std::string& role, const std::string& path, co
   progress.finish();
   if (!skip_damaged) refuse_damaged_text(path, r);
   for (std::size_t i = 0; i < r.problems.size() && i < max_problems; ++i) {
-    std::cerr << "records_to_bag: " << r.problems[i] << "\n";
+    std::cerr << "records_to_bag: warning: " << r.problems[i] << "\n";
   }
   if (r.problems.size() > max_problems) {
     std::cerr << "records_to_bag: ... and " << (r.problems.size() - max_problems) << " more problems in " << path
@@ -221,7 +223,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "no progress display");
   app.add_option("--progress-delay", progress_delay_s, "seconds into a step before its progress is shown")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = mic::parse_command_line(app, argc, argv)) return *status;
 
   try {
     const Clock::time_point start = Clock::now();
@@ -245,7 +247,7 @@ int main(int argc, char** argv) {
       for (const mic::ArchiveRecord& part : parts) printed += part.problems.size();
       mic::ArchiveRecord joined = mic::join_archive_records(std::move(parts));
       for (std::size_t i = printed; i < joined.problems.size(); ++i) {
-        std::cerr << "records_to_bag: " << joined.problems[i] << "\n";
+        std::cerr << "records_to_bag: warning: " << joined.problems[i] << "\n";
       }
       std::cout << role << ": " << paths.size() << " files joined: " << joined.record.size() << " samples, "
                 << time_range(joined.record) << "\n";

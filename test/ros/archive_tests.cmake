@@ -1,7 +1,7 @@
 # Tests of the archived-record tools (included by test/ros/tests.cmake):
 #  - test_core_programs (test/core/programs/: test_archive_records, test_export_corrected,
 #    test_export_corrected_cdf among them; ROS-free, created by the core's loop in CMakeLists.txt):
-#    linked here to the archive library, given the programs;
+#    linked here to the archive library, given the programs (export_corrected, records_to_bag);
 #  - test_bag_records: gtest without a master (bags, records_to_bag, calibrate_records --bag,
 #    export_corrected from a bag and a calibration_node YAML);
 #  - rostest replay_agreement: launch/replay.launch vs calibrate_records --bag, same windows;
@@ -17,8 +17,9 @@ set(_mic_programs
 foreach(_mic_test test_core_programs)
   if(TARGET ${_mic_test})
     target_link_libraries(${_mic_test} ${PROJECT_NAME}_archive)
-    target_compile_definitions(${_mic_test} PRIVATE EXPORT_CORRECTED_BIN="$<TARGET_FILE:export_corrected>")
-    add_dependencies(${_mic_test} export_corrected calibrate_records)
+    target_compile_definitions(${_mic_test} PRIVATE EXPORT_CORRECTED_BIN="$<TARGET_FILE:export_corrected>"
+      RECORDS_TO_BAG_BIN="$<TARGET_FILE:records_to_bag>")
+    add_dependencies(${_mic_test} export_corrected records_to_bag calibrate_records)
   endif()
 endforeach()
 

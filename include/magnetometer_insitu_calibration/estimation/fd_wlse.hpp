@@ -79,6 +79,12 @@ struct EstimatorSettings {
   /// How many DFT harmonics j / window_s (window_s in s) fall inside [band_low_hz, band_high_hz]:
   /// a window with fewer than min_harmonics is always flagged TooFewHarmonics.
   double band_harmonics(double window_s) const;
+  /// Why windows of `window_s` s are too short for the band: "holds only H DFT harmonics in the
+  /// band L-U Hz, fewer than the M a window needs (every window would be flagged); windows of W s
+  /// or longer hold them". Empty when band_harmonics(window_s) >= min_harmonics.
+  std::string too_few_harmonics(double window_s) const;
+  /// A window length, s, that holds at least min_harmonics harmonics in the band (the W above).
+  double harmonics_window_s() const;
 
   /// Why the band cannot be estimated on records of estimation period `period_s` (s): its top
   /// above their Nyquist frequency 0.5 / period_s (minute data: 0.0083 Hz, under the paper's

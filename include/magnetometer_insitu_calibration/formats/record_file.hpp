@@ -41,9 +41,10 @@ RecordFormat detect_record_format(const std::string& path);
 /// read_cdf_record.
 VectorRecord read_record(const std::string& path);
 
-/// The same with LEMI read options; the LEMI readers' warnings (damaged records skipped, each
-/// with its byte offset) go to *warnings when given. Text formats have no warnings: a bad line
-/// throws InputError(path:line, ...).
+/// The same with LEMI read options; the readers' warnings go to *warnings when given: the LEMI
+/// readers' damaged records skipped, each with its byte offset; the text readers' last line
+/// dropped, cut short in a file still being written (text_lines.hpp, "<file>:<line>: last line
+/// dropped ..."). Any other bad text line throws InputError(path:line, ...).
 VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_options,
                          std::vector<std::string>* warnings);
 

@@ -39,13 +39,27 @@ class TextLineReader {
 
 class InputError;
 
-/// The header key under which a text reader notes a last line it dropped.
+/// The header key under which a text reader notes a last line it dropped: its value is the
+/// warning, "<file>:<line>: last line dropped (the lines before it are kept): it ends the file
+/// without a line end (a file still being written?) and <why>". read_record passes it on.
 inline constexpr const char* kPartialLastLineKey = "partial_last_line";
 
-/// Called by a text reader whose line failed to parse with `error`: when that line is the file's
-/// last, has no line end and the record already has data (`have_data`), it is a record still
-/// being written, cut within a line. The line is then dropped, noted in `header` under
-/// kPartialLastLineKey, and true returned; otherwise false (the caller rethrows: a damaged line
+// The one rule of the text readers (IAGA-2002, CSV) for a file's last line without a line end, a
+// record still being written and cut within a line: such a line is dropped with the warning above
+// when it does not parse, or when it parses but is cut short (drop_cut_last_line); the good lines
+// before it are kept. Any other line that does not parse refuses the file.
+
+/// Called by a text reader before it parses the data line `line`, with the data line it parsed
+/// before (empty for none): when `line` is the file's last, has no line end, is shorter than the
+/// line before and its last field has fewer decimals than that line's (a number cut within its
+/// digits, which would parse to a wrong value), it is noted in `header` and true returned (the
+/// caller skips it); otherwise false.
+bool drop_cut_last_line(const TextLineReader& reader, const std::string& line, const std::string& previous_line,
+                        std::map<std::string, std::string>& header);
+
+/// Called by a text reader whose data line failed to parse with `error`: when that line is the
+/// file's last, has no line end and the record already has data (`have_data`), it is dropped,
+/// noted in `header`, and true returned; otherwise false (the caller rethrows: a damaged line
 /// refuses the file).
 bool drop_partial_last_line(const TextLineReader& reader, const InputError& error, bool have_data,
                             std::map<std::string, std::string>& header);

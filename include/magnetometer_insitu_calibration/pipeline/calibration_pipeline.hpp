@@ -131,6 +131,8 @@ WindowRecords window_records(const PreparedPair& prepared, std::size_t first, st
                              double temperature_margin_s, const PreparedSides* sides = nullptr);
 
 /// Calibrates every window of a prepared pair with one WindowCalibrator, with the side records.
+/// Throws InputError("intervals", ...) before any window when K intervals of the record are too
+/// short for the band (EstimatorSettings::too_few_harmonics, the rule of sliding windows).
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings,
                                                   const PreparedSides* sides = nullptr);
 

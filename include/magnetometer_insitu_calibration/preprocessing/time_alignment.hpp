@@ -32,8 +32,9 @@ struct PairedRecord {
 ///
 /// Throws InputError(record.source, ...) naming the sample index when a record's stamps go
 /// backwards or are not finite; InputError("tolerance_s", ...) for a negative or non-finite
-/// tolerance; InputError("--reference/--test", "records do not overlap in time") when nothing
-/// pairs.
+/// tolerance; InputError("--reference/--test", ...) when nothing pairs: "records do not overlap
+/// in time: reference <source> spans <first> to <last>, test <source> spans ..." (ISO 8601 UTC),
+/// or, spans overlapping, "no reference and test stamps within the pairing tolerance ..."
 PairedRecord align_by_time(const VectorRecord& reference, const VectorRecord& test,
                            double tolerance_s = 0.010);
 

@@ -40,6 +40,21 @@ void RobustSettings::validate() const {
   if (!positive(delay_max_hz)) throw InputError("delay_max_hz", "must be a positive frequency in Hz");
 }
 
+double EstimatorSettings::harmonics_window_s() const {
+  // floor(U w) - ceil(L w) + 1 >= (U - L) w - 1: M harmonics for every w >= (M + 1) / (U - L).
+  return std::ceil((static_cast<double>(min_harmonics) + 1.0) / (band_high_hz - band_low_hz));
+}
+
+std::string EstimatorSettings::too_few_harmonics(double window_s) const {
+  const double harmonics = band_harmonics(window_s);
+  if (harmonics >= static_cast<double>(min_harmonics)) return {};
+  std::ostringstream text;
+  text << "holds only " << harmonics << " DFT harmonics in the band " << band_low_hz << "-" << band_high_hz
+       << " Hz, fewer than the " << min_harmonics << " a window needs (every window would be flagged); windows of "
+       << harmonics_window_s() << " s or longer hold them";
+  return text.str();
+}
+
 std::string EstimatorSettings::band_above_nyquist(double period_s) const {
   const double nyquist_hz = 0.5 / period_s;
   if (!(band_high_hz > nyquist_hz)) return {};

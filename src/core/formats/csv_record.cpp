@@ -112,6 +112,7 @@ VectorRecord read_csv_record(const std::string& path) {
   std::vector<std::array<double, 3>> rows;
   std::vector<std::vector<double>> auxiliary;  // one per column after the fourth
   std::size_t previous_line = 0;
+  std::string previous_data_line;  // the last line that gave a sample
 
   auto column = [&](std::size_t i) {
     return "column " + std::to_string(i + 1) + " (" + names[i] + ")";
@@ -128,6 +129,7 @@ VectorRecord read_csv_record(const std::string& path) {
       have_comments = true;
       continue;
     }
+    if (drop_cut_last_line(reader, line, previous_data_line, record.header)) continue;
     try {
       const bool first_content = delimiter == 0;
       if (first_content) delimiter = choose_delimiter(line);
@@ -194,6 +196,7 @@ VectorRecord read_csv_record(const std::string& path) {
       times.push_back(time_s);
       rows.push_back(row);
       previous_line = n;
+      previous_data_line = line;
     } catch (const InputError& error) {
       if (!drop_partial_last_line(reader, error, !times.empty(), record.header)) throw;
       for (auto& channel : auxiliary) channel.resize(times.size());  // nothing of the refused line kept

@@ -205,14 +205,17 @@ VectorRecord read_iaga2002(const std::string& path) {
   std::vector<std::array<double, 3>> rows;
   std::vector<double> fourth;  // the F (or G) column
   std::size_t previous_line = 0;
+  std::string previous_data_line;  // the last line that gave a sample
 
   std::string line;
   while (reader.next(line)) {
     const std::size_t n = reader.line_number();
     if (line.find_first_not_of(" \t") == std::string::npos) continue;  // blank line
     if (have_columns) {
+      if (drop_cut_last_line(reader, line, previous_data_line, record.header)) continue;
       try {
         parse_data_line(path, n, line, layout, times, rows, fourth, previous_line);
+        previous_data_line = line;
       } catch (const InputError& error) {
         if (!drop_partial_last_line(reader, error, !times.empty(), record.header)) throw;
         if (fourth.size() > times.size()) fourth.resize(times.size());  // nothing of the refused line kept

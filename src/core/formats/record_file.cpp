@@ -110,11 +110,22 @@ RecordFormat detect_record_format(const std::string& path) {
 
 VectorRecord read_record(const std::string& path) { return read_record(path, LemiReadOptions(), nullptr); }
 
+namespace {
+
+/// A text record with its dropped last line's warning (text_lines.hpp) passed to *warnings.
+VectorRecord with_last_line_warning(VectorRecord record, std::vector<std::string>* warnings) {
+  const auto dropped = record.header.find(kPartialLastLineKey);
+  if (dropped != record.header.end() && warnings != nullptr) warnings->push_back(dropped->second);
+  return record;
+}
+
+}  // namespace
+
 VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_options,
                          std::vector<std::string>* warnings) {
   switch (detect_record_format(path)) {
     case RecordFormat::kIaga2002:
-      return read_iaga2002(path);
+      return with_last_line_warning(read_iaga2002(path), warnings);
     case RecordFormat::kCsv:
       break;
     case RecordFormat::kLemiBin:
@@ -126,7 +137,7 @@ VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_op
     case RecordFormat::kCdf:
       return read_cdf_record(path);
   }
-  return read_csv_record(path);
+  return with_last_line_warning(read_csv_record(path), warnings);
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -5,7 +5,6 @@
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
-#include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -96,8 +95,6 @@ VectorRecord read_records(const std::vector<std::string>& paths, std::vector<std
   std::vector<VectorRecord> parts;
   for (const std::string& path : paths) {
     parts.push_back(read_record(path, LemiReadOptions(), warnings));
-    const auto partial = parts.back().header.find(kPartialLastLineKey);
-    if (partial != parts.back().header.end() && warnings) warnings->push_back(path + ": " + partial->second);
   }
   return join_records(std::move(parts), warnings);
 }

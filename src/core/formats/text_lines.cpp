@@ -106,11 +106,47 @@ bool TextLineReader::next(std::string& line) {
   return true;
 }
 
+namespace {
+
+/// The warning of a dropped last line, under kPartialLastLineKey.
+void note_dropped_last_line(const TextLineReader& reader, const std::string& why,
+                            std::map<std::string, std::string>& header) {
+  header[kPartialLastLineKey] =
+      InputError(reader.path(), reader.line_number(),
+                 "last line dropped (the lines before it are kept): it ends the file without a line end (a file "
+                 "still being written?) and " + why)
+          .what();
+}
+
+/// Digits after the '.' of the last field of `line` (fields end at blanks, commas, semicolons).
+std::size_t last_field_decimals(const std::string& line) {
+  const std::string text = trim_blanks(line);
+  const std::size_t separator = text.find_last_of(" \t,;");
+  const std::string field = separator == std::string::npos ? text : text.substr(separator + 1);
+  const std::size_t dot = field.rfind('.');
+  return dot == std::string::npos ? 0 : field.size() - dot - 1;
+}
+
+}  // namespace
+
+bool drop_cut_last_line(const TextLineReader& reader, const std::string& line, const std::string& previous_line,
+                        std::map<std::string, std::string>& header) {
+  if (!reader.last_line_unterminated() || previous_line.empty()) return false;
+  const std::size_t length = trim_blanks(line).size(), full_length = trim_blanks(previous_line).size();
+  const std::size_t decimals = last_field_decimals(line), full_decimals = last_field_decimals(previous_line);
+  if (!(length < full_length && decimals < full_decimals)) return false;
+  note_dropped_last_line(reader,
+                         "is cut short: " + std::to_string(length) + " characters, its last field " +
+                             std::to_string(decimals) + " decimals, where the line before has " +
+                             std::to_string(full_length) + " and " + std::to_string(full_decimals),
+                         header);
+  return true;
+}
+
 bool drop_partial_last_line(const TextLineReader& reader, const InputError& error, bool have_data,
                             std::map<std::string, std::string>& header) {
   if (!have_data || !reader.last_line_unterminated()) return false;
-  header[kPartialLastLineKey] = "line " + std::to_string(reader.line_number()) + " dropped: it ends the file without a " +
-                                "line end (a file still being written?) and " + error.problem();
+  note_dropped_last_line(reader, "does not parse: " + error.problem(), header);
   return true;
 }
 

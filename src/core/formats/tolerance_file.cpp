@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <utility>
 
@@ -48,8 +49,16 @@ Tolerances parse_tolerances(const std::string& text, const std::string& name) {
   }
   if (!root.IsMap()) throw InputError(name, "expected keys scale_percent, nonorthogonality_deg, misalignment_deg");
   bool scale = false, nonorthogonality = false, misalignment = false;
+  std::map<std::string, int> key_lines;  // 1-based line of each key given
   for (const auto& entry : root) {
     const std::string key = entry.first.as<std::string>();
+    const int line = entry.first.Mark().line + 1;
+    // YAML allows no key twice; yaml-cpp reads both, and the later would silently win.
+    if (const auto first = key_lines.find(key); first != key_lines.end()) {
+      throw InputError(name + ":" + std::to_string(line), "key '" + key + "' given twice (first on line " +
+                                                              std::to_string(first->second) + ")");
+    }
+    key_lines[key] = line;
     const std::string where = name + ": " + key;
     if (key == "scale_percent") {
       t.scale = three_values(entry.second, where) / 100.0;

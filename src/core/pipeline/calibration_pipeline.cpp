@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <sstream>
 
 namespace magnetometer_insitu_calibration {
 
@@ -25,7 +26,10 @@ void PreprocessSettings::validate() const {
 }
 
 void WindowLayout::validate() const {
-  if (intervals < 0) throw InputError("intervals", "must be >= 0");
+  if (intervals < 0) {
+    throw InputError("intervals", "must be >= 1 (leave out the intervals and the window for the whole record as one "
+                                  "window)");
+  }
   if (intervals > 0 && window_s > 0.0)
     throw InputError("intervals", "give either intervals or window/step, not both");
   if (window_s < 0.0 || !std::isfinite(window_s)) throw InputError("window", "must be a positive time in s");
@@ -42,14 +46,11 @@ void CalibrationSettings::validate() const {
   windows.validate();
   window.validate();
   // Sliding windows too short for the band would all be flagged: refused before any is estimated.
-  const EstimatorSettings& e = window.estimator;
-  if (windows.window_s > 0.0 && e.band_harmonics(windows.window_s) < static_cast<double>(e.min_harmonics)) {
-    char text[240];
-    std::snprintf(text, sizeof text,
-                  "of %g s holds only %g DFT harmonics in the band %g-%g Hz, fewer than the %zu a window needs "
-                  "(every window would be flagged): a longer window or a higher band",
-                  windows.window_s, e.band_harmonics(windows.window_s), e.band_low_hz, e.band_high_hz, e.min_harmonics);
-    throw InputError("window", text);
+  const std::string too_few = windows.window_s > 0.0 ? window.estimator.too_few_harmonics(windows.window_s) : "";
+  if (!too_few.empty()) {
+    std::ostringstream text;
+    text << "of " << windows.window_s << " s " << too_few;
+    throw InputError("window", text.str());
   }
 }
 
@@ -307,6 +308,19 @@ std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, 
   // Known only once the records are paired: their estimation period.
   const std::string above_nyquist = settings.window.estimator.band_above_nyquist(prepared.sample_period_s);
   if (!above_nyquist.empty()) throw InputError("band_high_hz", above_nyquist);
+  // K intervals: their length is known only now, from the paired record's (the same rule as --window).
+  if (settings.windows.intervals > 0) {
+    const std::size_t k = static_cast<std::size_t>(settings.windows.intervals);
+    const double interval_s = static_cast<double>(prepared.paired.size() / k) * prepared.sample_period_s;
+    const std::string too_few = settings.window.estimator.too_few_harmonics(interval_s);
+    if (!too_few.empty()) {
+      const double record_s = static_cast<double>(prepared.paired.size()) * prepared.sample_period_s;
+      std::ostringstream text;
+      text << k << " intervals of the " << record_s << " s record: an interval of " << interval_s << " s " << too_few
+           << "; at most " << std::floor(record_s / settings.window.estimator.harmonics_window_s()) << " intervals";
+      throw InputError("intervals", text.str());
+    }
+  }
   WindowCalibrator calibrator(settings.window);
   std::vector<CalibrationWindow> out;
   for (const WindowSpan& span : plan_windows(prepared.paired.size(), prepared.sample_period_s, settings.windows)) {

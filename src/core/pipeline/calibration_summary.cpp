@@ -66,7 +66,8 @@ void write_correction(std::ostream& out, const CalibrationWindow& w) {
 /// window they vouch for.
 void write_trust(std::ostream& out, const WindowEstimate& e) {
   if (e.remote.used && e.remote.pair_biased) {
-    out << "The pair alone would have been biased (the remote sees a local disturbance); n rests on the remote.\n";
+    out << "The pair alone would have been biased (the pair sees a local disturbance the remote does not); n rests "
+           "on the remote.\n";
   }
   const std::string why = not_vouched_for(e);
   if (why.empty()) return;

@@ -1,6 +1,7 @@
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -61,6 +62,24 @@ std::vector<std::size_t> nearest_indices(const std::vector<double>& a, const std
   return nearest;
 }
 
+/// "<source> spans <first> to <last>" (ISO 8601 UTC), or "<source> has no sample".
+std::string span_text(const VectorRecord& record) {
+  if (record.empty()) return record.source + " has no sample";
+  return record.source + " spans " + time_for_message(record.time_s.front()) + " to " +
+         time_for_message(record.time_s.back());
+}
+
+/// Why no sample paired: the records' spans do not overlap, or their stamps are too far apart.
+std::string no_pair_problem(const VectorRecord& reference, const VectorRecord& test, double tolerance_s) {
+  const std::string spans = "reference " + span_text(reference) + ", test " + span_text(test);
+  const bool disjoint = reference.empty() || test.empty() || reference.time_s.back() < test.time_s.front() ||
+                        test.time_s.back() < reference.time_s.front();
+  if (disjoint) return "records do not overlap in time: " + spans;
+  std::ostringstream text;
+  text << "no reference and test stamps within the pairing tolerance of " << tolerance_s << " s of each other: " << spans;
+  return text.str();
+}
+
 }  // namespace
 
 PairedRecord align_by_time(const VectorRecord& reference, const VectorRecord& test,
@@ -88,7 +107,7 @@ PairedRecord align_by_time(const VectorRecord& reference, const VectorRecord& te
       }
     }
   }
-  if (pairs.empty()) throw InputError("--reference/--test", "records do not overlap in time");
+  if (pairs.empty()) throw InputError("--reference/--test", no_pair_problem(reference, test, tolerance_s));
 
   const auto n = static_cast<Eigen::Index>(pairs.size());
   out.time_s.resize(pairs.size());

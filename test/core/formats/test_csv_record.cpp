@@ -303,7 +303,7 @@ TEST(ReadCsvRecord, AFileStillBeingWrittenLosesOnlyItsCutLastLine) {
   ASSERT_EQ(r.auxiliary.size(), 1u);
   EXPECT_EQ(r.auxiliary[0].values.size(), 2u);
   ASSERT_EQ(r.header.count(mic::kPartialLastLineKey), 1u);
-  EXPECT_TRUE(contains(r.header.at(mic::kPartialLastLineKey), "line 4 dropped")) << r.header.at(mic::kPartialLastLineKey);
+  EXPECT_TRUE(contains(r.header.at(mic::kPartialLastLineKey), "cut.csv:4: last line dropped")) << r.header.at(mic::kPartialLastLineKey);
   {
     std::ofstream out(dir + "/cut_ended.csv", std::ios::binary);
     out << body << "\n";
@@ -314,6 +314,28 @@ TEST(ReadCsvRecord, AFileStillBeingWrittenLosesOnlyItsCutLastLine) {
   } catch (const mic::InputError& error) {
     EXPECT_TRUE(contains(error.what(), "cut_ended.csv:4: expected 5 columns")) << error.what();
   }
+}
+
+// The same rule as IAGA-2002's: a CSV's last line cut within its last value (20.6 for 20.65)
+// parses; without a line end, shorter than the line before and with fewer decimals, it is dropped
+// and read_record warns, naming file and line. A complete last line without a line end is kept.
+TEST(ReadCsvRecord, ALastLineCutWithinItsLastValueIsDroppedWithAWarning) {
+  const std::string dir = make_temp_dir("csv_cut_value");
+  const std::string body = "time,x,y,z,temperature\n1747180800,1,2,3,20.55\n1747180801,1,2,3,20.65";
+  write_bytes(dir + "/complete.csv", body);
+  write_bytes(dir + "/cut.csv", body.substr(0, body.size() - 1));
+  std::vector<std::string> warnings;
+  EXPECT_EQ(mic::read_record(dir + "/complete.csv", mic::LemiReadOptions(), &warnings).size(), 2u);
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  const mic::VectorRecord r = mic::read_record(dir + "/cut.csv", mic::LemiReadOptions(), &warnings);
+  ASSERT_EQ(r.size(), 1u);
+  ASSERT_EQ(r.auxiliary.size(), 1u);
+  EXPECT_EQ(r.auxiliary[0].values, std::vector<double>{20.55});
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], dir + "/cut.csv:3: last line dropped (the lines before it are kept): it ends the file "
+                               "without a line end (a file still being written?) and is cut short: 21 characters, "
+                               "its last field 1 decimals, where the line before has 22 and 2")
+      << warnings[0];
 }
 
 // Auxiliary columns (e.g. the sensor temperature beside the field, INTERMAGNET's 1-second

@@ -1,6 +1,7 @@
 // IAGA-2002: the real WIC LEMI-036 day (data/wic20250514_lemi036.sec.gz), small fixtures in
 // test/data/formats with known values and known bad lines, and write/read round trips.
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
+#include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
@@ -221,12 +222,14 @@ TEST(ReadIaga2002, AFileStillBeingWrittenLosesOnlyItsCutLastLine) {
       EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b))) << i << " " << c;
     }
   ASSERT_EQ(partial.header.count(mic::kPartialLastLineKey), 1u);
-  EXPECT_TRUE(contains(partial.header.at(mic::kPartialLastLineKey), "dropped: it ends the file without a line end"))
+  EXPECT_TRUE(contains(partial.header.at(mic::kPartialLastLineKey),
+                       "cut.sec:20: last line dropped (the lines before it are kept): it ends the file without a "
+                       "line end (a file still being written?) and does not parse: too few columns"))
       << partial.header.at(mic::kPartialLastLineKey);
   std::vector<std::string> warnings;
   EXPECT_EQ(mic::read_records({dir + "/cut.sec"}, &warnings).size(), partial.size());
   ASSERT_EQ(warnings.size(), 1u);
-  EXPECT_TRUE(contains(warnings[0], "cut.sec: line 20 dropped")) << warnings[0];
+  EXPECT_TRUE(contains(warnings[0], "cut.sec:20: last line dropped")) << warnings[0];
 
   write_bytes(dir + "/cut_ended.sec", cut + "\r\n");
   EXPECT_TRUE(contains(iaga_read_error(dir + "/cut_ended.sec"), "cut_ended.sec:20: too few columns"));
@@ -234,6 +237,36 @@ TEST(ReadIaga2002, AFileStillBeingWrittenLosesOnlyItsCutLastLine) {
   middle.erase(last - 30, 20);  // the line before the last damaged
   write_bytes(dir + "/middle.sec", middle + "\r\n");
   EXPECT_TRUE(contains(iaga_read_error(dir + "/middle.sec"), "middle.sec:19:"));
+}
+
+// A last line cut within its last value parses, to a wrong value (48123.4 for 48123.45): shorter
+// than the line before and with fewer decimals, it is dropped as a line that does not parse is,
+// and read_record (what every program reads through) passes the warning on, naming file and line.
+// Complete, its line end missing or not, the same line is kept without a warning.
+TEST(ReadIaga2002, ALastLineCutWithinItsLastValueIsDroppedWithAWarning) {
+  const std::string dir = make_temp_dir("iaga_cut_value");
+  std::string good = read_bytes(test_data("formats/iaga_small.sec"));
+  while (good.size() >= 2 && good.compare(good.size() - 2, 2, "\r\n") == 0) good.resize(good.size() - 2);
+  ASSERT_EQ(good.compare(good.size() - 8, 8, "88888.00"), 0);
+  good.replace(good.size() - 8, 8, "48123.45");  // a real F in the last line
+  write_bytes(dir + "/complete.sec", good);
+  write_bytes(dir + "/cut.sec", good.substr(0, good.size() - 1));
+  std::vector<std::string> warnings;
+  const mic::VectorRecord full = mic::read_record(dir + "/complete.sec", mic::LemiReadOptions(), &warnings);
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  EXPECT_EQ(full.header.count(mic::kPartialLastLineKey), 0u);
+  ASSERT_EQ(full.auxiliary.size(), 1u);
+  EXPECT_EQ(full.auxiliary[0].values.back(), 48123.45);
+
+  const mic::VectorRecord cut = mic::read_record(dir + "/cut.sec", mic::LemiReadOptions(), &warnings);
+  ASSERT_EQ(cut.size() + 1, full.size());
+  EXPECT_EQ(cut.time_s, std::vector<double>(full.time_s.begin(), full.time_s.end() - 1));
+  EXPECT_TRUE(cut.auxiliary.empty());  // nothing of the cut F kept: the other lines' F are all missing
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], dir + "/cut.sec:20: last line dropped (the lines before it are kept): it ends the file "
+                               "without a line end (a file still being written?) and is cut short: 69 characters, "
+                               "its last field 1 decimals, where the line before has 70 and 2")
+      << warnings[0];
 }
 
 TEST(WriteIaga2002, RewritingTheRealFileReproducesItByteForByte) {

@@ -56,3 +56,14 @@ TEST(ToleranceFile, RefusesBadValuesNamingTheFileAndTheKey) {
   EXPECT_EQ(refusal("scale_percent: [1, 2\n").rfind("tol.yaml:", 0), 0u);  // not YAML: file and line
   EXPECT_THROW(mic::read_tolerance_file("/nonexistent/tolerances.yaml"), mic::InputError);
 }
+
+// YAML allows a key once; yaml-cpp reads a repeated one and the later would win unseen: the file
+// is refused, naming the file, the line of the repeat, the key and the line of its first use.
+TEST(ToleranceFile, RefusesAKeyGivenTwiceNamingFileLineAndKey) {
+  try {
+    mic::parse_tolerances("scale_percent: 0.04\nmisalignment_deg: 0.02\nscale_percent: 0.5\n", "tol.yaml");
+    ADD_FAILURE() << "a repeated key was read";
+  } catch (const mic::InputError& e) {
+    EXPECT_STREQ(e.what(), "tol.yaml:3: key 'scale_percent' given twice (first on line 1)");
+  }
+}

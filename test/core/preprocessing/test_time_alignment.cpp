@@ -127,7 +127,22 @@ TEST(TimeAlignment, DisjointRecordsThrow) {
     FAIL() << "no exception";
   } catch (const mic::InputError& e) {
     EXPECT_EQ(e.where(), "--reference/--test");
-    EXPECT_EQ(e.problem(), "records do not overlap in time");
+    EXPECT_EQ(e.problem(), "records do not overlap in time: reference r spans 2025-05-14T00:00:00.000Z to "
+                           "2025-05-14T00:00:01.000Z, test t spans 2025-05-14T00:00:10.000Z to 2025-05-14T00:00:11.000Z");
+  }
+}
+
+// Spans that overlap with stamps that never come within the tolerance: said so, not "no overlap".
+TEST(TimeAlignment, InterleavedStampsBeyondTheToleranceAreNamed) {
+  const std::vector<double> a{kAlignmentStart, kAlignmentStart + 1.0};
+  const std::vector<double> b{kAlignmentStart + 0.5, kAlignmentStart + 1.5};
+  try {
+    mic::align_by_time(make_record(a, {0, 1}, "r.sec"), make_record(b, {0, 1}, "t.sec"), 0.01);
+    FAIL() << "no exception";
+  } catch (const mic::InputError& e) {
+    EXPECT_EQ(e.problem(), "no reference and test stamps within the pairing tolerance of 0.01 s of each other: "
+                           "reference r.sec spans 2025-05-14T00:00:00.000Z to 2025-05-14T00:00:01.000Z, test t.sec "
+                           "spans 2025-05-14T00:00:00.500Z to 2025-05-14T00:00:01.500Z");
   }
 }
 

@@ -142,6 +142,30 @@ TEST_F(CalibrateRecordsCli, BadOptionsAreNamedByTheirOptionBeforeAnyWork) {
   }
 }
 
+// --intervals K makes windows of the record's length / K: the band's harmonics rule of --window
+// refuses them when too short, naming --intervals, the interval's length and the most intervals
+// the record allows (6 h, default band: 1735 s windows hold 16 harmonics, 12 intervals). K = 0 is
+// no layout: refused, saying how to ask for the whole record.
+TEST_F(CalibrateRecordsCli, IntervalsTooShortForTheBandOrZeroAreRefused) {
+  const std::string io = "--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv ";
+  ProgramRun r = run_cli(io + "--intervals 1000");
+  EXPECT_EQ(r.status, 1) << r.output;
+  for (const char* expected : {"calibrate_records: --intervals: 1000 intervals of the 21600 s record: an interval of 21 s",
+                               "holds only 0 DFT harmonics in the band 0.0002-0.01 Hz, fewer than the 16 a window needs",
+                               "windows of 1735 s or longer hold them; at most 12 intervals"}) {
+    EXPECT_NE(r.output.find(expected), std::string::npos) << expected << "\n" << r.output;
+  }
+  EXPECT_EQ(r.output.find("Summary of"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("nan"), std::string::npos) << r.output;
+  r = run_cli(io + "--intervals 0");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("calibrate_records: --intervals: must be >= 1, got 0 (for the whole record as one window, "
+                          "leave out --intervals, --window and --step)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("Summary of"), std::string::npos) << r.output;
+}
+
 // --help: the flags that are on by default do not read "{false}" (the value CLI11 shows for the
 // negated form), and say they are on.
 TEST_F(CalibrateRecordsCli, HelpSaysTheOnFlagsAreOn) {
