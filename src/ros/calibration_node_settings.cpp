@@ -337,14 +337,10 @@ void load_estimator(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   r.huber_k = param_double(p, "huber_k", r.huber_k);
   r.section_rejection = param_double(p, "section_rejection", r.section_rejection);
   r.iterations = param_int(p, "iterations", r.iterations);
-  // A window must be able to hold min_harmonics harmonics j / window inside the band.
-  const double window = s.streams.window_s;
-  const double harmonics = e.band_harmonics(window);
-  if (harmonics < static_cast<double>(e.min_harmonics)) {
-    throw ParameterError("window", "(" + number_text(window) + " s) holds only " + number_text(harmonics) +
-                                       " DFT harmonics in [~band_low, ~band_high], fewer than ~min_harmonics (" +
-                                       std::to_string(e.min_harmonics) + "): every window would be flagged");
-  }
+  // A window must be able to hold min_harmonics harmonics j / window inside the band: the rule
+  // calibrate_records applies to --window and --intervals, in its words.
+  const std::string too_short = e.too_few_harmonics(s.streams.window_s);
+  if (!too_short.empty()) throw ParameterError("window", "(" + number_text(s.streams.window_s) + " s) " + too_short);
 }
 
 /// The change check, monitoring, queues and TF.

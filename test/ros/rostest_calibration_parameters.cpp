@@ -49,6 +49,8 @@ TEST(Calibration, BadParameters) {
       {calibration + " __name:=minute_band" + ok + " _input_period:=60",
        "parameter ~band_high: the band's top 0.01 Hz is above the Nyquist frequency 0.00833333 Hz of the 60 s"},
       {calibration + " __name:=bad_short" + ok + " _window:=600 _step:=60", "parameter ~window: (600 s) holds only"},
+      // The rule of calibrate_records' --window and --intervals, in its words: which length would do.
+      {calibration + " __name:=bad_short_hint" + ok + " _window:=600 _step:=60", "s or longer hold them"},
       {calibration + " __name:=bad_type" + ok + " _step:=ten", "parameter ~step: must be a number"},
       {calibration + " __name:=no_reference _test_topic:=/t _calibration_file:=/tmp/x.yaml", "parameter ~reference_topic: is required"},
       {calibration + " __name:=no_file _reference_topic:=/r _test_topic:=/t", "parameter ~calibration_file: is required"},
