@@ -13,7 +13,7 @@
 
 #include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
 
-#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/program_support)
 
 #include <CLI/CLI.hpp>
 

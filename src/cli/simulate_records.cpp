@@ -12,7 +12,7 @@
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
-#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/program_support)
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>

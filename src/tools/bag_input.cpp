@@ -5,7 +5,7 @@
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "bag_records.hpp"  // src/tools
-#include "command_line.hpp"  // print_warnings (src/cli)
+#include "command_line.hpp"  // print_warnings (src/program_support)
 
 #include <cmath>
 #include <iostream>

@@ -17,7 +17,7 @@
 #include "bag_records.hpp"  // src/tools
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
-#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/cli)
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/program_support)
 
 #include <CLI/CLI.hpp>
 #include <rosbag/bag.h>

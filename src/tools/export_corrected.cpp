@@ -25,7 +25,7 @@
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
-#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/cli)
+#include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/program_support)
 
 #include <CLI/CLI.hpp>
 

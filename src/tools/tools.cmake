@@ -18,7 +18,7 @@ target_compile_options(${PROJECT_NAME}_archive PRIVATE -Wall -Wextra)
 
 add_library(${PROJECT_NAME}_bag src/tools/bag_records.cpp src/tools/bag_input.cpp)
 target_include_directories(${PROJECT_NAME}_bag PUBLIC include src/tools ${catkin_INCLUDE_DIRS})
-target_include_directories(${PROJECT_NAME}_bag PRIVATE src/cli)  # command_line.hpp
+target_include_directories(${PROJECT_NAME}_bag PRIVATE src/program_support)  # command_line.hpp
 target_link_libraries(${PROJECT_NAME}_bag PUBLIC ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_compile_options(${PROJECT_NAME}_bag PRIVATE -Wall -Wextra)
 
@@ -37,7 +37,7 @@ target_link_libraries(benchmark_bag_read ${PROJECT_NAME}_bag)
 add_dependencies(benchmarks benchmark_bag_read)
 
 foreach(program records_to_bag export_corrected benchmark_bag_read)
-  target_include_directories(${program} PRIVATE src/cli)  # command_line.hpp, shared with src/cli's programs
+  target_include_directories(${program} PRIVATE src/program_support)  # command_line.hpp, shared with src/cli
   mic_use_precompiled_headers(${program} EXE_ROS)
   target_compile_options(${program} PRIVATE -Wall -Wextra)
 endforeach()

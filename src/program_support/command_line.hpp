@@ -1,5 +1,5 @@
-// The command line of every program (CLI11), the exit status docs/programs.md gives for it and
-// the programs' warnings on stderr.
+// The command line of every program of src/cli and src/tools (CLI11), the exit status
+// docs/programs.md gives for it, and the programs' warnings on stderr (one home for both folders).
 #pragma once
 
 #include <CLI/CLI.hpp>
