@@ -9,10 +9,7 @@
 //                                                       no pipeline)
 //   monte_carlo_disturbed eiv [seeds=200] [days=1]        quiet station, reference noise x10:
 //                                                       plain Eq. 2, the robust estimator without
-//                                                       and with the simulated noise given (the
-//                                                       row with a share of the residual taken for
-//                                                       reference noise, EIV ratio 100, is gone
-//                                                       with that mode from the package)
+//                                                       and with the simulated noise given
 //   monte_carlo_disturbed wic [data_dir=data]             real pair, 4 intervals + the day
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary follows.

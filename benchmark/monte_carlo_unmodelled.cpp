@@ -32,8 +32,7 @@
 // window; a quiet third sensor of the test's noise class with its own misalignment, on a pier
 // without the test's tilt, heater and traffic view), nopair (the default pipeline without the
 // reference's noise from the pair, --no-pair-noise: no EIV correction without a figure or a
-// third). The ratio mode (a share of the residual taken for reference noise, EIV ratio 1) is gone
-// from the package, and with it the method that used it.
+// third).
 // MC_PRINT_MODEL=1 adds, after each pipeline line, the window's response model and its
 // reference-noise line ("#   ...").
 #include "bias_scatter.hpp"
@@ -75,9 +74,8 @@ using monte_carlo::knob;
 struct Tally {
   std::vector<double> scale_pct, angle_deg;
   int covered = 0, checked = 0;
-  // The same intervals with the normal quantile 1.96 instead of the window's Student t (the
-  // package's intervals before it took the Student quantile), to compare the two on the same
-  // records.
+  // The same intervals with the normal quantile 1.96 instead of the window's Student t, to
+  // compare the two on the same records.
   int covered_normal = 0;
   std::vector<double> quantile;  // each window's half-width in standard errors
   // Per parameter (scale x, y, z; non-orthogonality xy, xz, yz): inside its interval, and the
@@ -311,8 +309,7 @@ int run_wic(const std::string& dir) {
   const mic::VectorRecord test = mic::read_record(dir + "/wic20250514_fge.sec.gz");
   std::printf("| estimator | sqrt(chi2/dof) of the quarters: scale H, E, Z; non-orth HE, HZ, EZ | whole day scale H, E, Z (95 %%) | EIV |\n|---|---|---|---|\n");
   // m: 0 the default, 1 plain Eq. 2, 2 the default without the pair's noise (no EIV correction
-  // without a figure). The row with a share of the residual taken for reference noise (EIV
-  // ratio 1) is gone with that mode from the package.
+  // without a figure).
   for (int m = 0; m < 3; ++m) {
     mic::CalibrationSettings settings;
     if (m == 2) settings.window.pair_noise = false;
