@@ -1,8 +1,11 @@
-// Parameters of calibration_node: read and validated once at start-up (calibration_node.hpp,
-// config/calibration.yaml). Every error names the parameter; nothing falls back silently.
+// Parameters of calibration_node: read and validated once at start-up. Each is declared once
+// (pipeline/setting_declarations.hpp: name, unit, default, range, help; config/calibration.yaml
+// and docs/nodes.md are printed from the declarations). Every error names the parameter;
+// nothing falls back silently.
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/setting_declarations.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/tolerance_file.hpp"
 #include "magnetometer_insitu_calibration/estimation/scalar_check.hpp"
@@ -17,32 +20,44 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-// Every private parameter of the node (others draw a start-up warning).
-const std::vector<std::string> kCalibrationNodeParameters = {
-    "reference_topic", "test_topic", "test_name", "calibration_topic", "calibration_file", "tests",
-    "input_period", "output_period", "decimation_sigma", "decimation_half_width", "pairing_tolerance",
-    "pairing_max_wait", "window", "step", "max_filled_fraction", "max_fill", "band_low", "band_high",
-    "gamma", "trend", "min_harmonics", "max_condition_number", "min_coherence", "silent_timeout",
-    "time_jump_threshold", "queue_size", "max_pending_windows", "diagnostic_period", "method", "auto_band", "eiv",
-    "reference_noise_pT", "estimate_delay", "correct_delay", "change_false_alarm_probability",
-    "change_scale_tolerance", "change_angle_tolerance", "publish_tf", "tf_child_frame_suffix", "temperature_topic",
-    "temperature_min_range", "temperature_max_gap", "response_model", "three_cornered_hat", "pair_noise", "despike",
-    "screen", "screen_threshold", "screen_baseline", "screen_margin", "section_length", "section_trend", "huber_k",
-    "section_rejection", "iterations", "remote_topic", "scalar_topic", "field_direction", "tolerance_file",
-    "test_input_period", "remote_input_period", "stamps_apart"};
+using N = CalibrationNodeSettings;
 
-// Core field names (InputError::where) -> the parameter that sets them.
-const std::map<std::string, std::string> kCoreFieldToParameter = {
-    {"band_low_hz", "band_low"}, {"band_high_hz", "band_high"}, {"gamma", "gamma"},
-    {"min_harmonics", "min_harmonics"}, {"max_condition_number", "max_condition_number"},
-    {"min_coherence", "min_coherence"}, {"output_period_s", "output_period"}, {"sigma_s", "decimation_sigma"},
-    {"half_width_sigmas", "decimation_half_width"}, {"input_period_s", "input_period"},
-    {"test_input_period_s", "test_input_period"}, {"remote_input_period_s", "remote_input_period"},
-    {"tolerance_s", "pairing_tolerance"}, {"max_wait_s", "pairing_max_wait"}, {"window", "window"},
-    {"step", "step"}, {"max_fill_s", "max_fill"}, {"max_fill", "max_fill"}, {"max_filled_fraction", "max_filled_fraction"},
-    {"screen_baseline_s", "screen_baseline"}, {"screen_margin_s", "screen_margin"}, {"section_s", "section_length"},
-    {"false_alarm_probability", "change_false_alarm_probability"},
-    {"scale_tolerance", "change_scale_tolerance"}, {"angle_tolerance_deg", "change_angle_tolerance"}};
+}  // namespace
+
+/// The declared settings the node reads into its settings (the topics, the ~tests list and the
+/// tolerance file have their own code below).
+const SettingBindings<N>& CalibrationNodeSettings::bindings() {
+  static const SettingBindings<N> bindings = [] {
+    SettingBindings<N> b(calibration_setting_declarations());
+    b.include(window_calibration_bindings(), [](N& n) -> WindowCalibrationSettings& { return n.window; });
+    b.bind("input_period_s", [](N& n) -> double& { return n.streams.input_period_s; })
+        .bind("test_input_period_s", [](N& n) -> double& { return n.streams.test_input_period_s; })
+        .bind("remote_input_period_s", [](N& n) -> double& { return n.streams.remote_input_period_s; })
+        .bind("stamps_apart", [](N& n) -> bool& { return n.streams.stamps_apart; })
+        .bind("output_period_s", [](N& n) -> double& { return n.streams.decimation.output_period_s; })
+        .bind("sigma_s", [](N& n) -> double& { return n.streams.decimation.sigma_s; })
+        .bind("half_width_sigmas", [](N& n) -> double& { return n.streams.decimation.half_width_sigmas; })
+        .bind("pairing_tolerance_s", [](N& n) -> double& { return n.streams.pairing_tolerance_s; })
+        .bind("pairing_max_wait_s", [](N& n) -> double& { return n.streams.pairing_max_wait_s; })
+        .bind("window", [](N& n) -> double& { return n.streams.window_s; })
+        .bind("step", [](N& n) -> double& { return n.streams.step_s; })
+        .bind("despike", [](N& n) -> bool& { return n.streams.despike; })
+        .bind("false_alarm_probability", [](N& n) -> double& { return n.change.false_alarm_probability; })
+        .bind("scale_tolerance", [](N& n) -> double& { return n.change.scale_tolerance; })
+        .bind("angle_tolerance_deg", [](N& n) -> double& { return n.change.angle_tolerance_deg; })
+        .bind("silent_timeout", [](N& n) -> double& { return n.silent_timeout_s; })
+        .bind("time_jump_threshold", [](N& n) -> double& { return n.time_jump_threshold_s; })
+        .bind("queue_size", [](N& n) -> int& { return n.queue_size; })
+        .bind("max_pending_windows", [](N& n) -> int& { return n.max_pending_windows; })
+        .bind("diagnostic_period", [](N& n) -> double& { return n.diagnostic_period_s; })
+        .bind("publish_tf", [](N& n) -> bool& { return n.publish_tf; })
+        .bind("tf_child_frame_suffix", [](N& n) -> std::string& { return n.tf_child_frame_suffix; });
+    return b;
+  }();
+  return bindings;
+}
+
+namespace {
 
 std::string struct_string(XmlRpc::XmlRpcValue& entry, const std::string& key, const std::string& where, bool required,
                           const std::string& fallback) {
@@ -65,13 +80,14 @@ std::string optional_topic(XmlRpc::XmlRpcValue& entry, const std::string& key, c
   return value;
 }
 
-void load_streams(const ros::NodeHandle& p, CalibrationNodeSettings& s);
-void load_estimator(const ros::NodeHandle& p, CalibrationNodeSettings& s);
-void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s);
+void check_rules(const ros::NodeHandle& p, CalibrationNodeSettings& s);
 
 }  // namespace
 
-const std::vector<std::string>& CalibrationNodeSettings::known_parameters() { return kCalibrationNodeParameters; }
+const std::vector<std::string>& CalibrationNodeSettings::known_parameters() {
+  static const std::vector<std::string> names = declared_parameters(calibration_setting_declarations());
+  return names;
+}
 
 std::string CalibrationNodeSettings::noise_model_state() const {
   if (window.estimator.method != EstimatorMethod::kRobust) return "none (~method plain: Eq. 2 as printed)";
@@ -192,20 +208,14 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
       throw ParameterError(name, "'" + topic + "' is the reference, a test, a calibration, the remote or the scalar topic");
     }
   }
-  // The main field's direction (D,I from the observatory's absolute observations): the scalar
-  // check then gives the reference's scale per axis.
-  const std::string field_direction = param_string(p, "field_direction", "");
-  if (!field_direction.empty()) {
-    if (s.scalar_topic.empty()) throw ParameterError("field_direction", "is used with ~scalar_topic only");
-    try {
-      s.window.field_direction = parse_field_direction(field_direction);
-    } catch (const std::invalid_argument& e) {
-      throw ParameterError("field_direction", e.what());
-    }
+  load_declared(p, bindings(), s);
+  check_rules(p, s);
+  const std::string tolerance_file = param_string(p, "tolerance_file", "");
+  try {
+    if (!tolerance_file.empty()) s.window.tolerances = read_tolerance_file(tolerance_file);
+  } catch (const InputError& e) {
+    throw ParameterError("tolerance_file", e.what());
   }
-  load_streams(p, s);
-  load_estimator(p, s);
-  load_monitoring(p, s);
   // The core's own checks, reported under the parameter's name.
   try {
     s.window.validate();
@@ -222,157 +232,55 @@ CalibrationNodeSettings CalibrationNodeSettings::load(const ros::NodeHandle& p) 
     }
     WindowLayout{0, s.streams.window_s, s.streams.step_s}.validate();
   } catch (const InputError& e) {
-    const auto it = kCoreFieldToParameter.find(e.where());
-    throw ParameterError(it != kCoreFieldToParameter.end() ? it->second : e.where(), e.problem());
+    throw parameter_error(e, calibration_setting_declarations());
   }
   return s;
 }
 
 namespace {
 
-/// Periods and decimation, pairing, windows and despiking (LiveStreamSettings), and the gap rule.
-void load_streams(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
+/// The rules between settings that the node alone has (the core's own run in load above).
+void check_rules(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   LiveStreamSettings& l = s.streams;
-  l.input_period_s = param_double(p, "input_period", l.input_period_s);
-  require_positive("input_period", l.input_period_s, "s");
-  // Streams of other rates than the reference's, or stamped at another phase: each low-passed
-  // onto the estimation epochs before pairing (plan_epochs, as calibrate_records does).
-  l.test_input_period_s = param_double(p, "test_input_period", l.input_period_s);
-  require_positive("test_input_period", l.test_input_period_s, "s");
+  WindowCalibrationSettings& w = s.window;
+  if (w.field_direction && s.scalar_topic.empty()) throw ParameterError("field_direction", "is used with ~scalar_topic only");
   if (p.hasParam("remote_input_period") && s.remote_topic.empty()) {
     throw ParameterError("remote_input_period", "is used with ~remote_topic only");
   }
-  l.remote_input_period_s = param_double(p, "remote_input_period", l.input_period_s);
-  require_positive("remote_input_period", l.remote_input_period_s, "s");
-  l.stamps_apart = param_bool(p, "stamps_apart", l.stamps_apart);
-  l.decimation.output_period_s = param_double(p, "output_period", l.decimation.output_period_s);
-  require_positive("output_period", l.decimation.output_period_s, "s");
-  l.decimation.sigma_s = param_double(p, "decimation_sigma", l.decimation.sigma_s);
-  require_non_negative("decimation_sigma", l.decimation.sigma_s, "s (0 = default)");
-  l.decimation.half_width_sigmas = param_double(p, "decimation_half_width", l.decimation.half_width_sigmas);
-  require_positive("decimation_half_width", l.decimation.half_width_sigmas, "sigmas");
   const double period = l.estimation_period_s();
-  l.pairing_tolerance_s = param_double(p, "pairing_tolerance", l.pairing_tolerance_s);
-  require_non_negative("pairing_tolerance", l.pairing_tolerance_s, "s");
   if (!(l.pairing_tolerance_s < 0.5 * l.input_period_s)) {
     throw ParameterError("pairing_tolerance", "must be below half of ~input_period (" + number_text(0.5 * l.input_period_s) +
                                                   " s): a sample could pair with its partner's neighbour");
   }
-  l.pairing_max_wait_s = param_double(p, "pairing_max_wait", l.pairing_max_wait_s);
-  require_non_negative("pairing_max_wait", l.pairing_max_wait_s, "s");
-  l.window_s = param_double(p, "window", l.window_s);
-  require_positive("window", l.window_s, "s");
-  l.step_s = param_double(p, "step", l.step_s);
-  require_positive("step", l.step_s, "s");
   if (l.step_s > l.window_s) {
     throw ParameterError("step", "(" + number_text(l.step_s) + " s) is longer than ~window (" + number_text(l.window_s) +
                                      " s): samples between windows would never be used");
   }
   if (l.step_s < period) throw ParameterError("step", "must be at least one sample period (" + number_text(period) + " s)");
-  // Spikes removed from each stream at its own rate, as calibrate_records removes them.
-  l.despike = param_bool(p, "despike", l.despike);
-  WindowCalibrationSettings& w = s.window;
-  w.max_filled_fraction = param_double(p, "max_filled_fraction", w.max_filled_fraction);
-  require_in_range("max_filled_fraction", w.max_filled_fraction, 0.0, 1.0);
-  w.gaps.max_fill_s = param_double(p, "max_fill", w.gaps.max_fill_s);
-  require_non_negative("max_fill", w.gaps.max_fill_s, "s");
-  // Temperature terms (when an instrument has a temperature topic). Default max gap: the
-  // core's (60 s), at least two estimation periods.
-  w.temperature.min_range_C = param_double(p, "temperature_min_range", w.temperature.min_range_C);
-  require_non_negative("temperature_min_range", w.temperature.min_range_C, "degC");
-  w.temperature_max_gap_s = param_double(p, "temperature_max_gap", std::max(w.temperature_max_gap_s, 2.0 * period));
-  require_positive("temperature_max_gap", w.temperature_max_gap_s, "s");
+  // The thermometer's gap rule: at least two estimation periods unless given.
+  if (!p.hasParam("temperature_max_gap")) w.temperature_max_gap_s = std::max(w.temperature_max_gap_s, 2.0 * period);
   l.temperature_margin_s = w.temperature_max_gap_s;
-}
-
-/// The estimator, its reference noise, response model and robust options (WindowCalibrationSettings).
-void load_estimator(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
-  EstimatorSettings& e = s.window.estimator;
-  const double period = s.streams.estimation_period_s();
-  e.band_low_hz = param_double(p, "band_low", e.band_low_hz);
-  require_positive("band_low", e.band_low_hz, "Hz");
-  e.band_high_hz = param_double(p, "band_high", e.band_high_hz);
+  const EstimatorSettings& e = w.estimator;
   if (!(e.band_high_hz > e.band_low_hz)) {
     throw ParameterError("band_high", "(" + number_text(e.band_high_hz) + " Hz) must be above ~band_low (" +
                                           number_text(e.band_low_hz) + " Hz): the band is empty");
   }
   const std::string above_nyquist = e.band_above_nyquist(period);
   if (!above_nyquist.empty()) throw ParameterError("band_high", above_nyquist);
-  e.gamma = param_double(p, "gamma", e.gamma);
-  e.trend = param_bool(p, "trend", e.trend);
-  const int min_harmonics = param_int(p, "min_harmonics", static_cast<int>(e.min_harmonics));
-  if (min_harmonics < 1) throw ParameterError("min_harmonics", "must be >= 1");
-  e.min_harmonics = static_cast<std::size_t>(min_harmonics);
-  e.max_condition_number = param_double(p, "max_condition_number", e.max_condition_number);
-  e.min_coherence = param_double(p, "min_coherence", e.min_coherence);
-  const std::string eiv = param_string(p, "eiv", "given");
-  if (eiv != "given" && eiv != "none") throw ParameterError("eiv", "expected given or none, got '" + eiv + "'");
-  e.robust.errors_in_variables = eiv == "given";
-  try {
-    e.method = parse_estimator_method(param_string(p, "method", "robust"), "method");
-  } catch (const InputError& error) {
-    throw ParameterError(error.where(), error.problem());
-  }
-  // The reference's noise figure, pT/sqrt(Hz) at 1 Hz (1/f below); 0: identified from the data.
-  const double figure_pT = param_double(p, "reference_noise_pT", 0.0);
-  require_non_negative("reference_noise_pT", figure_pT, "(pT/sqrt(Hz) at 1 Hz)");
-  s.window.reference_noise_figure = NoiseSpectrum::fluxgate_figure(figure_pT);
-  s.window.three_cornered_hat = param_bool(p, "three_cornered_hat", s.window.three_cornered_hat);
-  s.window.pair_noise = param_bool(p, "pair_noise", s.window.pair_noise);
-  s.window.response_model = param_bool(p, "response_model", s.window.response_model);
-  RobustSettings& r = e.robust;
-  r.auto_band = param_bool(p, "auto_band", r.auto_band);
-  r.estimate_delay = param_bool(p, "estimate_delay", r.estimate_delay);
-  r.correct_delay = param_bool(p, "correct_delay", r.correct_delay);
-  if (r.correct_delay && !r.estimate_delay) {
+  if (e.robust.correct_delay && !e.robust.estimate_delay) {
     throw ParameterError("correct_delay", "is true but ~estimate_delay is false (nothing to correct)");
   }
-  // The robust estimator's own steps (robust_estimator.hpp; docs/method.md).
-  r.screen = param_bool(p, "screen", r.screen);
-  r.screen_threshold = param_double(p, "screen_threshold", r.screen_threshold);
-  r.screen_baseline_s = param_double(p, "screen_baseline", r.screen_baseline_s);
-  r.screen_margin_s = param_double(p, "screen_margin", r.screen_margin_s);
-  r.section_s = param_double(p, "section_length", r.section_s);
-  r.section_trend = param_bool(p, "section_trend", r.section_trend);
-  r.huber_k = param_double(p, "huber_k", r.huber_k);
-  r.section_rejection = param_double(p, "section_rejection", r.section_rejection);
-  r.iterations = param_int(p, "iterations", r.iterations);
-  // A window must be able to hold min_harmonics harmonics j / window inside the band: the rule
-  // calibrate_records applies to --window and --intervals, in its words.
-  const std::string too_short = e.too_few_harmonics(s.streams.window_s);
-  if (!too_short.empty()) throw ParameterError("window", "(" + number_text(s.streams.window_s) + " s) " + too_short);
-}
-
-/// The change check, monitoring, queues and TF.
-void load_monitoring(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
-  s.change.false_alarm_probability = param_double(p, "change_false_alarm_probability", s.change.false_alarm_probability);
-  s.change.scale_tolerance = param_double(p, "change_scale_tolerance", s.change.scale_tolerance);
-  s.change.angle_tolerance_deg = param_double(p, "change_angle_tolerance", s.change.angle_tolerance_deg);
-  const std::string tolerance_file = param_string(p, "tolerance_file", "");
-  try {
-    if (!tolerance_file.empty()) s.window.tolerances = read_tolerance_file(tolerance_file);
-  } catch (const InputError& e) {
-    throw ParameterError("tolerance_file", e.what());
-  }
-  s.silent_timeout_s = param_double(p, "silent_timeout", s.silent_timeout_s);
-  require_positive("silent_timeout", s.silent_timeout_s, "s");
-  s.time_jump_threshold_s = param_double(p, "time_jump_threshold", s.time_jump_threshold_s);
-  double slowest = std::max({s.streams.input_period_s, s.streams.test_period_s(), s.streams.remote_period_s()});
+  // A window must hold min_harmonics harmonics j / window inside the band: calibrate_records'
+  // rule for --window and --intervals, in its words.
+  const std::string too_short = e.too_few_harmonics(l.window_s);
+  if (!too_short.empty()) throw ParameterError("window", "(" + number_text(l.window_s) + " s) " + too_short);
+  double slowest = std::max({l.input_period_s, l.test_period_s(), l.remote_period_s()});
   for (const TestInstrumentSettings& t : s.tests) slowest = std::max(slowest, t.input_period_s);
   if (!(s.time_jump_threshold_s > slowest)) {
     throw ParameterError("time_jump_threshold",
                          "must be longer than the slowest stream's period (" + number_text(slowest) + " s)");
   }
-  s.streams.time_jump_threshold_s = s.time_jump_threshold_s;
-  s.queue_size = param_int(p, "queue_size", s.queue_size);
-  if (s.queue_size < 1) throw ParameterError("queue_size", "must be >= 1 message");
-  s.max_pending_windows = param_int(p, "max_pending_windows", s.max_pending_windows);
-  if (s.max_pending_windows < 1) throw ParameterError("max_pending_windows", "must be >= 1");
-  s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
-  require_positive("diagnostic_period", s.diagnostic_period_s, "s");
-  // TF: the rotation part of accepted calibrations on /tf_static (calibration_node_tf.cpp).
-  s.publish_tf = param_bool(p, "publish_tf", s.publish_tf);
-  s.tf_child_frame_suffix = param_string(p, "tf_child_frame_suffix", s.tf_child_frame_suffix);
+  l.time_jump_threshold_s = s.time_jump_threshold_s;
   if (s.tf_child_frame_suffix.find_first_of(" \t/") != std::string::npos) {
     throw ParameterError("tf_child_frame_suffix", "'" + s.tf_child_frame_suffix + "' must not contain spaces or '/'");
   }

@@ -3,6 +3,7 @@
 
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"  // kNormalQuantile95
 #include "magnetometer_insitu_calibration/pipeline/calibration_record.hpp"  // calibration_stream_mismatch
+#include "magnetometer_insitu_calibration/pipeline/setting_declarations.hpp"
 
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
@@ -25,10 +26,37 @@ namespace {
 using diagnostic_msgs::DiagnosticStatus;
 using diagnostic_updater::DiagnosticStatusWrapper;
 
-const std::vector<std::string> kCorrectionNodeParameters = {
-    "test_topic", "test_name", "corrected_topic", "calibration_topic", "calibration_file", "reload_period", "queue_size",
-    "publisher_queue_size", "correct_samples_before_window", "check_frame_id", "include_calibration_covariance",
-    "max_matrix_condition", "diagnostic_period", "apply_offset", "temperature_topic", "temperature_max_age", "temperature_model"};
+using C = CorrectionNodeSettings;
+
+}  // namespace
+
+/// The declared parameters bound to the node's settings (pipeline/setting_declarations.hpp).
+const SettingBindings<C>& CorrectionNodeSettings::bindings() {
+  static const SettingBindings<C> bindings = [] {
+    SettingBindings<C> b(correction_setting_declarations());
+    b.bind("test_topic", [](C& c) -> std::string& { return c.test_topic; })
+        .bind("test_name", [](C& c) -> std::string& { return c.test_name; })
+        .bind("corrected_topic", [](C& c) -> std::string& { return c.corrected_topic; })
+        .bind("calibration_topic", [](C& c) -> std::string& { return c.calibration_topic; })
+        .bind("calibration_file", [](C& c) -> std::string& { return c.calibration_file; })
+        .bind("temperature_topic", [](C& c) -> std::string& { return c.temperature_topic; })
+        .bind("reload_period", [](C& c) -> double& { return c.reload_period_s; })
+        .bind("correct_samples_before_window", [](C& c) -> bool& { return c.correct_samples_before_window; })
+        .bind("check_frame_id", [](C& c) -> bool& { return c.check_frame_id; })
+        .bind("include_calibration_covariance", [](C& c) -> bool& { return c.include_calibration_covariance; })
+        .bind("apply_offset", [](C& c) -> bool& { return c.apply_offset; })
+        .bind("max_matrix_condition", [](C& c) -> double& { return c.max_matrix_condition; })
+        .bind("temperature_max_age", [](C& c) -> double& { return c.temperature_max_age_s; })
+        .bind("temperature_model", [](C& c) -> std::string& { return c.temperature_model; })
+        .bind("queue_size", [](C& c) -> int& { return c.queue_size; })
+        .bind("publisher_queue_size", [](C& c) -> int& { return c.publisher_queue_size; })
+        .bind("diagnostic_period", [](C& c) -> double& { return c.diagnostic_period_s; });
+    return b;
+  }();
+  return bindings;
+}
+
+namespace {
 
 std::string window_text(const MagnetometerCalibration& c) {
   return time_for_message(c.window_start.toSec()) + " .. " + time_for_message(c.window_end.toSec());
@@ -38,46 +66,16 @@ std::string window_text(const MagnetometerCalibration& c) {
 
 CorrectionNodeSettings CorrectionNodeSettings::load(const ros::NodeHandle& p) {
   CorrectionNodeSettings s;
-  s.test_topic = required_string(p, "test_topic");
-  require_topic_name("test_topic", s.test_topic);
-  s.test_name = param_string(p, "test_name", s.test_name);
-  s.corrected_topic = param_string(p, "corrected_topic", s.corrected_topic);
-  require_topic_name("corrected_topic", s.corrected_topic);
-  s.calibration_topic = param_string(p, "calibration_topic", s.calibration_topic);
-  require_topic_name("calibration_topic", s.calibration_topic);
+  load_declared(p, bindings(), s);
+  // The rules between parameters.
   if (s.corrected_topic == s.test_topic) throw ParameterError("corrected_topic", "must differ from ~test_topic");
-  s.calibration_file = param_string(p, "calibration_file", s.calibration_file);
-  s.reload_period_s = param_double(p, "reload_period", s.reload_period_s);
-  require_non_negative("reload_period", s.reload_period_s, "s (0 = load only at start)");
   if (s.reload_period_s > 0.0 && s.calibration_file.empty()) {
     throw ParameterError("reload_period", "is set but ~calibration_file is empty");
   }
-  s.queue_size = param_int(p, "queue_size", s.queue_size);
-  if (s.queue_size < 1) throw ParameterError("queue_size", "must be >= 1 message");
-  s.publisher_queue_size = param_int(p, "publisher_queue_size", s.publisher_queue_size);
-  if (s.publisher_queue_size < 1) throw ParameterError("publisher_queue_size", "must be >= 1 message");
-  s.correct_samples_before_window = param_bool(p, "correct_samples_before_window", s.correct_samples_before_window);
-  s.check_frame_id = param_bool(p, "check_frame_id", s.check_frame_id);
-  s.include_calibration_covariance = param_bool(p, "include_calibration_covariance", s.include_calibration_covariance);
-  s.apply_offset = param_bool(p, "apply_offset", s.apply_offset);
-  s.max_matrix_condition = param_double(p, "max_matrix_condition", s.max_matrix_condition);
-  if (!(s.max_matrix_condition >= 1.0)) throw ParameterError("max_matrix_condition", "must be >= 1");
-  s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
-  require_positive("diagnostic_period", s.diagnostic_period_s, "s");
-  s.temperature_topic = param_string(p, "temperature_topic", s.temperature_topic);
-  if (!s.temperature_topic.empty()) {
-    require_topic_name("temperature_topic", s.temperature_topic);
-    for (const std::string* other : {&s.test_topic, &s.corrected_topic, &s.calibration_topic}) {
-      if (s.temperature_topic == *other) {
-        throw ParameterError("temperature_topic", "'" + s.temperature_topic + "' is a magnetic field or calibration topic");
-      }
+  for (const std::string* other : {&s.test_topic, &s.corrected_topic, &s.calibration_topic}) {
+    if (!s.temperature_topic.empty() && s.temperature_topic == *other) {
+      throw ParameterError("temperature_topic", "'" + s.temperature_topic + "' is a magnetic field or calibration topic");
     }
-  }
-  s.temperature_max_age_s = param_double(p, "temperature_max_age", s.temperature_max_age_s);
-  require_positive("temperature_max_age", s.temperature_max_age_s, "s");
-  s.temperature_model = param_string(p, "temperature_model", s.temperature_model);
-  if (s.temperature_model != "apparent" && s.temperature_model != "full") {
-    throw ParameterError("temperature_model", "'" + s.temperature_model + "' must be apparent or full");
   }
   return s;
 }
@@ -88,7 +86,7 @@ CorrectionNode::CorrectionNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
       settings_(CorrectionNodeSettings::load(private_nh)),
       node_name_(private_nh.getNamespace()),  // the node's name; a nodelet's own name in a manager
       updater_(nh, private_nh, private_nh.getNamespace()) {
-  for (const std::string& name : unknown_private_parameters(private_nh_, kCorrectionNodeParameters)) {
+  for (const std::string& name : unknown_private_parameters(private_nh_, declared_parameters(correction_setting_declarations()))) {
     ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
   }
   updater_.setHardwareID("test " + nh_.resolveName(settings_.test_topic));

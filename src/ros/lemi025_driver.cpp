@@ -5,6 +5,7 @@
 // held packets, publishing), lemi025_driver_diagnostics.cpp (the /diagnostics tasks).
 #include "magnetometer_insitu_calibration/ros/lemi025_driver.hpp"
 
+#include "magnetometer_insitu_calibration/instrument/lemi025_driver_settings.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
 
 #include <sensor_msgs/MagneticField.h>
@@ -14,70 +15,67 @@ namespace magnetometer_insitu_calibration {
 
 namespace {
 
-const std::vector<std::string> kDriverParameters = {
-    "source", "device", "baud", "file", "rate", "checksum", "field", "frame_id", "noise_nT", "reopen_interval",
-    "gps_required", "expected_packet_rate", "min_supply", "publisher_queue_size", "diagnostic_period",
-    "wait_for_subscribers"};
+using D = Lemi025DriverSettings;
 
 }  // namespace
+
+/// The declared parameters bound to the driver's settings (instrument/lemi025_driver_settings.hpp).
+const SettingBindings<D>& Lemi025DriverSettings::bindings() {
+  static const SettingBindings<D> bindings = [] {
+    SettingBindings<D> b(lemi025_driver_setting_declarations());
+    b.bind_with(
+        "source",
+        [](D& d, const SettingValue& v) {
+          d.source_name = std::get<std::string>(v);
+          d.source = d.source_name == "stream_file"     ? Lemi025SourceKind::kStreamFile
+                     : d.source_name == "lemibin"       ? Lemi025SourceKind::kLemiBin
+                     : d.source_name == "compact_flash" ? Lemi025SourceKind::kCompactFlash
+                                                        : Lemi025SourceKind::kSerial;
+        },
+        [](const D& d) { return SettingValue(d.source_name); });
+    b.bind("device", [](D& d) -> std::string& { return d.device; })
+        .bind("baud", [](D& d) -> int& { return d.baud; })
+        .bind("file", [](D& d) -> std::string& { return d.file; })
+        .bind("rate", [](D& d) -> double& { return d.rate; });
+    b.bind_with(
+        "checksum", [](D& d, const SettingValue& v) { d.checksum = *parse_checksum_mode(std::get<std::string>(v)); },
+        [](const D& d) { return SettingValue(checksum_mode_name(d.checksum)); });
+    b.bind("reopen_interval", [](D& d) -> double& { return d.reopen_interval_s; });
+    b.bind_with(
+        "field",
+        [](D& d, const SettingValue& v) {
+          d.field = std::get<std::string>(v) == "variation" ? LemiFieldMode::kVariation : LemiFieldMode::kFullField;
+        },
+        [](const D& d) { return SettingValue(std::string(d.field == LemiFieldMode::kVariation ? "variation" : "full")); });
+    b.bind("frame_id", [](D& d) -> std::string& { return d.frame_id; })
+        .bind("noise_nT", [](D& d) -> double& { return d.noise_nT; })
+        .bind("gps_required", [](D& d) -> bool& { return d.gps_required; })
+        .bind("publisher_queue_size", [](D& d) -> int& { return d.publisher_queue_size; })
+        .bind("wait_for_subscribers", [](D& d) -> int& { return d.wait_for_subscribers; })
+        .bind("expected_packet_rate", [](D& d) -> double& { return d.expected_packet_rate; })
+        .bind("min_supply", [](D& d) -> double& { return d.min_supply_V; })
+        .bind("diagnostic_period", [](D& d) -> double& { return d.diagnostic_period_s; });
+    return b;
+  }();
+  return bindings;
+}
+
 
 // ---------------------------------------------------------------------------------------------
 // Settings
 
 Lemi025DriverSettings Lemi025DriverSettings::load(const ros::NodeHandle& p) {
   Lemi025DriverSettings s;
-  s.source_name = param_string(p, "source", s.source_name);
-  if (s.source_name == "serial") {
-    s.source = Lemi025SourceKind::kSerial;
-  } else if (s.source_name == "stream_file") {
-    s.source = Lemi025SourceKind::kStreamFile;
-  } else if (s.source_name == "lemibin") {
-    s.source = Lemi025SourceKind::kLemiBin;
-  } else if (s.source_name == "compact_flash") {
-    s.source = Lemi025SourceKind::kCompactFlash;
-  } else {
-    throw ParameterError("source", "'" + s.source_name + "' is not one of serial, stream_file, lemibin, compact_flash");
-  }
-  s.baud = param_int(p, "baud", s.baud);
+  load_declared(p, bindings(), s);
   if (s.baud != 57600 && s.baud != 19200) {
     throw ParameterError("baud", std::to_string(s.baud) + " is not a LEMI-025 rate (57600 or 19200)");
   }
-  if (s.source == Lemi025SourceKind::kSerial) {
-    s.device = required_string(p, "device");
-  } else {
-    s.file = required_string(p, "file");
+  // The port or the recording, as the source needs.
+  const std::string source_path = s.source == Lemi025SourceKind::kSerial ? "device" : "file";
+  if ((source_path == "device" ? s.device : s.file).empty()) {
+    throw ParameterError(source_path, p.hasParam(source_path) ? "must not be empty" : "is required and not set");
   }
-  s.rate = param_double(p, "rate", s.rate);
-  require_non_negative("rate", s.rate, "(replay speed factor, 1 = real time, 0 = as fast as possible)");
-  const std::string checksum = param_string(p, "checksum", checksum_mode_name(s.checksum));
-  const std::optional<ChecksumMode> mode = parse_checksum_mode(checksum);
-  if (!mode) throw ParameterError("checksum", "'" + checksum + "' is not one of none, sum8, xor8");
-  s.checksum = *mode;
-  const std::string field = param_string(p, "field", "full");
-  if (field == "full") {
-    s.field = LemiFieldMode::kFullField;
-  } else if (field == "variation") {
-    s.field = LemiFieldMode::kVariation;
-  } else {
-    throw ParameterError("field", "'" + field + "' is not one of full, variation");
-  }
-  s.frame_id = param_string(p, "frame_id", s.frame_id);
   if (s.frame_id.empty()) throw ParameterError("frame_id", "must not be empty");
-  s.noise_nT = param_double(p, "noise_nT", s.noise_nT);
-  require_non_negative("noise_nT", s.noise_nT, "nT (0 = covariance unknown)");
-  s.reopen_interval_s = param_double(p, "reopen_interval", s.reopen_interval_s);
-  require_positive("reopen_interval", s.reopen_interval_s, "s");
-  s.gps_required = param_bool(p, "gps_required", s.gps_required);
-  s.expected_packet_rate = param_double(p, "expected_packet_rate", s.expected_packet_rate);
-  require_positive("expected_packet_rate", s.expected_packet_rate, "packets/s");
-  s.min_supply_V = param_double(p, "min_supply", s.min_supply_V);
-  require_non_negative("min_supply", s.min_supply_V, "V (0 = no check)");
-  s.publisher_queue_size = param_int(p, "publisher_queue_size", s.publisher_queue_size);
-  if (s.publisher_queue_size < 1) throw ParameterError("publisher_queue_size", "must be >= 1 message");
-  s.wait_for_subscribers = param_int(p, "wait_for_subscribers", s.wait_for_subscribers);
-  if (s.wait_for_subscribers < 0) throw ParameterError("wait_for_subscribers", "must be >= 0 subscribers");
-  s.diagnostic_period_s = param_double(p, "diagnostic_period", s.diagnostic_period_s);
-  require_positive("diagnostic_period", s.diagnostic_period_s, "s");
   return s;
 }
 
@@ -90,7 +88,7 @@ Lemi025Driver::Lemi025Driver(ros::NodeHandle nh, ros::NodeHandle private_nh)
       settings_(Lemi025DriverSettings::load(private_nh)),
       node_name_(private_nh.getNamespace()),  // the node's name; a nodelet's own name in a manager
       updater_(nh, private_nh, private_nh.getNamespace()) {
-  for (const std::string& name : unknown_private_parameters(private_nh_, kDriverParameters)) {
+  for (const std::string& name : unknown_private_parameters(private_nh_, declared_parameters(lemi025_driver_setting_declarations()))) {
     ROS_WARN("%s: unknown parameter ~%s is ignored (misspelt?)", node_name_.c_str(), name.c_str());
   }
   const Lemi025DriverSettings& s = settings_;

@@ -73,6 +73,39 @@ void require_in_range(const std::string& name, double value, double low, double 
   }
 }
 
+std::optional<SettingValue> read_declared(const ros::NodeHandle& nh, const SettingDeclaration& declared) {
+  const std::string& name = declared.parameter;
+  if (!nh.hasParam(name)) {
+    if (declared.required) throw ParameterError(name, "is required and not set");
+    return std::nullopt;
+  }
+  SettingValue value;
+  switch (declared.kind) {
+    case SettingKind::kNumber: value = param_double(nh, name, 0.0); break;
+    case SettingKind::kInteger: value = static_cast<long long>(param_int(nh, name, 0)); break;
+    case SettingKind::kFlag: value = param_bool(nh, name, false); break;
+    default: value = param_string(nh, name, ""); break;
+  }
+  const std::string problem = declared.problem(value);
+  if (!problem.empty()) throw ParameterError(name, problem);
+  if (declared.kind == SettingKind::kTopic && !std::get<std::string>(value).empty()) {
+    require_topic_name(name, std::get<std::string>(value));
+  }
+  return value;
+}
+
+ParameterError parameter_error(const InputError& error, const SettingDeclarations& declarations) {
+  const SettingDeclaration* d = find_setting(declarations, error.where());
+  return ParameterError(d != nullptr && !d->parameter.empty() ? d->parameter : error.where(), error.problem());
+}
+
+std::vector<std::string> declared_parameters(const SettingDeclarations& declarations) {
+  std::vector<std::string> names;
+  for (const SettingDeclaration& d : declarations)
+    if (!d.parameter.empty()) names.push_back(d.parameter);
+  return names;
+}
+
 std::vector<std::string> unknown_private_parameters(const ros::NodeHandle& nh,
                                                     const std::vector<std::string>& known) {
   std::vector<std::string> names, unknown;

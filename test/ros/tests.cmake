@@ -13,9 +13,9 @@
 find_package(rostest REQUIRED)
 find_package(tf2_msgs REQUIRED)  # rostest_calibration_tf.cpp reads /tf_static
 
-catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp test/ros/test_ros_temperature.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
+catkin_add_gtest(test_ros_layer test/ros/test_ros_layer.cpp test/ros/test_ros_temperature.cpp test/ros/test_ros_settings.cpp WORKING_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR})
 if(TARGET test_ros_layer)
-  target_link_libraries(test_ros_layer ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
+  target_link_libraries(test_ros_layer ${PROJECT_NAME}_nodes ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${GTEST_MAIN_LIBRARIES})
   target_compile_options(test_ros_layer PRIVATE -Wall -Wextra)
 endif()
 

@@ -34,6 +34,8 @@
 // (parameters).
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/setting_bindings.hpp"
+
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
 #include "magnetometer_insitu_calibration/pipeline/window_calibration.hpp"
@@ -113,6 +115,8 @@ struct CalibrationNodeSettings {
 
   /// Reads every private parameter; throws ParameterError naming the first impossible one.
   static CalibrationNodeSettings load(const ros::NodeHandle& private_nh);  // calibration_node_settings.cpp
+  /// The declared parameters bound to these settings (the documents' and the tests' view).
+  static const SettingBindings<CalibrationNodeSettings>& bindings();
   /// Every private parameter load() reads (others draw a start-up warning).
   static const std::vector<std::string>& known_parameters();
 };

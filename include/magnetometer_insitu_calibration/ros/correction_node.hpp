@@ -50,6 +50,8 @@
 //    received = published + dropped (no calibration, frame, before window).
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/setting_bindings.hpp"
+
 #include "magnetometer_insitu_calibration/ros/correction_model.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
@@ -90,6 +92,8 @@ struct CorrectionNodeSettings {
 
   /// Reads every private parameter; throws ParameterError naming the first impossible one.
   static CorrectionNodeSettings load(const ros::NodeHandle& private_nh);
+  /// The declared parameters bound to these settings (the documents' and the tests' view).
+  static const SettingBindings<CorrectionNodeSettings>& bindings();
 };
 
 class CorrectionNode {

@@ -68,6 +68,8 @@
 // device's last error) and how many reopen attempts were made.
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/setting_bindings.hpp"
+
 #include "magnetometer_insitu_calibration/formats/lemi025_packet.hpp"
 #include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
 #include "magnetometer_insitu_calibration/instrument/packet_source.hpp"
@@ -113,6 +115,8 @@ struct Lemi025DriverSettings {
 
   /// Reads every private parameter; throws ParameterError naming the first impossible one.
   static Lemi025DriverSettings load(const ros::NodeHandle& private_nh);
+  /// The declared parameters bound to these settings (the documents' and the tests' view).
+  static const SettingBindings<Lemi025DriverSettings>& bindings();
   /// True for the recorded sources (stream_file, lemibin, compact_flash).
   bool recorded() const { return source != Lemi025SourceKind::kSerial; }
 };

@@ -1,7 +1,12 @@
 // Reading private ROS parameters once at start-up, with errors that name the parameter.
 #pragma once
 
+#include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/setting_bindings.hpp"
+
 #include <ros/node_handle.h>
+
+#include <optional>
 
 #include <stdexcept>
 #include <string>
@@ -47,5 +52,32 @@ void require_in_range(const std::string& name, double value, double low, double 
 /// (first path component after ~), e.g. a misspelt "~windwo". For a start-up warning.
 std::vector<std::string> unknown_private_parameters(const ros::NodeHandle& private_nh,
                                                     const std::vector<std::string>& known);
+
+/// ~parameter of `declared` as its kind reads it (numbers: int or double; flags; strings), checked
+/// against the declaration (range, choices, a valid topic name); nullopt when it is not set.
+/// Throws ParameterError naming the parameter.
+std::optional<SettingValue> read_declared(const ros::NodeHandle& private_nh, const SettingDeclaration& declared);
+
+/// A core check's error (InputError::where = a settings key) named by the parameter that sets it.
+ParameterError parameter_error(const InputError& error, const SettingDeclarations& declarations);
+
+/// The private parameters the declarations name (for unknown_private_parameters).
+std::vector<std::string> declared_parameters(const SettingDeclarations& declarations);
+
+/// Every bound setting with a parameter that is set on the server: read, checked and set in
+/// `root`. Settings not set keep root's value (the declared default).
+template <class Root>
+void load_declared(const ros::NodeHandle& private_nh, const SettingBindings<Root>& bindings, Root& root) {
+  for (const SettingBinding<Root>& b : bindings.bindings()) {
+    if (b.declared.parameter.empty()) continue;
+    const std::optional<SettingValue> value = read_declared(private_nh, b.declared);
+    if (!value) continue;
+    try {
+      b.set(root, *value);
+    } catch (const InputError& e) {
+      throw ParameterError(b.declared.parameter, e.problem());
+    }
+  }
+}
 
 }  // namespace magnetometer_insitu_calibration

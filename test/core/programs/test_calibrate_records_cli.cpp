@@ -159,9 +159,7 @@ TEST_F(CalibrateRecordsCli, IntervalsTooShortForTheBandOrZeroAreRefused) {
   EXPECT_EQ(r.output.find("nan"), std::string::npos) << r.output;
   r = run_cli(io + "--intervals 0");
   EXPECT_EQ(r.status, 1) << r.output;
-  EXPECT_NE(r.output.find("calibrate_records: --intervals: must be >= 1, got 0 (for the whole record as one window, "
-                          "leave out --intervals, --window and --step)"),
-            std::string::npos)
+  EXPECT_NE(r.output.find("calibrate_records: --intervals: must be >= 1, not 0"), std::string::npos)
       << r.output;
   EXPECT_EQ(r.output.find("Summary of"), std::string::npos) << r.output;
 }
