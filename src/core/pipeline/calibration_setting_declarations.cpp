@@ -86,9 +86,10 @@ SettingDeclarations windows_and_gaps() {
           .aliased({"max_fill_s"}),
       number_setting("temperature_min_range", "temperature_min_range", "--temperature-min-range", "degC", 0.05,
                      at_least(0), "a window whose temperature varies less is estimated without temperature terms"),
-      number_setting("temperature_max_gap", "temperature_max_gap", kNone, "s", 60.0, above(0),
+      number_setting("temperature_max_gap", "temperature_max_gap", "--temperature-max-gap", "s", 60.0, above(0),
                      "longest thermometer gap interpolated, and its hold at the window's edges")
-          .noted("max(60, 2 estimation periods)"),
+          .noted("max(60, 2 estimation periods)")
+          .option_noted("60"),
   });
 }
 

@@ -113,6 +113,14 @@ TEST_F(CalibrateRecordsCli, EmptyBandAndBadOptionsAreNamed) {
   r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --window 3600 --step 7200");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("step"), std::string::npos) << r.output;
+  // Each declared option is checked against its declaration where it enters, in the user's words.
+  r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --temperature-max-gap 0");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("calibrate_records: --temperature-max-gap: must be > 0 s, not 0"), std::string::npos) << r.output;
+  r = run_cli("--reference " + dir_ + "/ref.csv --test " + dir_ + "/test.csv --method fast");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("calibrate_records: --method: expected robust or plain, got 'fast'"), std::string::npos)
+      << r.output;
 }
 
 // Errors of the core's settings name the option the user gave, not the settings field; what
