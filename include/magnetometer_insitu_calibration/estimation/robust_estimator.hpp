@@ -1,5 +1,5 @@
-// Robust frequency-domain estimator of the calibration matrix for disturbed stations, and the
-// dispatcher that gives each window the estimator its settings ask for.
+// Robust frequency-domain estimator of the calibration matrix for disturbed stations: the robust
+// method behind WindowEstimator (window_estimator.hpp, the estimators' front door).
 //
 // Why Eq. 2 is fragile. A local disturbance seen by one instrument, or by both with different
 // gains and directions (a vehicle on a nearby road is a moving dipole: its field falls as
@@ -145,23 +145,5 @@ class RobustFdEstimator {
 std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT,
                                   const Eigen::Ref<const Readings>& test_nT, const Eigen::Matrix3d& n,
                                   double sample_period_s, const RobustSettings& settings);
-
-/// The estimator a window gets: plain Eq. 2 or robust, from settings.method; auto band and the
-/// delay are applied to either (the plain method only reports the delay, it never corrects it).
-/// Fills WindowEstimate::method, band_low_hz/band_high_hz and delay_s/delay_ci95_s.
-class WindowEstimator {
- public:
-  explicit WindowEstimator(const EstimatorSettings& settings);
-  ~WindowEstimator();
-  WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
-                          double sample_period_s, const WindowInputs& inputs = {});
-  const EstimatorSettings& settings() const { return settings_; }
-  /// The robust estimator's diagnostics of the last window (empty for the plain method).
-  const RobustDiagnostics* robust_diagnostics() const;
-
- private:
-  EstimatorSettings settings_;
-  std::unique_ptr<RobustFdEstimator> robust_;
-};
 
 }  // namespace magnetometer_insitu_calibration
