@@ -6,7 +6,7 @@
 #include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 
 #include <algorithm>
 #include <cmath>

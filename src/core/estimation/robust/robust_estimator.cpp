@@ -2,16 +2,16 @@
 // residual_screen.cpp (1), section_irls.cpp (3, 5), weighted_eiv_solve.cpp (5),
 // robust_covariance.cpp and section_jackknife.cpp (6). The per-window dispatcher is in
 // window_estimator.cpp.
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "delay_spectra.hpp"
-#include "failed_window_estimate.hpp"
-#include "pair_averages.hpp"
+#include "../delay_spectra.hpp"
+#include "../failed_window_estimate.hpp"
+#include "../pair_averages.hpp"
 #include "robust_sections.hpp"
 #include "section_trend.hpp"
-#include "spectral_tools.hpp"
+#include "../spectral_tools.hpp"
 
 #include <algorithm>
 #include <cmath>

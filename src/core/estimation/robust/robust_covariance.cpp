@@ -3,8 +3,8 @@
 // levels' term.
 #include "robust_sections.hpp"
 
-#include "sandwich_cells.hpp"
-#include "spectral_tools.hpp"
+#include "../sandwich_cells.hpp"
+#include "../spectral_tools.hpp"
 
 #include <cmath>
 #include <string>

@@ -3,7 +3,7 @@
 // weights from each section's residual level.
 #include "robust_sections.hpp"
 
-#include "spectral_tools.hpp"
+#include "../spectral_tools.hpp"
 
 #include <algorithm>
 #include <cmath>
