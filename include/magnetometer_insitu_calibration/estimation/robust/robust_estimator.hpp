@@ -84,7 +84,7 @@
 //
 // Its parts sit in src/core/estimation/robust/: residual_screen.cpp (step 1),
 // robust_estimator.cpp (the steps in order; 2 and 4), section_trend.hpp (2), section_irls.cpp
-// (3), weighted_eiv_solve.cpp (3 and 5), robust_covariance.cpp and section_jackknife.cpp (6),
+// with the cell weights of cell_weights.hpp (3), weighted_eiv_solve.cpp (3 and 5), robust_covariance.cpp and section_jackknife.cpp (6),
 // remote_cells.cpp (the remote reference over the cells); robust_sections.hpp declares them.
 // The plain estimator (FdWlseEstimator, fd_wlse.hpp: Eq. 2 on the whole window) is
 // EstimatorSettings::method = kPlain.
