@@ -82,10 +82,12 @@
 //     Measured coverage and the reasoning: section_jackknife.cpp (combine_covariances) and
 //     docs/validation.md (coverage of the intervals).
 //
-// Its parts sit in src/core/estimation/robust/: residual_screen.cpp (step 1),
-// robust_estimator.cpp (the steps in order; 2 and 4), section_trend.hpp (2), section_irls.cpp
-// with the cell weights of cell_weights.hpp (3), weighted_eiv_solve.cpp (3 and 5), robust_covariance.cpp and section_jackknife.cpp (6),
-// remote_cells.cpp (the remote reference over the cells); robust_sections.hpp declares them.
+// Its parts sit in estimation/robust/ (headers: residual_screen.hpp, cell_weights.hpp here;
+// the others beside their .cpp in src/core/estimation/robust/): residual_screen (step 1),
+// robust_estimator.cpp (the steps in order; 2 and 4), section_cells.hpp and section_trend.hpp
+// (2), section_irls with the cell weights of cell_weights.hpp (3), weighted_eiv_solve (3 and 5),
+// robust_covariance and section_jackknife (6), remote_cells (the remote reference over the
+// cells).
 // The plain estimator (FdWlseEstimator, fd_wlse.hpp: Eq. 2 on the whole window) is
 // EstimatorSettings::method = kPlain.
 #pragma once
@@ -93,6 +95,7 @@
 #include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/residual_screen.hpp"
 
 #include <memory>
 #include <vector>
@@ -143,11 +146,5 @@ class RobustFdEstimator {
   std::unique_ptr<Impl> impl_;
   RobustDiagnostics diagnostics_;
 };
-
-/// Residual screen of step 1 alone: per sample 1 where T - R n, high-passed, is an outlier
-/// (margin included). Exposed for tests and for the real-data report.
-std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT,
-                                  const Eigen::Ref<const Readings>& test_nT, const Eigen::Matrix3d& n,
-                                  double sample_period_s, const RobustSettings& settings);
 
 }  // namespace magnetometer_insitu_calibration

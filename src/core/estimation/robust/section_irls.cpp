@@ -1,7 +1,7 @@
 // Sectioned M-estimation of the robust estimator (robust_estimator.hpp, steps 3 and 5):
 // iteratively reweighted least squares over the cells with cell weights (cell_weights.hpp:
 // Huber's) and section weights from each section's residual level.
-#include "robust_sections.hpp"
+#include "section_irls.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/robust/cell_weights.hpp"
 #include "../spectral_tools.hpp"
