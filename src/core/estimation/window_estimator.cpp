@@ -1,6 +1,6 @@
 // The estimators' front door (window_estimator.hpp): the estimate's own functions, and the
 // dispatcher that gives each window the estimator its settings ask for: plain Eq. 2 (with auto
-// band and the delay reported) or the robust estimator (robust_estimator.hpp).
+// band and the delay reported) or the robust estimator (robust/robust_estimator.hpp).
 #include "magnetometer_insitu_calibration/estimation/window_estimator.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
