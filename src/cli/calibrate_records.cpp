@@ -12,7 +12,7 @@
 #include "magnetometer_insitu_calibration/formats/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/formats/tolerance_file.hpp"
 
-#include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/tools, tools.cmake)
+#include "bag_input.hpp"  // --bag FILE --reference-topic T --test-topic T (src/program_support)
 
 #include "command_line.hpp"     // parse_command_line: exit 1 on a usage error (src/program_support)
 #include "setting_options.hpp"  // the declared settings as options (src/program_support)

@@ -14,7 +14,7 @@
 //
 //   benchmark_bag_read [--bag existing.bag] [--keep path.bag] [--repeat 5] [--compression none]
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
-#include "bag_records.hpp"  // src/tools
+#include "bag_records.hpp"  // src/program_support
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/program_support)

@@ -21,7 +21,7 @@
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
 #include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "bag_records.hpp"  // src/tools
+#include "bag_records.hpp"  // src/program_support
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 

@@ -17,7 +17,7 @@
 #include "archive_records.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "bag_records.hpp"  // src/tools
+#include "bag_records.hpp"  // src/program_support
 #include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include "command_line.hpp"  // parse_command_line: exit 1 on a usage error (src/program_support)

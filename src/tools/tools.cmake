@@ -1,8 +1,8 @@
 # Archived-record tools (included by CMakeLists.txt after src/ros/nodes.cmake):
 #  - ${PROJECT_NAME}_archive: ROS-free, every record format read past damaged records, LEMI
 #    temperatures, correction into the reference frame, calibrate_records JSON windows;
-#  - ${PROJECT_NAME}_bag: sensor_msgs/MagneticField bags <-> VectorRecords (rosbag C++ API, no
-#    master) and the --bag input of calibrate_records;
+#  - ${PROJECT_NAME}_bag (src/program_support, shared with src/cli): sensor_msgs/MagneticField
+#    bags <-> VectorRecords (rosbag C++ API, no master) and the --bag input of calibrate_records;
 #  - programs records_to_bag, export_corrected; the benchmark benchmark_bag_read (not in `all`);
 #  - calibrate_records (built by CMakeLists.txt from src/cli) gets the bag input.
 # catkin_lint (-W2): this package's generated message headers are in ${CATKIN_DEVEL_PREFIX}/include
@@ -16,9 +16,8 @@ target_include_directories(${PROJECT_NAME}_archive PUBLIC include src/tools)
 target_link_libraries(${PROJECT_NAME}_archive PUBLIC ${PROJECT_NAME}_core)
 target_compile_options(${PROJECT_NAME}_archive PRIVATE -Wall -Wextra)
 
-add_library(${PROJECT_NAME}_bag src/tools/bag_records.cpp src/tools/bag_input.cpp)
-target_include_directories(${PROJECT_NAME}_bag PUBLIC include src/tools ${catkin_INCLUDE_DIRS})
-target_include_directories(${PROJECT_NAME}_bag PRIVATE src/program_support)  # command_line.hpp
+add_library(${PROJECT_NAME}_bag src/program_support/bag_records.cpp src/program_support/bag_input.cpp)
+target_include_directories(${PROJECT_NAME}_bag PUBLIC include src/program_support ${catkin_INCLUDE_DIRS})
 target_link_libraries(${PROJECT_NAME}_bag PUBLIC ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_compile_options(${PROJECT_NAME}_bag PRIVATE -Wall -Wextra)
 
@@ -37,7 +36,7 @@ target_link_libraries(benchmark_bag_read ${PROJECT_NAME}_bag)
 add_dependencies(benchmarks benchmark_bag_read)
 
 foreach(program records_to_bag export_corrected benchmark_bag_read)
-  target_include_directories(${program} PRIVATE src/program_support)  # command_line.hpp, shared with src/cli
+  target_include_directories(${program} PRIVATE src/program_support)  # command_line.hpp, bag_records.hpp
   mic_use_precompiled_headers(${program} EXE_ROS)
   target_compile_options(${program} PRIVATE -Wall -Wextra)
 endforeach()

@@ -2,7 +2,7 @@
 // default quiet station and the settings of the paper's plain Eq. 2.
 #pragma once
 
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 namespace magnetometer_insitu_calibration::test {

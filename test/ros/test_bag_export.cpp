@@ -2,7 +2,7 @@
 // executable test_bag_records; this file is compiled with test_bag_records.cpp as one
 // translation unit, so its helpers have names of their own).
 #include "magnetometer_insitu_calibration/formats/iaga2002.hpp"
-#include "bag_records.hpp"  // src/tools
+#include "bag_records.hpp"  // src/program_support
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 

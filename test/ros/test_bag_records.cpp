@@ -8,7 +8,7 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
-#include "bag_records.hpp"  // src/tools
+#include "bag_records.hpp"  // src/program_support
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 

@@ -5,7 +5,7 @@
 // covariance (coupling * covariance * coupling^T), parameters decomposed again.
 #pragma once
 
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/window_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
 
 

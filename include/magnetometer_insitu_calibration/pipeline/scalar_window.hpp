@@ -14,7 +14,7 @@
 // and the reference noise model for the errors-in-variables correction.
 #pragma once
 
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/window_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/scalar_check.hpp"
 #include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"

@@ -17,7 +17,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/tolerances.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/window_estimator.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/time_alignment.hpp"
 
 #include <limits>

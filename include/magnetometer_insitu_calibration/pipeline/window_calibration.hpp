@@ -31,7 +31,7 @@
 
 #include "magnetometer_insitu_calibration/estimation/relative_response.hpp"
 #include "magnetometer_insitu_calibration/estimation/response_model.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/window_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/temperature_regression.hpp"
 #include "magnetometer_insitu_calibration/pipeline/reference_noise.hpp"
 #include "magnetometer_insitu_calibration/pipeline/scalar_window.hpp"

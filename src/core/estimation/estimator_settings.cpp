@@ -1,10 +1,11 @@
-// Names, parsing and validation of the estimator settings declared in fd_wlse.hpp (method,
-// RobustSettings).
-#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+// Names, parsing and validation of the estimator settings (estimator_settings.hpp), and the
+// band's harmonics in a window.
+#include "magnetometer_insitu_calibration/estimation/estimator_settings.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -38,6 +39,25 @@ void RobustSettings::validate() const {
   band.min_coherence = min_band_coherence;
   band.validate();
   if (!positive(delay_max_hz)) throw InputError("delay_max_hz", "must be a positive frequency in Hz");
+}
+
+double EstimatorSettings::band_harmonics(double window_s) const {
+  return std::max(0.0, std::floor(band_high_hz * window_s) - std::ceil(band_low_hz * window_s) + 1.0);
+}
+
+void EstimatorSettings::validate() const {
+  auto fail = [](const std::string& field, const std::string& problem) {
+    throw InputError(field, problem);
+  };
+  if (!(band_low_hz > 0.0) || !std::isfinite(band_low_hz))
+    fail("band_low_hz", "must be a positive frequency in Hz (harmonic 0 is the mean)");
+  if (!(band_high_hz > band_low_hz) || !std::isfinite(band_high_hz))
+    fail("band_high_hz", "must be finite and above band_low_hz (empty band)");
+  if (!std::isfinite(gamma) || gamma < 0.0 || gamma > 4.0) fail("gamma", "must be in [0, 4]");
+  if (min_harmonics < 5) fail("min_harmonics", "must be at least 5");
+  if (!(max_condition_number > 1.0)) fail("max_condition_number", "must be above 1");
+  if (!(min_coherence >= 0.0 && min_coherence < 1.0)) fail("min_coherence", "must be in [0, 1)");
+  robust.validate();
 }
 
 double EstimatorSettings::harmonics_window_s() const {

@@ -53,44 +53,6 @@ std::mutex& fftw_planner_mutex() {
 
 std::mutex& fftw_planner_lock() { return fftw_planner_mutex(); }
 
-double EstimatorSettings::band_harmonics(double window_s) const {
-  return std::max(0.0, std::floor(band_high_hz * window_s) - std::ceil(band_low_hz * window_s) + 1.0);
-}
-
-void EstimatorSettings::validate() const {
-  auto fail = [](const std::string& field, const std::string& problem) {
-    throw InputError(field, problem);
-  };
-  if (!(band_low_hz > 0.0) || !std::isfinite(band_low_hz))
-    fail("band_low_hz", "must be a positive frequency in Hz (harmonic 0 is the mean)");
-  if (!(band_high_hz > band_low_hz) || !std::isfinite(band_high_hz))
-    fail("band_high_hz", "must be finite and above band_low_hz (empty band)");
-  if (!std::isfinite(gamma) || gamma < 0.0 || gamma > 4.0) fail("gamma", "must be in [0, 4]");
-  if (min_harmonics < 5) fail("min_harmonics", "must be at least 5");
-  if (!(max_condition_number > 1.0)) fail("max_condition_number", "must be above 1");
-  if (!(min_coherence >= 0.0 && min_coherence < 1.0)) fail("min_coherence", "must be in [0, 1)");
-  robust.validate();  // defined in estimator_settings.cpp
-}
-
-const char* quality_name(Quality q) {
-  switch (q) {
-    case Quality::kOk: return "ok";
-    case Quality::kTooFewSamples: return "too_few_samples";
-    case Quality::kTooFewHarmonics: return "too_few_harmonics";
-    case Quality::kIllConditioned: return "ill_conditioned";
-    case Quality::kLowCoherence: return "low_coherence";
-    case Quality::kGaps: return "gaps";
-    case Quality::kNotFinite: return "not_finite";
-  }
-  return "unknown";
-}
-
-Eigen::Matrix3d WindowEstimate::n_stderr() const {
-  Eigen::Matrix3d se;
-  for (int k = 0; k < 9; ++k) se(k / 3, k % 3) = std::sqrt(std::max(0.0, n_covariance(k, k)));
-  return se;
-}
-
 /// FFTW buffers and a batched real-to-complex plan for the data columns of length `length` (R's
 /// three, T's, and a remote's when given), stored column after column. The trend column's DFT
 /// is known in closed form (trend_dft) and not transformed.

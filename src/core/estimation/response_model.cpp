@@ -3,7 +3,7 @@
 #include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "column_response.hpp"
+#include "magnetometer_insitu_calibration/estimation/column_response.hpp"
 #include "spectral_tools.hpp"
 
 #include <Eigen/Dense>
@@ -248,7 +248,7 @@ ResponseModel fit_response_model(const std::vector<ResponseBand>& bands, const R
 Readings remove_modelled_filter(const Readings& test, double period_s, const ResponseModel& model) {
   if (!model.applied || test.rows() < 4) return test;
   Readings out = test;
-  detail::ColumnResponse filter(static_cast<std::size_t>(test.rows()));
+  ColumnResponse filter(static_cast<std::size_t>(test.rows()));
   for (int k = 0; k < 3; ++k) {
     const double q = model.inverse_corner_s(k);
     if (!(q > 0.0)) continue;

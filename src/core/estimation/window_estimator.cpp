@@ -1,10 +1,36 @@
-// Dispatcher that gives each window the estimator its settings ask for: plain Eq. 2 (with auto
-// band and the delay reported) or the robust estimator (robust_estimator.hpp).
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+// The estimators' front door (window_estimator.hpp): the estimate's own functions, and the
+// dispatcher that gives each window the estimator its settings ask for: plain Eq. 2 (with auto
+// band and the delay reported) or the robust estimator (robust/robust_estimator.hpp).
+#include "magnetometer_insitu_calibration/estimation/window_estimator.hpp"
+
+#include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
+#include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
+#include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace magnetometer_insitu_calibration {
+
+const char* quality_name(Quality q) {
+  switch (q) {
+    case Quality::kOk: return "ok";
+    case Quality::kTooFewSamples: return "too_few_samples";
+    case Quality::kTooFewHarmonics: return "too_few_harmonics";
+    case Quality::kIllConditioned: return "ill_conditioned";
+    case Quality::kLowCoherence: return "low_coherence";
+    case Quality::kGaps: return "gaps";
+    case Quality::kNotFinite: return "not_finite";
+  }
+  return "unknown";
+}
+
+Eigen::Matrix3d WindowEstimate::n_stderr() const {
+  Eigen::Matrix3d se;
+  for (int k = 0; k < 9; ++k) se(k / 3, k % 3) = std::sqrt(std::max(0.0, n_covariance(k, k)));
+  return se;
+}
 
 WindowEstimator::WindowEstimator(const EstimatorSettings& settings) : settings_(settings) {
   settings_.validate();

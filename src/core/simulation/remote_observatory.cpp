@@ -3,9 +3,8 @@
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
+#include "magnetometer_insitu_calibration/estimation/column_response.hpp"
 #include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
-
-#include "../estimation/column_response.hpp"  // detail::ColumnResponse
 
 #include <cmath>
 #include <string>
@@ -34,7 +33,7 @@ SimulationSettings clean_field_settings(const SimulationSettings& local) {
 Readings mix_by_frequency(const Readings& shared, const Readings& own, const Eigen::Vector3d& f0, double corner_hz,
                           double dt) {
   const Eigen::Index rows = shared.rows();
-  detail::ColumnResponse filter(static_cast<std::size_t>(rows));
+  ColumnResponse filter(static_cast<std::size_t>(rows));
   const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(rows, 0.0, 1.0);  // the line's abscissa
   Readings out(rows, 3);
   Eigen::VectorXd part(rows);

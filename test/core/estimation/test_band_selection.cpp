@@ -1,6 +1,6 @@
 // Automatic band from the coherence: the top edge falls where the test noise overtakes the field.
 #include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <gtest/gtest.h>

@@ -4,7 +4,7 @@
 // parameters decide one by one (Welch's t), worked by hand.
 #include "magnetometer_insitu_calibration/estimation/calibration_change.hpp"
 #include "magnetometer_insitu_calibration/estimation/calibration_matrix.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "simulated_hour.hpp"
 

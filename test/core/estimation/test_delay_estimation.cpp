@@ -1,7 +1,7 @@
 // Delay from the cross-spectral phase: simulated delays of 5 to 50 ms recovered within 1 ms; a
 // delay removed from the whole window (advance_record) before the sections are cut.
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 
 #include <gtest/gtest.h>

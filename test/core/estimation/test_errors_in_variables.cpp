@@ -1,7 +1,7 @@
 // Errors in variables: the noise spectrum's units, the corrected solve, and the removal of the
 // attenuation of Eq. 2 by a noisy reference.
 #include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 

@@ -4,7 +4,7 @@
 // independently of the code under test); decompose() scales the delta-method half-widths by it;
 // both estimators pass their windows' cells to it.
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "simulated_hour.hpp"
 

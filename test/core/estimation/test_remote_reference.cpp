@@ -2,7 +2,7 @@
 // estimator: exact and unchanged by the remote's orientation and gains without noise; agreeing
 // with a quiet pair; unbiased where a disturbance both sensors see biases the pair; refused, with
 // the reason, on a wrong time base.
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/power_law_noise.hpp"
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"

@@ -7,10 +7,10 @@
 //    interpolated sample by sample, the centre and MAD from every stride-th value, the flags
 //    widened by the margin. The screen never stores the residual and finds its medians inside
 //    brackets; the masks must be the same sample for sample.
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
-#include "../../../src/core/estimation/bracketed_median.hpp"
+#include "../../../src/core/estimation/robust/bracketed_median.hpp"
 
 #include <gtest/gtest.h>
 

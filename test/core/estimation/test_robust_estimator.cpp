@@ -1,7 +1,7 @@
 // Robust estimator: agrees with Eq. 2 on a quiet station, resists traffic, spikes and steps at a
 // disturbed one, leaves the plain method untouched, and validates its settings.
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 

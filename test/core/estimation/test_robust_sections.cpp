@@ -1,4 +1,4 @@
-// The robust estimator's sections (src/core/estimation/robust_sections.hpp):
+// The robust estimator's sections (src/core/estimation/robust/: section_cells.hpp and its neighbours):
 //  - the per-section trend column (section_trend.hpp): the ramp's DFT is what FFTW computes, its
 //    projection removes a ramp and is idempotent, and it keeps the intervals of 6-hour windows
 //    honest when one pier tilts (a 1/f^2 random walk seen by the test sensor only), which a
@@ -10,11 +10,12 @@
 #include "magnetometer_insitu_calibration/estimation/decomposition.hpp"
 #include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
-#include "../../../src/core/estimation/robust_sections.hpp"
-#include "../../../src/core/estimation/section_trend.hpp"
+#include "../../../src/core/estimation/robust/section_jackknife.hpp"
+#include "../../../src/core/estimation/robust/weighted_eiv_solve.hpp"
+#include "../../../src/core/estimation/robust/section_trend.hpp"
 
 #include <gtest/gtest.h>
 
@@ -171,7 +172,7 @@ TEST(SectionJackknife, SumsWithoutAGroupAreTheSumsOverTheOtherCells) {
   const mic::NoiseSpectrum noise = mic::NoiseSpectrum::fluxgate_figure(10.0);
   robust::Regression least_squares, corrected, remote;
   corrected.noise = &noise;
-  remote.remote = true;
+  remote.instruments = robust::Regression::Instruments::kRemote;
   remote.noise = &noise;  // ignored on a remote's instruments
   for (const robust::Regression* regression : {&least_squares, &corrected, &remote}) {
     // Sections: the section's cells given weight 0 instead.

@@ -4,7 +4,7 @@
 #include "../../../src/core/estimation/sandwich_cells.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "simulated_hour.hpp"
 

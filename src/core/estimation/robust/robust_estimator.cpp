@@ -1,17 +1,21 @@
 // Robust frequency-domain estimator, steps 1-6 in order (see robust_estimator.hpp); its pieces:
 // residual_screen.cpp (1), section_irls.cpp (3, 5), weighted_eiv_solve.cpp (5),
-// robust_covariance.cpp and section_jackknife.cpp (6). The per-window dispatcher is in
-// window_estimator.cpp.
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+// robust_covariance.cpp and section_jackknife.cpp (6), remote_cells.cpp (the remote). The
+// per-window dispatcher is in ../window_estimator.cpp.
+#include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
-#include "delay_spectra.hpp"
-#include "failed_window_estimate.hpp"
-#include "pair_averages.hpp"
-#include "robust_sections.hpp"
+#include "../delay_spectra.hpp"
+#include "../failed_window_estimate.hpp"
+#include "../pair_averages.hpp"
+#include "remote_cells.hpp"
+#include "robust_covariance.hpp"
+#include "section_cells.hpp"
+#include "section_irls.hpp"
 #include "section_trend.hpp"
-#include "spectral_tools.hpp"
+#include "weighted_eiv_solve.hpp"
+#include "../spectral_tools.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -403,7 +407,7 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   diagnostics_.eiv_applied = fit.eiv_applied;
   diagnostics_.eiv_noise = fit.noise;
   diagnostics_.n_uncorrected = fit.n_uncorrected;
-  result.eiv = regression_.remote ? ErrorsInVariables::kRemoteReference
+  result.eiv = regression_.on_remote() ? ErrorsInVariables::kRemoteReference
                                   : (fit.eiv_applied ? ErrorsInVariables::kApplied : eiv_.without);
   Regression as_solved = regression_;  // the jackknife refits as n was solved
   if (!fit.eiv_applied) as_solved.noise = nullptr;
@@ -431,7 +435,7 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   // The condition of the reference's own weighted sums (the IV sums are not symmetric).
   apply_quality_rules(result, weighted_normal_equations(cells, fit.weight, Regression{}).a,
                       static_cast<long>(cells.size()), "section harmonics", settings_);
-  if (regression_.remote) {
+  if (regression_.on_remote()) {
     compare_with_pair(cells, fit, cov.cells, result);
   } else {
     result.band_split = band_split_check(cells, fit, sections_.count, bins, fit.eiv_applied ? eiv_.noise : nullptr,
@@ -460,7 +464,7 @@ void RobustFdEstimator::Window::choose_instruments(const std::vector<Cell>& cell
     return;
   }
   remote.used = true;
-  regression_.remote = true;
+  regression_.instruments = Regression::Instruments::kRemote;
   text << "remote reference " << name;
   remote.text = text.str();
 }

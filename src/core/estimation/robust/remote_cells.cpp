@@ -1,7 +1,11 @@
 // The remote reference over the robust estimator's cells (remote_reference.hpp): how strongly
 // the remote predicts the local reference, and the pair-only estimate on the same cells and
 // weights against the remote's.
-#include "robust_sections.hpp"
+#include "remote_cells.hpp"
+
+#include "robust_covariance.hpp"
+#include "section_jackknife.hpp"
+#include "weighted_eiv_solve.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/estimate_comparison.hpp"
 

@@ -1,9 +1,10 @@
 // Sectioned M-estimation of the robust estimator (robust_estimator.hpp, steps 3 and 5):
-// iteratively reweighted least squares over the cells with Huber cell weights and section
-// weights from each section's residual level.
-#include "robust_sections.hpp"
+// iteratively reweighted least squares over the cells with cell weights (cell_weights.hpp:
+// Huber's) and section weights from each section's residual level.
+#include "section_irls.hpp"
 
-#include "spectral_tools.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/cell_weights.hpp"
+#include "../spectral_tools.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +12,16 @@
 #include <vector>
 
 namespace magnetometer_insitu_calibration::detail::robust {
+
+namespace {
+
+/// A section's weight from its level over the typical section's, q: 1 for q <= 2, 2 / q up to
+/// `rejection`, then 0 (NaN: 0).
+double section_weight(double level_ratio, double rejection) {
+  return level_ratio <= 2.0 ? 1.0 : (level_ratio <= rejection ? 2.0 / level_ratio : 0.0);
+}
+
+}  // namespace
 
 /// Steps 3 and 5: IRLS over the cells.
 IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_t bins, const RobustSettings& rs,
@@ -26,10 +37,16 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
   // instruments' 1/f noise, a pier's tilt) and the strong low cells would be down-weighted as
   // outliers: there the cells keep weight 1 (docs/validation.md, design choices). The
   // rejection of wild cells (kCellRejection) and the section weights stay.
-  const bool huber = huber_cell_weights(bins);
+  const HuberWeights huber(rs.huber_k);
+  const UnitWeights unit;
+  const CellWeights& settling = huber_cell_weights(bins) ? static_cast<const CellWeights&>(huber) : unit;
+  // After two iterations (scale and n settled) cells beyond kCellRejection sigmas are dropped: a
+  // clean cell has d^2 ~ Gamma(3)/3, P(d > 5) ~ 1e-14.
+  const RejectingWeights settled(settling, kCellRejection);
   Eigen::Matrix3d n_previous = Eigen::Matrix3d::Constant(kNaN);
   std::vector<double> r2(m, 0.0);
   for (int it = 0; it < rs.iterations; ++it) {
+    const CellWeights& weights = it >= 2 ? static_cast<const CellWeights&>(settled) : settling;
     const NormalEquations sums = weighted_normal_equations(cells, out.weight, regression);
     // N is zero without a noise to correct for: Eq. 2 with the weights.
     const WeightedSolution solved = solve_weighted(sums, sums.given_noise);
@@ -53,11 +70,8 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
     std::vector<std::vector<double>> section_r2(sections);
     for (std::size_t i = 0; i < m; ++i) {
       r2[i] = e2[i].cwiseQuotient(out.scale2[static_cast<std::size_t>(cells[i].bin)]).sum();
-      const double d = std::sqrt(r2[i] / 3.0);
-      // Huber; after two iterations (scale and n settled) cells beyond cell_rejection sigmas
-      // are dropped: a clean cell has d^2 ~ Gamma(3)/3, P(d > 5) ~ 1e-14.
-      cell_weight[i] = (!huber || d <= rs.huber_k) ? 1.0 : rs.huber_k / d;
-      if (it >= 2 && d > kCellRejection) cell_weight[i] = 0.0;
+      const double d = std::sqrt(r2[i] / 3.0);  // sigmas
+      cell_weight[i] = weights.weight(d);
       section_r2[static_cast<std::size_t>(cells[i].section)].push_back(std::min(r2[i] / 3.0, kLevelCap));
     }
     // Section level: mean of the capped d^2 of its cells (1 for a clean section, +-0.1 for 100
@@ -74,7 +88,7 @@ IrlsResult irls(const std::vector<Cell>& cells, std::size_t sections, std::size_
     const double typical = std::max(1.0, detail::median(finite_levels));
     for (std::size_t s = 0; s < sections; ++s) {
       const double q = std::isfinite(level[s]) ? level[s] / typical : 1.0;
-      out.section_weight[s] = q <= 2.0 ? 1.0 : (q <= rs.section_rejection ? 2.0 / q : 0.0);
+      out.section_weight[s] = section_weight(q, rs.section_rejection);
     }
     for (std::size_t i = 0; i < m; ++i) {
       out.weight[i] = cell_weight[i] * out.section_weight[static_cast<std::size_t>(cells[i].section)];

@@ -1,5 +1,5 @@
-// Robust frequency-domain estimator of the calibration matrix for disturbed stations, and the
-// dispatcher that gives each window the estimator its settings ask for.
+// Robust frequency-domain estimator of the calibration matrix for disturbed stations: the robust
+// method behind WindowEstimator (window_estimator.hpp, the estimators' front door).
 //
 // Why Eq. 2 is fragile. A local disturbance seen by one instrument, or by both with different
 // gains and directions (a vehicle on a nearby road is a moving dipole: its field falls as
@@ -82,13 +82,20 @@
 //     Measured coverage and the reasoning: section_jackknife.cpp (combine_covariances) and
 //     docs/validation.md (coverage of the intervals).
 //
-// The plain estimator (FdWlseEstimator, Eq. 2 on the whole window) stays available through
-// EstimatorSettings::method = kPlain, with unchanged results.
+// Its parts sit in estimation/robust/ (headers: residual_screen.hpp, cell_weights.hpp here;
+// the others beside their .cpp in src/core/estimation/robust/): residual_screen (step 1),
+// robust_estimator.cpp (the steps in order; 2 and 4), section_cells.hpp and section_trend.hpp
+// (2), section_irls with the cell weights of cell_weights.hpp (3), weighted_eiv_solve (3 and 5),
+// robust_covariance and section_jackknife (6), remote_cells (the remote reference over the
+// cells).
+// The plain estimator (FdWlseEstimator, fd_wlse.hpp: Eq. 2 on the whole window) is
+// EstimatorSettings::method = kPlain.
 #pragma once
 
 #include "magnetometer_insitu_calibration/estimation/band_selection.hpp"
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
 #include "magnetometer_insitu_calibration/estimation/fd_wlse.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/residual_screen.hpp"
 
 #include <memory>
 #include <vector>
@@ -138,30 +145,6 @@ class RobustFdEstimator {
   EstimatorSettings settings_;
   std::unique_ptr<Impl> impl_;
   RobustDiagnostics diagnostics_;
-};
-
-/// Residual screen of step 1 alone: per sample 1 where T - R n, high-passed, is an outlier
-/// (margin included). Exposed for tests and for the real-data report.
-std::vector<char> screen_residual(const Eigen::Ref<const Readings>& reference_nT,
-                                  const Eigen::Ref<const Readings>& test_nT, const Eigen::Matrix3d& n,
-                                  double sample_period_s, const RobustSettings& settings);
-
-/// The estimator a window gets: plain Eq. 2 or robust, from settings.method; auto band and the
-/// delay are applied to either (the plain method only reports the delay, it never corrects it).
-/// Fills WindowEstimate::method, band_low_hz/band_high_hz and delay_s/delay_ci95_s.
-class WindowEstimator {
- public:
-  explicit WindowEstimator(const EstimatorSettings& settings);
-  ~WindowEstimator();
-  WindowEstimate estimate(const Eigen::Ref<const Readings>& reference_nT, const Eigen::Ref<const Readings>& test_nT,
-                          double sample_period_s, const WindowInputs& inputs = {});
-  const EstimatorSettings& settings() const { return settings_; }
-  /// The robust estimator's diagnostics of the last window (empty for the plain method).
-  const RobustDiagnostics* robust_diagnostics() const;
-
- private:
-  EstimatorSettings settings_;
-  std::unique_ptr<RobustFdEstimator> robust_;
 };
 
 }  // namespace magnetometer_insitu_calibration

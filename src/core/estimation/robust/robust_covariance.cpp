@@ -1,10 +1,10 @@
 // Covariance of the robust estimate (robust_estimator.hpp, step 6) and the quality figures over
 // the final weighted cells: the sandwich, the cells it rests on, the jackknife, the noise
 // levels' term.
-#include "robust_sections.hpp"
+#include "robust_covariance.hpp"
 
-#include "sandwich_cells.hpp"
-#include "spectral_tools.hpp"
+#include "../sandwich_cells.hpp"
+#include "../spectral_tools.hpp"
 
 #include <cmath>
 #include <string>

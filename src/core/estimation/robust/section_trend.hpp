@@ -18,7 +18,7 @@
 // with r projected out of every column of X and Y.
 #pragma once
 
-#include "robust_sections.hpp"
+#include "section_cells.hpp"
 
 #include <complex>
 #include <cmath>

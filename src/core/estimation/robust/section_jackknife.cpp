@@ -1,6 +1,6 @@
 // Covariance of the robust estimate from the sections (robust_estimator.hpp, steps 6b and 6c):
 // the delete-one-section jackknife, and its combination with the sandwich.
-#include "robust_sections.hpp"
+#include "section_jackknife.hpp"
 
 #include <algorithm>
 #include <numeric>

@@ -4,8 +4,8 @@
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/formats/record_file.hpp"
 #include "magnetometer_insitu_calibration/formats/record_join.hpp"
-#include "bag_records.hpp"  // src/tools
-#include "command_line.hpp"  // print_warnings (src/program_support)
+#include "bag_records.hpp"
+#include "command_line.hpp"  // print_warnings
 
 #include <cmath>
 #include <iostream>

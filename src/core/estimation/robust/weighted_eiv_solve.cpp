@@ -1,9 +1,10 @@
 // Weighted normal equations of the robust estimator over its cells, and their solution with or
 // without the errors-in-variables correction (robust_estimator.hpp, steps 3 and 5; the
 // correction itself: errors_in_variables.hpp).
-#include "robust_sections.hpp"
+#include "weighted_eiv_solve.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/errors_in_variables.hpp"
+#include "magnetometer_insitu_calibration/estimation/remote_reference.hpp"  // instrumental_solve
 
 #include <Eigen/LU>
 
@@ -30,8 +31,8 @@ void add_cell(NormalEquations& sums, const Cell& cell, double wg, const Regressi
 NormalEquations weighted_normal_equations(const std::vector<Cell>& cells, const std::vector<double>& weight,
                                           const Regression& regression) {
   NormalEquations out;
-  out.instrumental = regression.remote;
-  const NoiseSpectrum* noise = regression.remote ? nullptr : regression.noise;
+  out.instrumental = regression.on_remote();
+  const NoiseSpectrum* noise = regression.on_remote() ? nullptr : regression.noise;
   for (std::size_t i = 0; i < cells.size(); ++i) {
     const double wg = weight[i] * cells[i].g;
     if (wg == 0.0) continue;
@@ -44,8 +45,8 @@ GroupedNormalEquations::GroupedNormalEquations(const std::vector<Cell>& cells, c
                                                const Regression& regression, const std::vector<int>& group,
                                                std::size_t groups)
     : parts_(groups), weight_(groups, 0.0) {
-  const NoiseSpectrum* noise = regression.remote ? nullptr : regression.noise;
-  for (NormalEquations& part : parts_) part.instrumental = regression.remote;
+  const NoiseSpectrum* noise = regression.on_remote() ? nullptr : regression.noise;
+  for (NormalEquations& part : parts_) part.instrumental = regression.on_remote();
   for (std::size_t i = 0; i < cells.size(); ++i) {
     const double wg = weight[i] * cells[i].g;
     if (group[i] < 0) continue;

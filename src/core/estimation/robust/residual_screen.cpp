@@ -1,9 +1,9 @@
 // Residual screen of the robust estimator (robust_estimator.hpp, step 1): flags the samples
 // where T - R n, high-passed by a running median, is an outlier.
-#include "magnetometer_insitu_calibration/estimation/robust_estimator.hpp"
+#include "magnetometer_insitu_calibration/estimation/robust/residual_screen.hpp"
 
 #include "bracketed_median.hpp"
-#include "spectral_tools.hpp"
+#include "../spectral_tools.hpp"
 
 #include <algorithm>
 #include <cmath>

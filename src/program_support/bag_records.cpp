@@ -1,5 +1,5 @@
 // Records in rosbags; see bag_records.hpp.
-#include "bag_records.hpp"  // src/tools
+#include "bag_records.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
 #include "magnetometer_insitu_calibration/ros/si_units.hpp"
