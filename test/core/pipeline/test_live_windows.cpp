@@ -335,7 +335,7 @@ TEST(LiveCalibrationStreams, ARemoteStreamGivesTheWindowsTheOfflineRemote) {
     for (auto& c : streams.push_test(0, pair.test.time_s[i], row(pair.test))) windows.push_back(std::move(c.window));
   }
   ASSERT_EQ(windows.size(), 4u);
-  EXPECT_GT(streams.remote()->despiker.spikes(), 10u);
+  EXPECT_GT(streams.remote()->spikes(), 10u);
   mic::CalibrationSettings settings;
   const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
   const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);
