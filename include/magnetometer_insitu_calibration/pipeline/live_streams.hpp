@@ -163,7 +163,7 @@ class LiveCalibrationStreams {
   struct Completed {
     std::size_t test = 0;
     WindowRecords window;
-    std::size_t third_test = 0;  ///< the test whose window is window.third, when it is set
+    std::size_t third_test = 0;  ///< the test whose samples are window.third, when it is set
   };
 
   std::vector<Completed> push_reference(double time_s, const Eigen::Vector3d& value_nT);

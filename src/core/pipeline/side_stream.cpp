@@ -7,6 +7,7 @@
 #include <cmath>
 #include <iterator>
 #include <limits>
+#include <vector>
 
 namespace magnetometer_insitu_calibration {
 
@@ -118,8 +119,7 @@ VectorRecord SideStream::on_epochs(double low_s, double high_s) const {
                                       [](const Epoch& e, double t) { return e.time_s < t; });
   std::vector<double> time_s;
   std::vector<Eigen::Vector3d> values;
-  for (auto it = first; it != side_.end() && it->time_s < high_s + tolerance; ++it) {
-    if (reference_.empty()) break;
+  for (auto it = first; !reference_.empty() && it != side_.end() && it->time_s < high_s + tolerance; ++it) {
     // The reference's epoch this sample lies on: each the other's nearest, within the tolerance
     // (filtered, both are at j * period exactly).
     const std::size_t r = nearest(reference_, it->time_s, time_of_reference);
