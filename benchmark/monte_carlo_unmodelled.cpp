@@ -59,6 +59,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -357,14 +358,15 @@ int run_hat(int seeds, double days, std::uint64_t first_seed) {
     third.time_s = pair.reference.time_s;
     third.values_nT =
         mic::co_located_instrument(pair.field_nT, mic::co_located_instrument_matrix(), 0.05, s.seed * 31 + 7);
-    // As calibrate_records --third does it (reference_noise.hpp): both pairs on the estimation
-    // grid, the hat over the band and above it, the reference's bins fitted by white + 1/f noise.
+    // As calibrate_records --third does it (reference_noise.hpp): the pair and the third on the
+    // estimation epochs, the hat over the band and above it, the reference's bins fitted by
+    // white + 1/f noise.
     const mic::EstimatorSettings defaults;
-    const mic::PreprocessSettings preprocess;
-    const mic::PreparedPair with_test = mic::prepare_pair(pair.reference, pair.test, preprocess);
-    const mic::PreparedPair with_third = mic::prepare_pair(pair.reference, third, preprocess);
+    const mic::PreparedPair with_test = mic::prepare_pair(pair.reference, pair.test, mic::PreprocessSettings{});
+    const mic::PreparedSides sides = mic::prepare_sides(pair.reference, with_test, {&third}, mic::CalibrationSettings{});
+    const double whole = std::numeric_limits<double>::infinity();
     const mic::IdentifiedNoise noise =
-        mic::identify_reference_noise(with_test.paired, with_third.paired, with_test.sample_period_s,
+        mic::identify_reference_noise(with_test.paired, sides.third->on_epochs(-whole, whole), with_test.sample_period_s,
                                       defaults.band_low_hz, defaults.band_high_hz);
     const Eigen::Vector3d& white = noise.white_nT;
     const Eigen::Vector3d& pink = noise.pink_nT_per_sqrt_hz;

@@ -91,7 +91,7 @@ CalibrationNode::CalibrationNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   ROS_INFO("%s: errors in variables: %s; remote reference: %s%s; scalar: %s", node_name_.c_str(),
            settings_.noise_model_state().c_str(),
            settings_.remote_topic.empty() ? "none" : nh_.resolveName(settings_.remote_topic).c_str(),
-           settings_.remote_topic.empty() ? "" : (std::string(" (") + epoch_alignment_name(streams.remote_plan().alignment) + ")").c_str(),
+           settings_.remote_topic.empty() ? "" : (std::string(" (") + epoch_alignment_name(streams.remote_side().alignment()) + ")").c_str(),
            settings_.scalar_topic.empty() ? "none" : nh_.resolveName(settings_.scalar_topic).c_str());
   diagnostic_timer_ = nh_.createTimer(ros::Duration(settings_.diagnostic_period_s),
                                       [this](const ros::TimerEvent&) { updater_.force_update(); });

@@ -148,10 +148,10 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   const std::string remote_period =
       period_mismatch(remote_, settings_.streams.remote_period_s(), "remote", "~remote_input_period");
   if (!remote_period.empty()) status.mergeSummary(DiagnosticStatus::ERROR, remote_period);
-  if (const LiveRemoteStream* r = streams_->remote()) {
-    status.add("remote epoch alignment", epoch_alignment_name(r->alignment));
-    status.add("remote decimator restarts", r->decimator_restarts);
-    const std::string phase = phase_mismatch(remote_, r->alignment, "remote");
+  if (const SideStream* r = streams_->remote()) {
+    status.add("remote epoch alignment", epoch_alignment_name(r->alignment()));
+    status.add("remote decimator restarts", r->restarts());
+    const std::string phase = phase_mismatch(remote_, r->alignment(), "remote");
     if (!phase.empty()) status.mergeSummary(DiagnosticStatus::ERROR, phase);
   }
 }

@@ -64,7 +64,7 @@ TEST(Calibration, BadParameters) {
       {calibration + " __name:=lone_remote_period" + ok + " _remote_input_period:=1",
        "parameter ~remote_input_period: is used with ~remote_topic only"},
       {calibration + " __name:=slow_remote" + ok + " _remote_topic:=/m _remote_input_period:=30",
-       "parameter ~remote_input_period: of 30 s puts the remote's pairs with the reference every 30 s, the tests' every 1 s"},
+       "parameter ~remote_input_period: of 30 s puts the remote onto the epochs every 30 s, the tests' pairs every 1 s"},
       {calibration + " __name:=short_kernel" + ok + " _test_input_period:=0.1 _decimation_sigma:=0.01",
        "parameter ~test_input_period: of 1 s: the filter's kernel (half-width 0.04 s) is shorter than it"},
       // A list of tests is no command-line value: set on the master first, as a launch file does.

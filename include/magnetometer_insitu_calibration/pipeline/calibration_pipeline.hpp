@@ -5,6 +5,7 @@
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
 #include "magnetometer_insitu_calibration/pipeline/epoch_alignment.hpp"
+#include "magnetometer_insitu_calibration/pipeline/side_stream.hpp"
 #include "magnetometer_insitu_calibration/pipeline/window_calibration.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/despike.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
@@ -12,6 +13,7 @@
 
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -116,10 +118,11 @@ struct SideRecords {
   const ScalarRecord* scalar = nullptr;  ///< an absolute scalar magnetometer (the reference's scale along the field)
 };
 
-/// The side records prepared against the reference like the test (prepare_pair: despiked,
-/// paired, on the estimation grid): each one's `test_nT` is the side record; null: none.
+/// The side records, each on the estimation epochs on its own (side_stream.hpp: despiked, and
+/// through the pair's Gaussian FIR when the pair's rule filters it); null: none. Each window
+/// takes the samples of its epochs (SideStream::on_epochs), as the live windows do.
 struct PreparedSides {
-  std::unique_ptr<PreparedPair> third, remote;
+  std::shared_ptr<const SideStream> third, remote;
   std::shared_ptr<const ScalarRecord> scalar;  ///< as recorded: each window takes its own span
   std::string third_name = "--third", remote_name = "--remote";  ///< name them in texts
 };
@@ -136,8 +139,10 @@ WindowRecords window_records(const PreparedPair& prepared, std::size_t first, st
 std::vector<CalibrationWindow> calibrate_prepared(const PreparedPair& prepared, const CalibrationSettings& settings,
                                                   const PreparedSides* sides = nullptr);
 
-/// The side records prepared against the reference; InputError("--third" / "--remote", ...)
-/// when one does not pair with the reference or has another estimation period than the pair.
+/// The side records on the estimation epochs, each through a SideStream with the (despiked)
+/// reference; InputError("--third" / "--remote", ...) when one has no sample on the reference's
+/// epochs, comes onto them at another estimation period than the pair, or (the third) is
+/// filtered unlike the pair.
 PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& prepared, const SideRecords& sides,
                             const CalibrationSettings& settings);
 

@@ -16,10 +16,10 @@
 //             test's thermometer samples around each window (TemperatureBuffer)
 //          -> CoincidentWindows (with two or more tests and the three-cornered hat: each window
 //             released with another test's window of the same epochs as its third instrument).
-// A remote observatory's stream (optional, at its own rate) goes the test's way, paired with the
-// reference and decimated like a test (as calibrate_records prepares --remote against the
-// reference), into a buffer from which every completed window takes the remote's samples of its
-// epochs.
+// A remote observatory's stream (optional, at its own rate) comes onto the estimation epochs on
+// its own, through a SideStream (side_stream.hpp: despiked, and through its own Gaussian FIR when
+// the pair's rule filters it, as calibrate_records prepares --remote), from which every completed
+// window takes the remote's samples of its epochs.
 // An absolute scalar magnetometer's stream (optional) is kept at its own times (F is neither
 // despiked, paired nor decimated: calibrate_records gives every window its --scalar record as
 // read); every completed window takes the samples within kScalarMargin_s of its ends (the
@@ -30,6 +30,7 @@
 #include "magnetometer_insitu_calibration/common/scalar_record.hpp"
 #include "magnetometer_insitu_calibration/pipeline/epoch_alignment.hpp"
 #include "magnetometer_insitu_calibration/pipeline/live_windows.hpp"
+#include "magnetometer_insitu_calibration/pipeline/side_stream.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gaussian_decimation.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/stream_pairing.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/streaming_despike.hpp"
@@ -83,8 +84,9 @@ struct LiveStreamSettings {
   /// How a test's stream of period_s (0: test_period_s()) and the reference's come onto common
   /// epochs (plan_epochs).
   EpochPlan test_plan(double period_s = 0.0) const;
-  /// How the remote's stream and the reference's do.
-  EpochPlan remote_plan() const;
+  /// How the remote's stream comes onto the estimation epochs (its SideStream; plan(): the
+  /// rule for it and the reference's).
+  SideStreamSettings remote_side() const;
   /// Sample period of the windows, s: every test's stream must give it (validate_test_period).
   double estimation_period_s() const { return test_plan().period_s; }
   /// The filter a window's pair went through with a test of period_s (0: test_period_s()), at the
@@ -100,8 +102,8 @@ struct LiveStreamSettings {
   /// falls). LiveCalibrationStreams checks every test so; calibration_node names the entry.
   void validate_test(const std::vector<LiveTestInput>& tests, std::size_t i, bool coincident) const;
   /// Throws InputError naming the field when the streams cannot give windows: an impossible
-  /// period, a filter kernel shorter than a stream's period, and (with a remote) a remote whose
-  /// pairs with the reference come at another estimation period than the tests'.
+  /// period, a filter kernel shorter than a stream's period, and (with a remote) a remote that
+  /// comes onto the epochs at another estimation period than the tests' pairs.
   void validate(bool remote) const;
 };
 
@@ -127,26 +129,6 @@ struct LiveTestStream {
 
   /// Pairing counters since start, across restarts.
   PairingCounters counters() const;
-};
-
-/// A remote observatory's part of the streams: its pairing with the reference, decimation, and
-/// the samples the windows still to complete need.
-struct LiveRemoteStream {
-  LiveRemoteStream(const std::string& name, const LiveStreamSettings& settings);
-
-  std::string name;  ///< names the remote in texts (its topic)
-  StreamingDespiker despiker;
-  EpochAlignment alignment;  ///< kEachFiltered: the decimators come before the pairer, else after it
-  StreamPairer pairer;
-  std::unique_ptr<StreamingDecimator> reference_decimator, remote_decimator;  ///< unless kPairedStamps
-  std::deque<std::pair<double, Eigen::Vector3d>> samples;  ///< on the estimation grid, its own frame, nT
-  std::size_t decimator_restarts = 0;  ///< the decimators started again after a jump of the stamps
-  bool any_pair = false;
-  double last_pair_s = 0.0;
-  std::size_t received = 0;
-
-  /// Its samples within [low_s, high_s), as a window's remote.
-  std::shared_ptr<VectorRecord> copy(double low_s, double high_s) const;
 };
 
 /// An absolute scalar magnetometer's part of the streams: F (nT) at its own times, kept while the
@@ -181,7 +163,7 @@ class LiveCalibrationStreams {
   struct Completed {
     std::size_t test = 0;
     WindowRecords window;
-    std::size_t third_test = 0;  ///< the test whose window is window.third, when it is set
+    std::size_t third_test = 0;  ///< the test whose samples are window.third, when it is set
   };
 
   std::vector<Completed> push_reference(double time_s, const Eigen::Vector3d& value_nT);
@@ -196,8 +178,8 @@ class LiveCalibrationStreams {
   /// pairing_max_wait_s (stamp time) past it: a remote that arrives a little after the pair
   /// fills the window as the offline --remote does, a late or silent one delays it no longer.
   std::vector<Completed> push_remote(double time_s, const Eigen::Vector3d& value_nT);
-  /// The remote's part, null without one.
-  const LiveRemoteStream* remote() const { return remote_.get(); }
+  /// The remote's stream on the estimation epochs, null without one.
+  const SideStream* remote() const { return remote_.get(); }
   /// An absolute scalar magnetometer's stream, named `name` in texts; call once, before any sample.
   void add_scalar(const std::string& name);
   /// A scalar sample (F, nT, at its own time); false when refused (LiveScalarStream::push).
@@ -217,7 +199,7 @@ class LiveCalibrationStreams {
 
  private:
   void drain(std::size_t test, std::vector<Completed>& out);
-  void drain_remote();
+  void drop_remote_epochs();
   void window_done(std::size_t test, WindowRecords&& window, std::vector<Completed>& out);
   void release_waiting(std::vector<Completed>& out);
   void finish_window(std::size_t test, WindowRecords&& window, std::vector<Completed>& out);
@@ -234,7 +216,8 @@ class LiveCalibrationStreams {
   StreamingDespiker reference_despiker_;
   std::vector<std::unique_ptr<LiveTestStream>> tests_;
   std::unique_ptr<CoincidentWindows> coincident_;
-  std::unique_ptr<LiveRemoteStream> remote_;
+  std::unique_ptr<SideStream> remote_;
+  std::string remote_name_;  ///< names the remote in texts (its topic)
   std::unique_ptr<LiveScalarStream> scalar_;
 };
 

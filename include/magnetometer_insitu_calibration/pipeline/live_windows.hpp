@@ -147,8 +147,9 @@ class CoincidentWindows {
   struct Released {
     std::size_t channel = 0;
     WindowRecords window;
-    /// The channel of window.third (another instrument's window of the same start: the next
-    /// channel in order that has one); meaningful when window.third is set.
+    /// The channel whose test samples are window.third (its window of the same start, at the
+    /// epochs where its pair is complete: the next channel in order that has one); meaningful
+    /// when window.third is set.
     std::size_t mate_channel = 0;
   };
 

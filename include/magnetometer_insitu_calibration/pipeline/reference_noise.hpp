@@ -81,10 +81,10 @@ bool fit_white_and_pink(const std::vector<Eigen::Vector3d>& psd_nT2_per_hz,
 bool fit_hat_instrument(const ThreeCorneredHatResult& hat, std::size_t instrument, double dt, Eigen::Vector3d& white_nT,
                         Eigen::Vector3d& pink_nT_per_sqrt_hz, NoiseLevelCovariance* covariance = nullptr);
 
-/// The reference's noise by the three-cornered hat (three_cornered_hat.hpp) from two records
-/// paired with the reference on one estimation grid of period sample_period_s (time_s on the
-/// grid; NaN = missing): the epochs where the reference, the test and the third are all finite, cut to the
-/// longest run of consecutive ones; the reference's values are with_test's. `third_name` names
+/// The reference's noise by the three-cornered hat (three_cornered_hat.hpp) from the pair and a
+/// third instrument's samples on one estimation grid of period sample_period_s (time_s on the
+/// grid; NaN or absent = missing): the epochs where the reference, the test and the third are
+/// all finite, cut to the longest run of consecutive ones. `third_name` names
 /// the third in errors and in the text ("--third", "test 'b'"). Throws InputError(third_name,
 /// ...) when the three share fewer than 64 consecutive epochs; the hat's errors (a bin without
 /// harmonics) name "three_cornered_hat".
@@ -101,7 +101,7 @@ bool fit_hat_instrument(const ThreeCorneredHatResult& hat, std::size_t instrumen
 /// 0.25 Hz for 1 s epochs), which a white + 1/f fit would take for 1/f noise: each bin is divided
 /// by the filter's mean power gain over it, so that the fit is of the noise before the filter,
 /// which the band (gain 0.996 or more at 1 s) keeps.
-IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
+IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const VectorRecord& third,
                                          double sample_period_s, double band_low_hz, double band_high_hz,
                                          int bins = 4, const std::string& third_name = "--third",
                                          const DecimationSettings* filter = nullptr);

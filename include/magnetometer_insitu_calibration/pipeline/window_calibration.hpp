@@ -8,8 +8,8 @@
 //  1. puts the window on its regular grid and fills its gaps in both records at the same epochs
 //     (regularize_and_fill: straight lines, which keep T = R n); epochs missing at its edges
 //     are counted, not filled;
-//     The remote's samples (when the window has a remote) go onto the same epochs, its gaps
-//     bridged by straight lines (still a valid instrument: only its strength suffers, which the
+//     The remote's samples (when the window has a remote; on the estimation epochs already,
+//     side_stream.hpp) take one row per epoch, its gaps bridged by straight lines (still a valid instrument: only its strength suffers, which the
 //     estimator measures); a remote with samples at fewer than half the epochs is refused;
 //  2. chooses the reference noise model of the errors-in-variables correction (robust method,
 //     correction on): the maker's figure when one is set; else the three-cornered hat with the
@@ -112,9 +112,10 @@ struct WindowRecords {
   /// a missing epoch is NaN or absent.
   PairedRecord paired;
   TemperatureSamples temperature;    ///< the test sensor's thermometer around the window
-  /// Another test instrument's record against the same reference on the same epochs (its own
-  /// frame, nT, NaN = missing), for the three-cornered hat; null: none.
-  std::shared_ptr<const PairedRecord> third;
+  /// A third instrument's samples on the same estimation epochs (its own frame, nT; NaN or
+  /// absent = missing: a side record's, side_stream.hpp, or another test's complete epochs), for
+  /// the three-cornered hat; null: none.
+  std::shared_ptr<const VectorRecord> third;
   std::string third_name;            ///< names the third in texts and errors ("--third", "test 'b'")
   /// A remote observatory's samples around the window (its own frame and units, nT, on the same
   /// estimation grid; NaN = missing), the instruments of a remote-reference estimate

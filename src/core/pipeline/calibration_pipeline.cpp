@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 #include "magnetometer_insitu_calibration/common/time_steps.hpp"
 #include "magnetometer_insitu_calibration/pipeline/temperature_channel.hpp"
 #include "magnetometer_insitu_calibration/preprocessing/gap_filling.hpp"
@@ -66,6 +67,25 @@ namespace {
 double stamp_offset_s(const VectorRecord& reference, const VectorRecord& test, double period_s) {
   const double d = phase_offset_s(stamp_phase_s(test.time_s, period_s), stamp_phase_s(reference.time_s, period_s), period_s);
   return std::isfinite(d) ? d : 0.0;
+}
+
+/// How a reference and another record come onto common epochs: their median periods (s), where
+/// the other's stamps fall against the reference's at one rate (s; 0 for two rates) and the rule.
+struct RecordsPlan {
+  double reference_period_s = 0.0, other_period_s = 0.0, stamp_offset_s = 0.0;
+  EpochPlan plan;
+};
+
+RecordsPlan plan_records(const VectorRecord& reference, const VectorRecord& other, const PreprocessSettings& settings) {
+  RecordsPlan out;
+  out.reference_period_s = median_sample_period(reference);
+  out.other_period_s = median_sample_period(other);
+  const double native_period = std::max(out.reference_period_s, out.other_period_s);
+  const bool one_rate = native_period <= kSameRateRatio * std::min(out.reference_period_s, out.other_period_s);
+  if (one_rate) out.stamp_offset_s = stamp_offset_s(reference, other, native_period);
+  out.plan = plan_epochs(out.reference_period_s, out.other_period_s, settings.output_period_s,
+                         std::abs(out.stamp_offset_s) > settings.pairing_tolerance_s);
+  return out;
 }
 
 VectorRecord as_record(const std::vector<double>& time_s, const Readings& values, const VectorRecord& like) {
@@ -151,11 +171,9 @@ PreparedPair prepare_pair(const VectorRecord& reference, const VectorRecord& tes
     rep.unpaired_test = out.paired.unpaired_test;
     rep.duplicates = out.paired.duplicates;
   };
-  const double native_period = std::max(rep.reference_period_s, rep.test_period_s);
-  const bool one_rate = native_period <= kSameRateRatio * std::min(rep.reference_period_s, rep.test_period_s);
-  if (one_rate) rep.stamp_offset_s = stamp_offset_s(ref, tst, native_period);
-  const EpochPlan plan = plan_epochs(rep.reference_period_s, rep.test_period_s, settings.output_period_s,
-                                     std::abs(rep.stamp_offset_s) > settings.pairing_tolerance_s);
+  const RecordsPlan records = plan_records(reference, test, settings);
+  rep.stamp_offset_s = records.stamp_offset_s;
+  const EpochPlan plan = records.plan;
   rep.alignment = plan.alignment;
   if (plan.alignment == EpochAlignment::kEachFiltered) {
     // 2-3. Two rates (a 1 s observatory record beside a 10 Hz LEMI-025), or stamps that do not
@@ -233,31 +251,73 @@ std::vector<WindowSpan> plan_windows(std::size_t samples, double period_s, const
 
 namespace {
 
-/// The rows of a prepared side record within [low_s, high_s).
-PairedRecord slice(const PairedRecord& q, double low_s, double high_s) {
-  const auto lo = std::lower_bound(q.time_s.begin(), q.time_s.end(), low_s);
-  const auto hi = std::lower_bound(lo, q.time_s.end(), high_s);
-  const auto a = static_cast<Eigen::Index>(lo - q.time_s.begin()), rows = static_cast<Eigen::Index>(hi - lo);
-  PairedRecord out;
-  out.time_s.assign(lo, hi);
-  out.reference_nT = q.reference_nT.middleRows(a, rows);
-  out.test_nT = q.test_nT.middleRows(a, rows);
+/// A copy of `record` with the spikes removed as prepare_pair removes them (despike() on each
+/// record at its own rate), or as it is without despiking.
+VectorRecord despiked(const VectorRecord& record, const PreprocessSettings& settings) {
+  VectorRecord out = record;
+  if (settings.despike) despike(out.values_nT, settings.despike_settings);
   return out;
 }
 
-/// A side record paired with the reference like the test, on the same estimation period.
-std::unique_ptr<PreparedPair> prepare_side(const VectorRecord& reference, const VectorRecord& side,
-                                           const PreparedPair& prepared, const CalibrationSettings& settings,
-                                           const char* option) {
-  std::unique_ptr<PreparedPair> out;
-  try {
-    out = std::make_unique<PreparedPair>(
-        prepare_pair(reference, side, settings.preprocess, nullptr, settings.window.gaps.max_fill_s));
-  } catch (const InputError& e) {  // name the side record, not the pair's own options
-    throw InputError(option, "paired with the reference: " + e.problem());
+/// Refuses a side record that cannot come onto the epochs, naming `option`: fewer than two
+/// samples, no finite sample, a stamp not finite or going backwards (a repeated stamp is dropped,
+/// as for the pair).
+void check_side_record(const VectorRecord& side, const char* option) {
+  if (side.size() < 2) throw InputError(option, "fewer than two samples");
+  if (!side.values_nT.array().isFinite().rowwise().all().any()) {
+    throw InputError(option, "no sample has three finite components (all missing or NaN)");
   }
-  if (std::abs(out->sample_period_s - prepared.sample_period_s) > 1e-9 * prepared.sample_period_s) {
-    throw InputError(option, "its pair with the reference has another estimation period than the test's");
+  for (std::size_t i = 0; i < side.size(); ++i) {
+    if (!std::isfinite(side.time_s[i])) throw InputError(option, "time stamp of sample " + std::to_string(i) + " is not finite");
+    if (i > 0 && side.time_s[i] < side.time_s[i - 1]) {
+      throw InputError(option, "time goes backwards at sample " + std::to_string(i));
+    }
+  }
+}
+
+/// A side record on the estimation epochs (side_stream.hpp): the whole record and the despiked
+/// reference through the SideStream the live streams use, at the pair's estimation period.
+std::shared_ptr<const SideStream> side_stream_of(const VectorRecord& reference, const VectorRecord& despiked_reference,
+                                                 const VectorRecord& side, const PreparedPair& prepared,
+                                                 const PreprocessSettings& settings, const char* option) {
+  check_side_record(side, option);
+  SideStreamSettings s;
+  const RecordsPlan records = plan_records(reference, side, settings);
+  s.reference_period_s = records.reference_period_s;
+  s.side_period_s = records.other_period_s;
+  s.stamps_apart = std::abs(records.stamp_offset_s) > settings.pairing_tolerance_s;
+  s.decimation.output_period_s = settings.output_period_s;
+  s.pairing_tolerance_s = settings.pairing_tolerance_s;
+  s.despike = settings.despike;
+  s.despike_settings = settings.despike_settings;
+  s.time_jump_threshold_s = std::numeric_limits<double>::infinity();  // a record: its gaps are NaN epochs
+  const double period_s = s.plan().period_s;
+  if (std::abs(period_s - prepared.sample_period_s) > 1e-9 * prepared.sample_period_s) {
+    std::ostringstream text;
+    text << "comes onto the epochs every " << period_s << " s, the test's pair every " << prepared.sample_period_s
+         << " s: the windows need one estimation period";
+    throw InputError(option, text.str());
+  }
+  std::shared_ptr<SideStream> out;
+  try {
+    out = std::make_shared<SideStream>(s);
+  } catch (const InputError& e) {  // name the side record, not the stream's fields
+    throw InputError(option, e.problem());
+  }
+  for (std::size_t i = 0; i < despiked_reference.size(); ++i) {
+    out->push_reference(despiked_reference.time_s[i], despiked_reference.values_nT.row(static_cast<Eigen::Index>(i)).transpose());
+  }
+  for (std::size_t i = 0; i < side.size(); ++i) out->push(side.time_s[i], side.values_nT.row(static_cast<Eigen::Index>(i)).transpose());
+  out->finish();
+  const VectorRecord on_epochs = out->on_epochs(-std::numeric_limits<double>::infinity(),
+                                                std::numeric_limits<double>::infinity());
+  if (!on_epochs.values_nT.array().isFinite().rowwise().all().any()) {
+    throw InputError(option, "has no sample on the reference's epochs (the records do not overlap in time, or their "
+                             "stamps lie further apart than the pairing tolerance): reference " +
+                                 reference.source + " spans " + time_for_message(reference.time_s.front()) + " to " +
+                                 time_for_message(reference.time_s.back()) + ", " + option + " " + side.source +
+                                 " spans " + time_for_message(side.time_s.front()) + " to " +
+                                 time_for_message(side.time_s.back()));
   }
   return out;
 }
@@ -288,15 +348,11 @@ WindowRecords window_records(const PreparedPair& prepared, std::size_t first, st
   w.scalar = sides->scalar;
   const double from_s = w.start_s - 0.5 * period, to_s = w.end_s() + 0.5 * period;
   if (sides->third) {
-    w.third = std::make_shared<PairedRecord>(slice(sides->third->paired, from_s, to_s));
+    w.third = std::make_shared<const VectorRecord>(sides->third->on_epochs(from_s, to_s));
     w.third_name = sides->third_name;
   }
   if (sides->remote) {
-    const PairedRecord r = slice(sides->remote->paired, from_s, to_s);
-    auto remote = std::make_shared<VectorRecord>();
-    remote->time_s = r.time_s;
-    remote->values_nT = r.test_nT;
-    w.remote = std::move(remote);
+    w.remote = std::make_shared<const VectorRecord>(sides->remote->on_epochs(from_s, to_s));
     w.remote_name = sides->remote_name;
   }
   return w;
@@ -353,21 +409,23 @@ std::vector<WindowEstimate> disjoint_window_estimates(const std::vector<Calibrat
 PreparedSides prepare_sides(const VectorRecord& reference, const PreparedPair& prepared, const SideRecords& sides,
                             const CalibrationSettings& settings) {
   PreparedSides out;
+  if (sides.scalar != nullptr) out.scalar = std::make_shared<ScalarRecord>(*sides.scalar);
+  if (sides.third == nullptr && sides.remote == nullptr) return out;
+  const VectorRecord despiked_reference = despiked(reference, settings.preprocess);
   if (sides.third != nullptr) {
-    out.third = prepare_side(reference, *sides.third, prepared, settings, "--third");
+    out.third = side_stream_of(reference, despiked_reference, *sides.third, prepared, settings.preprocess, "--third");
     // The hat compares the three records' spectra above the band, where the Gaussian FIR's gain
     // falls: a third filtered where the pair is not (or the reverse) would show the filter as noise.
-    if (out.third->decimation.has_value() != prepared.decimation.has_value()) {
+    if (out.third->filter().has_value() != prepared.decimation.has_value()) {
       throw InputError("--third", std::string("comes onto the epochs ") +
-                                      (out.third->decimation ? "through the Gaussian FIR" : "paired by stamp") +
-                                      ", the pair " + (prepared.decimation ? "through the Gaussian FIR" : "paired by stamp") +
+                                      (out.third->filter() ? "through the Gaussian FIR" : "at its stamps") + ", the pair " +
+                                      (prepared.decimation ? "through the Gaussian FIR" : "paired by stamp") +
                                       ": the three-cornered hat needs the three records filtered alike (records of one "
                                       "rate and phase, or --output-period longer than their period)");
     }
   }
-  if (sides.scalar != nullptr) out.scalar = std::make_shared<ScalarRecord>(*sides.scalar);
   if (sides.remote != nullptr) {
-    out.remote = prepare_side(reference, *sides.remote, prepared, settings, "--remote");
+    out.remote = side_stream_of(reference, despiked_reference, *sides.remote, prepared, settings.preprocess, "--remote");
     if (!sides.remote->station.empty()) out.remote_name = sides.remote->station;
   }
   return out;

@@ -88,10 +88,6 @@ EpochPlan LiveStreamSettings::test_plan(double period_s) const {
                      stamps_apart);
 }
 
-EpochPlan LiveStreamSettings::remote_plan() const {
-  return plan_epochs(input_period_s, remote_period_s(), decimation.output_period_s, stamps_apart);
-}
-
 std::optional<DecimationSettings> LiveStreamSettings::window_decimation(double period_s) const {
   const EpochPlan plan = test_plan(period_s);
   if (plan.alignment == EpochAlignment::kPairedStamps) return std::nullopt;
@@ -106,12 +102,12 @@ void LiveStreamSettings::validate(bool remote) const {
   const EpochPlan test = test_plan();
   require_kernel_covers(*this, test, test_period_s(), "test_input_period_s");
   if (!remote) return;
-  const EpochPlan far = remote_plan();
+  const EpochPlan far = remote_side().plan();
   require_kernel_covers(*this, far, remote_period_s(), "remote_input_period_s");
   if (std::abs(far.period_s - test.period_s) > 1e-9 * test.period_s) {
     char text[240];
     std::snprintf(text, sizeof text,
-                  "of %g s puts the remote's pairs with the reference every %g s, the tests' every %g s: the windows "
+                  "of %g s puts the remote onto the epochs every %g s, the tests' pairs every %g s: the windows "
                   "need one estimation period",
                   remote_period_s(), far.period_s, test.period_s);
     throw InputError("remote_input_period_s", text);
@@ -155,26 +151,17 @@ LiveTestStream::LiveTestStream(const LiveTestInput& input, const LiveStreamSetti
   make_decimators(settings, input_period_s, settings.test_plan(input_period_s), reference_decimator, test_decimator);
 }
 
-LiveRemoteStream::LiveRemoteStream(const std::string& remote_name, const LiveStreamSettings& settings)
-    : name(remote_name),
-      despiker(settings.despike_settings),
-      alignment(settings.remote_plan().alignment),
-      pairer(settings.pairing_tolerance_s, settings.pairing_max_wait_s) {
-  make_decimators(settings, settings.remote_period_s(), settings.remote_plan(), reference_decimator, remote_decimator);
-}
-
-std::shared_ptr<VectorRecord> LiveRemoteStream::copy(double low_s, double high_s) const {
-  auto out = std::make_shared<VectorRecord>();
-  std::vector<Eigen::Vector3d> values;
-  for (const auto& [time, value] : samples) {
-    if (time < low_s || time >= high_s) continue;
-    out->time_s.push_back(time);
-    values.push_back(value);
-  }
-  out->values_nT.resize(static_cast<Eigen::Index>(values.size()), 3);
-  for (std::size_t i = 0; i < values.size(); ++i) out->values_nT.row(static_cast<Eigen::Index>(i)) = values[i].transpose();
-  out->source = name;
-  return out;
+SideStreamSettings LiveStreamSettings::remote_side() const {
+  SideStreamSettings s;
+  s.reference_period_s = input_period_s;
+  s.side_period_s = remote_period_s();
+  s.stamps_apart = stamps_apart;
+  s.decimation = decimation;
+  s.pairing_tolerance_s = pairing_tolerance_s;
+  s.despike = despike;
+  s.despike_settings = despike_settings;
+  s.time_jump_threshold_s = time_jump_threshold_s;
+  return s;
 }
 
 bool LiveScalarStream::push(double time_s, double value_nT) {
@@ -225,11 +212,9 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
   std::vector<Completed> out;
   StreamingDespiker::Sample s{time_s, value_nT};
   if (settings_.despike && !reference_despiker_.push(time_s, value_nT, s)) return out;
-  if (remote_) {  // first: its samples of a window are in before the window completes
-    LiveRemoteStream& r = *remote_;
-    to_pairer(r.alignment, r.reference_decimator.get(), s.time_s, s.value_nT, r.decimator_restarts,
-              [&r](double t, const Eigen::Vector3d& v) { r.pairer.push_reference(t, v); });
-    drain_remote();
+  if (remote_) {  // first: the reference's epochs of a window are in before the window completes
+    remote_->push_reference(s.time_s, s.value_nT);
+    drop_remote_epochs();
   }
   newest_pair_s_ = std::max(newest_pair_s_, s.time_s);
   for (std::size_t i = 0; i < tests_.size(); ++i) {
@@ -244,7 +229,8 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_refe
 
 void LiveCalibrationStreams::add_remote(const std::string& name) {
   settings_.validate(true);
-  remote_ = std::make_unique<LiveRemoteStream>(name, settings_);
+  remote_ = std::make_unique<SideStream>(settings_.remote_side());
+  remote_name_ = name;
 }
 
 void LiveCalibrationStreams::add_scalar(const std::string& name) { scalar_ = std::make_unique<LiveScalarStream>(name); }
@@ -265,13 +251,8 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_remo
                                                                                   const Eigen::Vector3d& value_nT) {
   std::vector<Completed> out;
   if (!remote_) return out;
-  ++remote_->received;
-  StreamingDespiker::Sample s{time_s, value_nT};
-  LiveRemoteStream& r = *remote_;
-  if (settings_.despike && !r.despiker.push(time_s, value_nT, s)) return out;
-  to_pairer(r.alignment, r.remote_decimator.get(), s.time_s, s.value_nT, r.decimator_restarts,
-            [&r](double t, const Eigen::Vector3d& v) { r.pairer.push_test(t, v); });
-  drain_remote();
+  remote_->push(time_s, value_nT);
+  drop_remote_epochs();
   release_waiting(out);
   return out;
 }
@@ -281,7 +262,7 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_remo
 void LiveCalibrationStreams::release_waiting(std::vector<Completed>& out) {
   while (!waiting_remote_.empty()) {
     const WindowRecords& w = waiting_remote_.front().window;
-    const bool reached = !remote_->samples.empty() && remote_->samples.back().first >= w.end_s() - 0.25 * w.period_s;
+    const bool reached = remote_->reached_s() >= w.end_s() - 0.25 * w.period_s;
     if (!reached && !(newest_pair_s_ - w.end_s() > settings_.pairing_max_wait_s)) return;
     Waiting waiting = std::move(waiting_remote_.front());
     waiting_remote_.pop_front();
@@ -289,38 +270,16 @@ void LiveCalibrationStreams::release_waiting(std::vector<Completed>& out) {
   }
 }
 
-/// The remote's pairs with the reference, decimated like a test's, into its buffer; samples
-/// older than every test's next window (less a period) are no longer needed.
-void LiveCalibrationStreams::drain_remote() {
-  LiveRemoteStream& r = *remote_;
-  for (PairedSample pair : r.pairer.take_pairs()) {
-    // An epoch missing in either (a spike set NaN) is missing in all six values, as the offline
-    // preparation of --remote against the reference has it.
-    if (!pair.reference_nT.allFinite() || !pair.test_nT.allFinite()) {
-      pair.reference_nT.setConstant(std::numeric_limits<double>::quiet_NaN());
-      pair.test_nT.setConstant(std::numeric_limits<double>::quiet_NaN());
-    }
-    if (r.alignment != EpochAlignment::kPairedThenDecimated) {  // at the input rate, or filtered already
-      r.samples.emplace_back(pair.time_s, pair.test_nT);
-    } else {
-      if (r.any_pair && pair.time_s - r.last_pair_s > settings_.time_jump_threshold_s) {
-        r.reference_decimator->reset();
-        r.remote_decimator->reset();
-        ++r.decimator_restarts;
-      }
-      const auto a = r.reference_decimator->push(pair.time_s, pair.reference_nT);
-      const auto b = r.remote_decimator->push(pair.time_s, pair.test_nT);
-      for (std::size_t k = 0; k < std::min(a.size(), b.size()); ++k) r.samples.emplace_back(b[k].first, b[k].second);
-    }
-    r.any_pair = true;
-    r.last_pair_s = pair.time_s;
-  }
-  double needed = r.samples.empty() ? 0.0 : r.samples.back().first;
+/// Forgets the remote's epochs older than every test's next window (less a period) and every
+/// waiting window; bounded whatever the tests do: at most two windows' span behind its newest.
+void LiveCalibrationStreams::drop_remote_epochs() {
+  const double newest = remote_->newest_s();
+  if (!std::isfinite(newest)) return;
+  double needed = newest;
   for (const auto& t : tests_) needed = std::min(needed, t->windows.next_start_s() - 2.0 * t->windows.period_s());
-  // Bounded whatever the tests do: at most two windows' span behind the newest sample.
-  if (!r.samples.empty()) needed = std::max(needed, r.samples.back().first - 2.0 * settings_.window_s);
+  needed = std::max(needed, newest - 2.0 * settings_.window_s);
   for (const Waiting& w : waiting_remote_) needed = std::min(needed, w.window.start_s - w.window.period_s);
-  while (!r.samples.empty() && r.samples.front().first < needed) r.samples.pop_front();
+  remote_->drop_before(needed);
 }
 
 std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_test(std::size_t test, double time_s,
@@ -386,8 +345,11 @@ void LiveCalibrationStreams::window_done(std::size_t test, WindowRecords&& windo
 /// The window with its remote and scalar samples, to the per-window stage (or to its mate).
 void LiveCalibrationStreams::finish_window(std::size_t test, WindowRecords&& window, std::vector<Completed>& out) {
   if (remote_) {
-    window.remote = remote_->copy(window.start_s - 0.5 * window.period_s, window.end_s() + 0.5 * window.period_s);
-    window.remote_name = remote_->name;
+    auto remote = std::make_shared<VectorRecord>(
+        remote_->on_epochs(window.start_s - 0.5 * window.period_s, window.end_s() + 0.5 * window.period_s));
+    remote->source = remote_name_;
+    window.remote = std::move(remote);
+    window.remote_name = remote_name_;
   }
   if (scalar_) {
     window.scalar = scalar_->copy(window.start_s - LiveScalarStream::kMargin_s, window.end_s() + LiveScalarStream::kMargin_s);
@@ -424,16 +386,7 @@ void LiveCalibrationStreams::restart(std::size_t test) {
 
 void LiveCalibrationStreams::restart_all() {
   reference_despiker_.reset();
-  if (remote_) {
-    remote_->despiker.reset();
-    remote_->pairer.reset();
-    if (remote_->reference_decimator) {
-      remote_->reference_decimator->reset();
-      remote_->remote_decimator->reset();
-    }
-    remote_->samples.clear();
-    remote_->any_pair = false;
-  }
+  if (remote_) remote_->reset();
   if (scalar_) scalar_->samples.clear();
   newest_pair_s_ = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < tests_.size(); ++i) restart(i);

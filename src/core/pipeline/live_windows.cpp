@@ -177,6 +177,24 @@ void TemperatureBuffer::drop_before(double time_s) {
   while (!samples_.empty() && samples_.front().first < time_s) samples_.pop_front();
 }
 
+namespace {
+
+/// A test's samples at the epochs of its window where its pair is complete (its own frame, nT),
+/// NaN elsewhere: that test as another's third instrument. The test is paired with the
+/// reference in its own right (it is calibrated too); an epoch its reference lacks is one the
+/// hat cannot use.
+VectorRecord complete_test_samples(const PairedRecord& paired) {
+  VectorRecord out;
+  out.time_s = paired.time_s;
+  out.values_nT = paired.test_nT;
+  for (Eigen::Index r = 0; r < out.values_nT.rows(); ++r) {
+    if (!paired.reference_nT.row(r).allFinite()) out.values_nT.row(r).setConstant(std::numeric_limits<double>::quiet_NaN());
+  }
+  return out;
+}
+
+}  // namespace
+
 CoincidentWindows::CoincidentWindows(std::size_t channels)
     : channels_(channels), newest_start_(channels, -std::numeric_limits<double>::infinity()) {}
 
@@ -212,10 +230,11 @@ std::vector<CoincidentWindows::Released> CoincidentWindows::add(std::size_t chan
     bool complete = true;
     for (std::size_t c = 0; c < channels_; ++c) complete = complete && group->second[c].has_value();
     if (!complete && !(newest_any > group->first)) break;  // wait for the missing ones
-    // Each window's record, shared by the mates that use it.
-    std::vector<std::shared_ptr<const PairedRecord>> records(channels_);
+    // Each window's test samples of its complete epochs, shared by the mates that use it as
+    // their third.
+    std::vector<std::shared_ptr<const VectorRecord>> records(channels_);
     for (std::size_t c = 0; c < channels_; ++c) {
-      if (group->second[c]) records[c] = std::make_shared<const PairedRecord>(group->second[c]->paired);
+      if (group->second[c]) records[c] = std::make_shared<const VectorRecord>(complete_test_samples(group->second[c]->paired));
     }
     for (std::size_t c = 0; c < channels_; ++c) {
       if (!group->second[c]) continue;

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <initializer_list>
 #include <map>
+#include <vector>
 
 namespace magnetometer_insitu_calibration {
 
@@ -159,14 +160,15 @@ bool fit_hat_instrument(const ThreeCorneredHatResult& hat, std::size_t instrumen
 
 namespace {
 
-/// Row of each grid epoch (time rounded to the period) whose reference and instrument values
-/// are all finite.
-std::map<long long, Eigen::Index> finite_epoch_rows(const PairedRecord& p, double period_s) {
+/// Row of each grid epoch (time rounded to the period, s) where every one of `values` is finite.
+std::map<long long, Eigen::Index> finite_epoch_rows(const std::vector<double>& time_s, double period_s,
+                                                    const std::vector<const Readings*>& values) {
   std::map<long long, Eigen::Index> rows;
-  for (std::size_t i = 0; i < p.time_s.size(); ++i) {
+  for (std::size_t i = 0; i < time_s.size(); ++i) {
     const auto r = static_cast<Eigen::Index>(i);
-    if (!p.reference_nT.row(r).allFinite() || !p.test_nT.row(r).allFinite()) continue;
-    rows[std::llround(p.time_s[i] / period_s)] = r;
+    bool finite = true;
+    for (const Readings* v : values) finite = finite && v->row(r).allFinite();
+    if (finite) rows[std::llround(time_s[i] / period_s)] = r;
   }
   return rows;
 }
@@ -240,13 +242,14 @@ double mean_power_gain(const DecimationSettings& filter, double low_hz, double h
   return sum / kPoints;
 }
 
-IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const PairedRecord& with_third,
+IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const VectorRecord& third,
                                          double sample_period_s, double band_low_hz, double band_high_hz, int bins,
                                          const std::string& third_name, const DecimationSettings* filter) {
   IdentifiedNoise out;
   out.sample_period_s = sample_period_s;
-  const std::map<long long, Eigen::Index> test_rows = finite_epoch_rows(with_test, sample_period_s);
-  const std::map<long long, Eigen::Index> third_rows = finite_epoch_rows(with_third, sample_period_s);
+  const std::map<long long, Eigen::Index> test_rows =
+      finite_epoch_rows(with_test.time_s, sample_period_s, {&with_test.reference_nT, &with_test.test_nT});
+  const std::map<long long, Eigen::Index> third_rows = finite_epoch_rows(third.time_s, sample_period_s, {&third.values_nT});
   std::vector<std::pair<long long, std::pair<Eigen::Index, Eigen::Index>>> common;  // epoch, (test row, third row)
   for (const auto& [epoch, row] : test_rows) {
     const auto it = third_rows.find(epoch);
@@ -274,7 +277,7 @@ IdentifiedNoise identify_reference_noise(const PairedRecord& with_test, const Pa
     const auto& rows = common[best_first + static_cast<std::size_t>(i)].second;
     r.row(i) = with_test.reference_nT.row(rows.first);
     t.row(i) = with_test.test_nT.row(rows.first);
-    c.row(i) = with_third.test_nT.row(rows.second);
+    c.row(i) = third.values_nT.row(rows.second);
   }
   ThreeCorneredHatSettings hs;
   hs.bin_edges_hz = hat_bin_edges(static_cast<double>(n) * sample_period_s, sample_period_s, band_low_hz,

@@ -52,15 +52,16 @@ void estimate_offset(CalibrationWindow& w, const PairedRecord& paired) {
   }
 }
 
-/// The remote's samples at the filled window's epochs: runs of missing epochs inside bridged by
-/// straight lines, at the edges held from the nearest sample. An instrument filled so is still
-/// one (a function of the remote's record alone, independent of the local errors): what it
-/// costs is strength, which the estimator measures. "" when usable, else why not: fewer than
+/// The remote's samples (on the estimation epochs already, side_stream.hpp) as one row per epoch
+/// of the filled window (each sample's row found from its stamp): runs of missing epochs inside
+/// bridged by straight lines, at the edges held from the nearest sample. An instrument filled so
+/// is still one (a function of the remote's record alone, independent of the local errors): what
+/// it costs is strength, which the estimator measures. "" when usable, else why not: fewer than
 /// kMinRemoteCover of the epochs have a sample (too short an overlap).
 constexpr double kMinRemoteCover = 0.5;
 
-std::string remote_on_grid(const VectorRecord& remote, const std::vector<double>& epochs, double period_s,
-                           Readings& out) {
+std::string remote_rows(const VectorRecord& remote, const std::vector<double>& epochs, double period_s,
+                        Readings& out) {
   const auto n = static_cast<Eigen::Index>(epochs.size());
   out = Readings::Constant(n, 3, std::numeric_limits<double>::quiet_NaN());
   if (n == 0) return "no epoch";
@@ -252,7 +253,7 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
   inputs.reference_noise = noise_before_estimate(w, window, window.paired);
   Readings remote;
   if (window.remote) {
-    const std::string refused = remote_on_grid(*window.remote, window.paired.time_s, period, remote);
+    const std::string refused = remote_rows(*window.remote, window.paired.time_s, period, remote);
     if (refused.empty()) {
       inputs.remote_nT = &remote;
       inputs.remote_name = window.remote_name;

@@ -162,7 +162,7 @@ TEST(LiveMixedRates, AOneSecondRemoteBesideATenHertzPairGivesTheOfflineRemote) {
   mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
   streams.add_remote("/remote/magnetic_field");
   EXPECT_EQ(streams.test(0).alignment, mic::EpochAlignment::kPairedThenDecimated);
-  EXPECT_EQ(streams.remote()->alignment, mic::EpochAlignment::kEachFiltered);
+  EXPECT_EQ(streams.remote()->alignment(), mic::EpochAlignment::kEachFiltered);
   const std::vector<mic::WindowRecords> windows = push_in_time_order(streams, pair.reference, pair.test, &remote);
   ASSERT_EQ(windows.size(), 3u);
 
@@ -271,9 +271,9 @@ TEST(LiveMixedRates, PeriodsThatCannotGiveWindowsAreRefusedByName) {
     return "accepted";
   };
   mic::LiveStreamSettings live;
-  live.remote_input_period_s = 60.0;  // minute means beside a 1 s pair: its pairs every 60 s
+  live.remote_input_period_s = 60.0;  // minute means beside a 1 s pair: its epochs every 60 s
   EXPECT_EQ(where(live, false), "accepted");
-  EXPECT_NE(where(live, true).find("remote_input_period_s: of 60 s puts the remote's pairs with the reference every 60 s"),
+  EXPECT_NE(where(live, true).find("remote_input_period_s: of 60 s puts the remote onto the epochs every 60 s"),
             std::string::npos)
       << where(live, true);
   live = mic::LiveStreamSettings{};

@@ -153,10 +153,27 @@ TEST(CoincidentWindows, ReleasesAStartWhenEveryInstrumentHasIt) {
     EXPECT_EQ(released[c].channel, c);
     ASSERT_NE(released[c].window.third, nullptr);
     EXPECT_EQ(released[c].mate_channel, (c + 1) % 3);  // the next instrument in order
-    // The mate's record is that instrument's own window.
-    EXPECT_EQ(released[c].window.third->test_nT(0, 0), static_cast<double>((c + 1) % 3));
+    // The mate's samples are its own window's test samples.
+    EXPECT_EQ(released[c].window.third->values_nT(0, 0), static_cast<double>((c + 1) % 3));
     EXPECT_EQ(released[c].window.paired.test_nT(0, 0), static_cast<double>(c));
   }
+}
+
+TEST(CoincidentWindows, TheThirdIsTheMatesTestAtItsCompleteEpochs) {
+  // An epoch the mate's reference lacks (a spike taken out) is one the hat cannot use: NaN in
+  // the third, the mate's test values elsewhere, on its window's epochs.
+  mic::CoincidentWindows groups(2);
+  mic::WindowRecords mate = window_at(0.0, 1.0);
+  mate.paired.reference_nT(1, 2) = std::numeric_limits<double>::quiet_NaN();
+  mate.paired.test_nT(2, 0) = 5.0;
+  EXPECT_TRUE(groups.add(1, std::move(mate)).empty());
+  const auto released = groups.add(0, window_at(0.0, 0.0));
+  ASSERT_EQ(released.size(), 2u);
+  const mic::VectorRecord& third = *released[0].window.third;
+  EXPECT_EQ(third.time_s, (std::vector<double>{0.0, 1.0, 2.0}));
+  EXPECT_EQ(third.values_nT(0, 1), 1.0);
+  EXPECT_TRUE(third.values_nT.row(1).array().isNaN().all());
+  EXPECT_EQ(third.values_nT(2, 0), 5.0);
 }
 
 TEST(CoincidentWindows, ASilentInstrumentHoldsTheOthersOneStepAtMost) {
@@ -318,7 +335,7 @@ TEST(LiveCalibrationStreams, ARemoteStreamGivesTheWindowsTheOfflineRemote) {
     for (auto& c : streams.push_test(0, pair.test.time_s[i], row(pair.test))) windows.push_back(std::move(c.window));
   }
   ASSERT_EQ(windows.size(), 4u);
-  EXPECT_GT(streams.remote()->despiker.spikes(), 10u);
+  EXPECT_GT(streams.remote()->spikes(), 10u);
   mic::CalibrationSettings settings;
   const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
   const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);

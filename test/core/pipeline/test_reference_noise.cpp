@@ -221,15 +221,23 @@ ThreeInstruments three_instruments(std::uint64_t seed) {
   return t;
 }
 
+/// A third record on the pair's estimation epochs, whole, as calibrate_records --third brings it
+/// there (prepare_sides) before each window takes its epochs.
+mic::VectorRecord third_on_epochs(const mic::VectorRecord& reference, const mic::PreparedPair& pair,
+                                  const mic::VectorRecord& third) {
+  const mic::PreparedSides sides = mic::prepare_sides(reference, pair, {&third}, mic::CalibrationSettings{});
+  return sides.third->on_epochs(-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+}
+
 }  // namespace
 
 TEST(IdentifyReferenceNoise, RecoversTheReferenceNoiseOfThreeInstruments) {
   // MIC_HAT_SEED: another seed (seeds 91-110 checked when written).
   const char* seed = std::getenv("MIC_HAT_SEED");
   const ThreeInstruments t = three_instruments(seed != nullptr ? std::strtoull(seed, nullptr, 10) : 91);
+  const mic::PreparedPair with_test = mic::prepare_pair(t.pair.reference, t.pair.test, mic::PreprocessSettings{});
   const mic::IdentifiedNoise noise = mic::identify_reference_noise(
-      mic::prepare_pair(t.pair.reference, t.pair.test, mic::PreprocessSettings{}).paired,
-      mic::prepare_pair(t.pair.reference, t.third, mic::PreprocessSettings{}).paired, 1.0, 0.0002, 0.01, 4, "--third");
+      with_test.paired, third_on_epochs(t.pair.reference, with_test, t.third), 1.0, 0.0002, 0.01, 4, "--third");
   ASSERT_TRUE(noise.identified) << noise.text;
   EXPECT_EQ(noise.samples, t.third.time_s.size());  // the epochs all three share
   EXPECT_NE(noise.text.find("three-cornered hat"), std::string::npos) << noise.text;
@@ -270,9 +278,9 @@ TEST(IdentifyReferenceNoise, RecoversTheQuietTestsLevelFromTheBinsAboveTheBand) 
     mic::VectorRecord third;
     third.time_s = pair.reference.time_s;
     third.values_nT = mic::co_located_instrument(pair.field_nT, mic::co_located_instrument_matrix(), 0.05, seed * 31 + 7);
+    const mic::PreparedPair with_test = mic::prepare_pair(pair.reference, pair.test, mic::PreprocessSettings{});
     const mic::IdentifiedNoise noise = mic::identify_reference_noise(
-        mic::prepare_pair(pair.reference, pair.test, mic::PreprocessSettings{}).paired,
-        mic::prepare_pair(pair.reference, third, mic::PreprocessSettings{}).paired, 1.0, 0.0002, 0.01, 4, "--third");
+        with_test.paired, third_on_epochs(pair.reference, with_test, third), 1.0, 0.0002, 0.01, 4, "--third");
     ASSERT_TRUE(noise.identified) << noise.text;
     ASSERT_FALSE(noise.hat.bin_high_hz.empty());
     const double top = noise.hat.bin_high_hz.back(), below = noise.hat.bin_low_hz.back();
@@ -306,10 +314,11 @@ TEST(IdentifyReferenceNoise, AThirdRecordOutsideThePairIsNamed) {
 
 namespace {
 
-/// The pair (reference, test) and (reference, third) as calibration_node's windows hold them:
-/// on the 1 Hz grid, the reference's epochs, NaN where an instrument has no sample.
+/// The pair (reference, test) and the third as calibration_node's windows hold them: on the 1 Hz
+/// grid, the reference's epochs, NaN where an instrument has no sample.
 struct GridPairs {
-  mic::PairedRecord with_test, with_third;
+  mic::PairedRecord with_test;
+  mic::VectorRecord with_third;
 };
 
 GridPairs grid_pairs(const ThreeInstruments& t) {
@@ -319,9 +328,10 @@ GridPairs grid_pairs(const ThreeInstruments& t) {
   g.with_test.time_s = t.pair.reference.time_s;
   g.with_test.reference_nT = t.pair.reference.values_nT;
   g.with_test.test_nT = t.pair.test.values_nT;
-  g.with_third = g.with_test;
-  g.with_third.test_nT.topRows(skip).setConstant(std::numeric_limits<double>::quiet_NaN());
-  g.with_third.test_nT.bottomRows(rows - skip) = t.third.values_nT;
+  g.with_third.time_s = t.pair.reference.time_s;
+  g.with_third.values_nT = t.pair.test.values_nT;
+  g.with_third.values_nT.topRows(skip).setConstant(std::numeric_limits<double>::quiet_NaN());
+  g.with_third.values_nT.bottomRows(rows - skip) = t.third.values_nT;
   return g;
 }
 
@@ -351,7 +361,7 @@ TEST(IdentifyReferenceNoise, TheSameTestRecordTwiceIsSharedNoiseAndIdentifiesNot
   // and would put all of it on the reference; nothing is identified, and the text says why.
   const ThreeInstruments t = three_instruments(94);
   GridPairs g = grid_pairs(t);
-  g.with_third = g.with_test;
+  g.with_third.values_nT = g.with_test.test_nT;
   const mic::IdentifiedNoise noise = mic::identify_reference_noise(g.with_test, g.with_third, 1.0, 0.0002, 0.01, 4, "test 'b'");
   EXPECT_FALSE(noise.identified) << noise.text;
   EXPECT_EQ(noise.white_nT, Eigen::Vector3d::Zero());
@@ -362,7 +372,7 @@ TEST(IdentifyReferenceNoise, TheSameTestRecordTwiceIsSharedNoiseAndIdentifiesNot
 TEST(IdentifyReferenceNoise, TooFewSharedEpochsNameTheThird) {
   const ThreeInstruments t = three_instruments(95);
   GridPairs g = grid_pairs(t);
-  for (Eigen::Index i = 0; i < g.with_third.test_nT.rows(); i += 50) g.with_third.test_nT(i, 0) = std::nan("");
+  for (Eigen::Index i = 0; i < g.with_third.values_nT.rows(); i += 50) g.with_third.values_nT(i, 0) = std::nan("");
   try {
     mic::identify_reference_noise(g.with_test, g.with_third, 1.0, 0.0002, 0.01, 4, "test 'b'");
     FAIL() << "no error";

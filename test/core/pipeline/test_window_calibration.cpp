@@ -373,9 +373,12 @@ double white_equivalent_nT(const mic::IdentifiedNoise& noise, int c, double low_
 
 namespace {
 
-/// `window` with `other`'s record of the same epochs as its third instrument, named test 'b'.
+/// `window` with `other`'s test samples of the same epochs as its third instrument, named test 'b'.
 mic::WindowRecords with_third(mic::WindowRecords window, const mic::WindowRecords& other) {
-  window.third = std::make_shared<const mic::PairedRecord>(other.paired);
+  auto third = std::make_shared<mic::VectorRecord>();
+  third->time_s = other.paired.time_s;
+  third->values_nT = other.paired.test_nT;
+  window.third = std::move(third);
   window.third_name = "test 'b'";
   return window;
 }
