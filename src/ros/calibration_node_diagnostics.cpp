@@ -151,6 +151,7 @@ void CalibrationNode::diagnose_reference(DiagnosticStatusWrapper& status) {
   if (const SideStream* r = streams_->remote()) {
     status.add("remote epoch alignment", epoch_alignment_name(r->alignment()));
     status.add("remote decimator restarts", r->restarts());
+    status.add("windows waiting for the remote", streams_->waiting_for_remote());  // up to ~remote_max_wait
     const std::string phase = phase_mismatch(remote_, r->alignment(), "remote");
     if (!phase.empty()) status.mergeSummary(DiagnosticStatus::ERROR, phase);
   }

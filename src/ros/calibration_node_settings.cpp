@@ -39,6 +39,7 @@ const SettingBindings<N>& CalibrationNodeSettings::bindings() {
         .bind("half_width_sigmas", [](N& n) -> double& { return n.streams.decimation.half_width_sigmas; })
         .bind("pairing_tolerance_s", [](N& n) -> double& { return n.streams.pairing_tolerance_s; })
         .bind("pairing_max_wait_s", [](N& n) -> double& { return n.streams.pairing_max_wait_s; })
+        .bind("remote_max_wait_s", [](N& n) -> double& { return n.streams.remote_max_wait_s; })
         .bind("window", [](N& n) -> double& { return n.streams.window_s; })
         .bind("step", [](N& n) -> double& { return n.streams.step_s; })
         .bind("despike", [](N& n) -> bool& { return n.streams.despike; })
@@ -244,8 +245,10 @@ void check_rules(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   LiveStreamSettings& l = s.streams;
   WindowCalibrationSettings& w = s.window;
   if (w.field_direction && s.scalar_topic.empty()) throw ParameterError("field_direction", "is used with ~scalar_topic only");
-  if (p.hasParam("remote_input_period") && s.remote_topic.empty()) {
-    throw ParameterError("remote_input_period", "is used with ~remote_topic only");
+  for (const char* remote_only : {"remote_input_period", "remote_max_wait"}) {
+    if (p.hasParam(remote_only) && s.remote_topic.empty()) {
+      throw ParameterError(remote_only, "is used with ~remote_topic only");
+    }
   }
   const double period = l.estimation_period_s();
   if (!(l.pairing_tolerance_s < 0.5 * l.input_period_s)) {

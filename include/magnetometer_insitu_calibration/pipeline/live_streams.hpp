@@ -69,6 +69,9 @@ struct LiveStreamSettings {
   DecimationSettings decimation;       ///< output_period_s: the estimation period asked for, s
   double pairing_tolerance_s = 0.010;  ///< largest |t_test - t_reference| of a pair, s
   double pairing_max_wait_s = 600.0;   ///< longest wait (stamp time) for a partner, s
+  /// How far past a window's end (the pair's stamps) the window waits for a late remote, s: a
+  /// neighbouring observatory's daily files arrive hours after its samples were taken.
+  double remote_max_wait_s = 21600.0;
   double window_s = 86400.0;           ///< window length, s
   double step_s = 3600.0;              ///< between window starts, s
   bool despike = true;                 ///< StreamingDespiker on every input stream
@@ -175,11 +178,20 @@ class LiveCalibrationStreams {
   void add_remote(const std::string& name);
   /// A remote sample (its own frame, nT); returns the windows that waited for it. A window the
   /// pair completes waits until the remote's samples reach its end, or until the pair is
-  /// pairing_max_wait_s (stamp time) past it: a remote that arrives a little after the pair
-  /// fills the window as the offline --remote does, a late or silent one delays it no longer.
+  /// remote_max_wait_s (stamp time) past it: a remote that arrives after the pair fills the
+  /// window as the offline --remote does; past the wait the window goes on with what the remote
+  /// gave (WindowRecords::remote_late says so).
   std::vector<Completed> push_remote(double time_s, const Eigen::Vector3d& value_nT);
   /// The remote's stream on the estimation epochs, null without one.
   const SideStream* remote() const { return remote_.get(); }
+  /// Windows the pair has completed that wait for the remote.
+  std::size_t waiting_for_remote() const { return waiting_remote_.size(); }
+  /// The epochs those windows hold (each its pair's record on the estimation epochs).
+  std::size_t waiting_epochs() const {
+    std::size_t epochs = 0;
+    for (const Waiting& w : waiting_remote_) epochs += w.window.paired.time_s.size();
+    return epochs;
+  }
   /// An absolute scalar magnetometer's stream, named `name` in texts; call once, before any sample.
   void add_scalar(const std::string& name);
   /// A scalar sample (F, nT, at its own time); false when refused (LiveScalarStream::push).

@@ -122,6 +122,9 @@ struct WindowRecords {
   /// (estimation/remote_reference.hpp); null: none.
   std::shared_ptr<const VectorRecord> remote;
   std::string remote_name;           ///< names the remote in texts ("--remote", a station, a topic)
+  /// Live: why the remote's samples stop before the window's end (it went on without waiting
+  /// longer for them, LiveStreamSettings::remote_max_wait_s); "" when they reach it.
+  std::string remote_late;
   /// An absolute scalar magnetometer's samples around the window (F, nT, its own times): the
   /// check of the reference's scale along the field (pipeline/scalar_window.hpp); null: none.
   std::shared_ptr<const ScalarRecord> scalar;

@@ -63,6 +63,9 @@ SettingDeclarations sampling_and_pairing() {
       number_setting("pairing_max_wait_s", "pairing_max_wait", kNone, "s", 600.0, at_least(0),
                      "how long (in stamps) a sample waits for its partner before it is counted unpaired")
           .aliased({"max_wait_s"}),
+      number_setting("remote_max_wait_s", "remote_max_wait", kNone, "s", 21600.0, at_least(0),
+                     "how long (in the pair's stamps) past its end a window waits for a late remote; then it goes on "
+                     "and says why"),
       flag_setting("despike", "despike", "--despike", true,
                    "remove spikes from each input at its own rate (running-median Hampel rule, 8 MADs)"),
       text_setting(K::kText, "temperature_channel", kNone, "--temperature-channel", "auto",

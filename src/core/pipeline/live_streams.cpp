@@ -98,6 +98,9 @@ void LiveStreamSettings::validate(bool remote) const {
   require_period("input_period_s", input_period_s, false);
   require_period("test_input_period_s", test_input_period_s, true);
   require_period("remote_input_period_s", remote_input_period_s, true);
+  if (!(remote_max_wait_s >= 0.0) || std::isnan(remote_max_wait_s)) {
+    throw InputError("remote_max_wait_s", "must be a time >= 0 s");
+  }
   decimation.validate();
   const EpochPlan test = test_plan();
   require_kernel_covers(*this, test, test_period_s(), "test_input_period_s");
@@ -258,14 +261,26 @@ std::vector<LiveCalibrationStreams::Completed> LiveCalibrationStreams::push_remo
 }
 
 /// The waiting windows whose end the remote has reached, or that the pair has left
-/// pairing_max_wait_s behind, in the order they completed.
+/// remote_max_wait_s behind (those say so), in the order they completed.
 void LiveCalibrationStreams::release_waiting(std::vector<Completed>& out) {
   while (!waiting_remote_.empty()) {
     const WindowRecords& w = waiting_remote_.front().window;
     const bool reached = remote_->reached_s() >= w.end_s() - 0.25 * w.period_s;
-    if (!reached && !(newest_pair_s_ - w.end_s() > settings_.pairing_max_wait_s)) return;
+    if (!reached && !(newest_pair_s_ - w.end_s() > settings_.remote_max_wait_s)) return;
     Waiting waiting = std::move(waiting_remote_.front());
     waiting_remote_.pop_front();
+    if (!reached) {
+      const double behind_s = w.end_s() - remote_->reached_s();
+      char text[200];
+      if (std::isfinite(behind_s)) {
+        std::snprintf(text, sizeof text, "the remote had reached %.0f s before the window's end when the pair was %g s past it",
+                      std::ceil(behind_s), settings_.remote_max_wait_s);
+      } else {
+        std::snprintf(text, sizeof text, "no remote sample had come when the pair was %g s past the window's end",
+                      settings_.remote_max_wait_s);
+      }
+      waiting.window.remote_late = text;
+    }
     finish_window(waiting.test, std::move(waiting.window), out);
   }
 }

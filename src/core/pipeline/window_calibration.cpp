@@ -259,7 +259,10 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
       inputs.remote_name = window.remote_name;
     } else {
       w.remote_refused = "remote " + window.remote_name + " refused: " + refused;
+      if (!window.remote_late.empty()) w.remote_refused += " (" + window.remote_late + ")";
     }
+  } else if (!window.remote_late.empty()) {
+    w.remote_refused = "remote " + window.remote_name + " not used: " + window.remote_late;
   }
   CalibrationParameters estimator_parameters = estimate_pass(w, window.paired, temperature_C, period, inputs);
   if (temperature_C.size() == 0) w.temperature.text = without_temperature;
@@ -286,6 +289,8 @@ CalibrationWindow WindowCalibrator::calibrate(WindowRecords window) {
   if (!w.remote_refused.empty()) {  // the estimate is the pair's; it says why
     w.estimate.remote.given = true;
     w.estimate.remote.text = w.remote_refused;
+  } else if (!window.remote_late.empty()) {  // on the remote's samples up to where it reached
+    w.estimate.remote.text += "; " + window.remote_late;
   }
   // Steps 4, 4b and 5.
   estimate_offset(w, window.paired);

@@ -355,9 +355,10 @@ TEST(LiveCalibrationStreams, ARemoteStreamGivesTheWindowsTheOfflineRemote) {
 }
 
 TEST(LiveCalibrationStreams, AWindowWaitsForALateRemoteAndNotForASilentOne) {
-  // The remote's samples arrive two minutes (stamp time) after the pair's: each window waits for
-  // them and carries exactly the offline remote. A remote that never speaks holds a window
-  // only until the pair is pairing_max_wait_s past its end.
+  // The remote's samples arrive two hours (stamp time) after the pair's, as a neighbouring
+  // observatory's files do: each window waits for them (remote_max_wait_s, not the pairs' own
+  // pairing_max_wait_s) and carries exactly the offline remote. A remote that never speaks holds
+  // a window only until the pair is remote_max_wait_s past its end, and the window says why.
   mic::SimulationSettings s;
   s.seed = 29;
   s.duration_s = 3.0 * 3600.0;
@@ -367,11 +368,12 @@ TEST(LiveCalibrationStreams, AWindowWaitsForALateRemoteAndNotForASilentOne) {
   mic::LiveStreamSettings live;
   live.window_s = 3600.0;
   live.step_s = 1800.0;
-  const std::size_t lag = 120;  // samples = s
+  const std::size_t lag = 7200;  // samples = s
   const auto row = [](const mic::VectorRecord& r, std::size_t i) {
     return Eigen::Vector3d(r.values_nT.row(static_cast<Eigen::Index>(i)).transpose());
   };
   for (bool silent : {false, true}) {
+    live.remote_max_wait_s = silent ? 1200.0 : 21600.0;
     mic::LiveCalibrationStreams streams(live, {{"test", false}}, false);
     streams.add_remote("/remote/magnetic_field");
     std::vector<mic::WindowRecords> windows;
@@ -382,11 +384,16 @@ TEST(LiveCalibrationStreams, AWindowWaitsForALateRemoteAndNotForASilentOne) {
         released_at.push_back(now);
       }
     };
-    for (std::size_t i = 0; i < pair.reference.size(); ++i) {
+    const std::size_t n = pair.reference.size();
+    for (std::size_t i = 0; i < n; ++i) {
       const double now = pair.reference.time_s[i];
       take(streams.push_reference(now, row(pair.reference, i)), now);
       take(streams.push_test(0, now, row(pair.test, i)), now);
       if (!silent && i >= lag) take(streams.push_remote(remote.time_s[i - lag], row(remote, i - lag)), now);
+    }
+    if (!silent) {  // the remote's last two hours, after the pair's end
+      EXPECT_LE(windows.size(), 1u) << "the windows waited for the remote";
+      for (std::size_t i = n - lag; i < n; ++i) take(streams.push_remote(remote.time_s[i], row(remote, i)), 0.0);
     }
     mic::CalibrationSettings settings;
     const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
@@ -395,18 +402,22 @@ TEST(LiveCalibrationStreams, AWindowWaitsForALateRemoteAndNotForASilentOne) {
       ASSERT_EQ(windows.size(), 4u);
       for (const mic::WindowRecords& w : windows) {
         ASSERT_TRUE(w.remote) << w.start_s;
+        EXPECT_EQ(w.remote_late, "") << w.start_s;
         const std::size_t first = static_cast<std::size_t>(std::llround(w.start_s - prepared.paired.time_s[0]));
         const mic::WindowRecords offline = mic::window_records(prepared, first, w.expected_samples, 60.0, &sides);
         EXPECT_EQ(w.remote->time_s, offline.remote->time_s) << w.start_s;
         EXPECT_TRUE(same_values(w.remote->values_nT, offline.remote->values_nT)) << w.start_s;
       }
     } else {
-      // The same four windows, each once the pair is 600 s past its end, without a remote.
+      // The windows the pair has left remote_max_wait_s behind, each once it is, without a remote.
       ASSERT_EQ(windows.size(), 4u);
       for (std::size_t k = 0; k < windows.size(); ++k) {
-        EXPECT_GT(released_at[k] - windows[k].end_s(), live.pairing_max_wait_s) << k;
-        EXPECT_LE(released_at[k] - windows[k].end_s(), live.pairing_max_wait_s + 60.0) << k;
+        EXPECT_GT(released_at[k] - windows[k].end_s(), live.remote_max_wait_s) << k;
+        EXPECT_LE(released_at[k] - windows[k].end_s(), live.remote_max_wait_s + 60.0) << k;
         EXPECT_TRUE(!windows[k].remote || windows[k].remote->time_s.empty()) << k;
+        EXPECT_EQ(windows[k].remote_late,
+                  "no remote sample had come when the pair was 1200 s past the window's end")
+            << k;
       }
     }
   }
