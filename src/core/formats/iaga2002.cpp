@@ -90,7 +90,8 @@ std::string component_from_column(const std::string& column, const std::string& 
 void parse_data_line(const std::string& path, std::size_t line_number, const std::string& line,
                      const ColumnLayout& layout, std::vector<double>& times,
                      std::vector<std::array<double, 3>>& rows, std::vector<double>& fourth,
-                     std::size_t& previous_line) {
+                     std::size_t& previous_line, const TextLineReader& reader,
+                     std::map<std::string, std::string>& header) {
   const std::vector<std::string> tokens = split_blanks(line);
   const std::size_t expected = 3 + layout.names.size();
   if (tokens.size() != expected) {
@@ -144,6 +145,10 @@ void parse_data_line(const std::string& path, std::size_t line_number, const std
     if (i == 3) fourth.push_back(value);
   }
 
+  if (skip_line_out_of_order(reader, time_s, times, header)) {  // TextReadOptions::skip_out_of_order
+    if (fourth.size() > times.size()) fourth.pop_back();
+    return;
+  }
   if (!times.empty() && !(time_s > times.back())) {
     throw InputError(path, line_number,
                      std::string("DATE/TIME field: ") +
@@ -158,8 +163,8 @@ void parse_data_line(const std::string& path, std::size_t line_number, const std
 
 }  // namespace
 
-VectorRecord read_iaga2002(const std::string& path) {
-  TextLineReader reader(path);
+VectorRecord read_iaga2002(const std::string& path, const TextReadOptions& options) {
+  TextLineReader reader(path, options);
   VectorRecord record;
   record.source = path;
   std::vector<std::string> comments;
@@ -178,7 +183,7 @@ VectorRecord read_iaga2002(const std::string& path) {
     if (have_columns) {
       if (drop_cut_last_line(reader, line, previous_data_line, record.header)) continue;
       try {
-        parse_data_line(path, n, line, layout, times, rows, fourth, previous_line);
+        parse_data_line(path, n, line, layout, times, rows, fourth, previous_line, reader, record.header);
         previous_data_line = line;
       } catch (const InputError& error) {
         if (!drop_partial_last_line(reader, error, !times.empty(), record.header)) throw;
@@ -212,10 +217,13 @@ VectorRecord read_iaga2002(const std::string& path) {
     if (!key.empty()) record.header[key] = value;
   }
 
-  if (!have_columns) {
+  note_held_last_line(reader, record.header);
+  // A file still being written may have no data line yet (complete_lines_only): an empty record.
+  const bool being_written = options.complete_lines_only && (have_columns || reader.last_line_held());
+  if (!have_columns && !being_written) {
     throw InputError(path, "no column header 'DATE TIME DOY ...': not an IAGA-2002 file?");
   }
-  if (times.empty()) throw InputError(path, "no data lines after the column header");
+  if (times.empty() && !being_written) throw InputError(path, "no data lines after the column header");
   if (!comments.empty()) {
     std::string joined;
     for (std::size_t i = 0; i < comments.size(); ++i) {
