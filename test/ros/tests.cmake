@@ -104,6 +104,10 @@ endforeach()
 roslaunch_add_file_check(launch/replay.launch bag:=/tmp/any.bag USE_TEST_DEPENDENCIES)
 # The station with its nodes as nodelets in one manager.
 roslaunch_add_file_check(launch/station.launch nodelet_manager:=station_manager USE_TEST_DEPENDENCIES)
+# A remote observatory's files followed, alone and in a station and a network station.
+roslaunch_add_file_check(launch/remote_files.launch path:=/tmp/any USE_TEST_DEPENDENCIES)
+roslaunch_add_file_check(launch/station.launch remote_files:=/tmp/any USE_TEST_DEPENDENCIES)
+roslaunch_add_file_check(launch/network.launch remote_files:=/tmp/any USE_TEST_DEPENDENCIES)
 
 # How ctest shares the 2 cores (run_tests.sh: ctest -j3 --resource-spec-file
 # test/ctest_resources.json, which declares two "cores").
