@@ -17,6 +17,7 @@
 #include "magnetometer_insitu_calibration/formats/imagcdf_writer.hpp"
 #include "magnetometer_insitu_calibration/formats/record_follower.hpp"
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
+#include "wait_condition.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
@@ -75,16 +76,7 @@ class Listener {
   }
 
   bool wait(const std::function<bool()>& done, double timeout_s = kPatience_s) {
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
-    while (ros::WallTime::now() < deadline) {
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (done()) return true;
-      }
-      ros::WallDuration(0.02).sleep();
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    return done();
+    return mic::test::wait_for_condition(mutex_, done, timeout_s);
   }
 
   /// The latest value of `key` in the status `node: record files`; "" before it.
