@@ -7,7 +7,8 @@
 //       stamps stepping back (refused, counted) and jumping ahead (a gap), the node restarted
 //       mid-day: every sample published is the day's (stamp, tesla value, frame), in order, once;
 //   RecordFileFollower.ReplaysAnArchiveOnce  three hours, as IAGA-2002 gzip, ImagCDF and IAGA-2002
-//       without a last line end, replayed once as fast as possible (~follow false, ~rate 0);
+//       without a last line end, replayed once as fast as possible (~follow false, ~rate 0), and
+//       at ~rate 5000 (no faster than the stamps allow);
 //   RecordFileFollower.ImpossibleParametersAreFatal  the node exits 1 naming the parameter;
 //   RecordFileFollower.FollowsAsANodelet  the nodelet of the .test file follows its folder.
 // Waits are for conditions (kPatience_s at most), never for counts by deadlines.
@@ -45,6 +46,7 @@ struct Received {
   double x_T = 0.0, y_T = 0.0, z_T = 0.0;
   std::string frame_id;
   bool covariance_zero = true;
+  double arrival_wall_s = 0.0;
 };
 
 /// Records the follower's topic, /diagnostics and /rosout.
@@ -54,6 +56,7 @@ class Listener {
     field_ = nh_.subscribe<sensor_msgs::MagneticField>(topic, 200000, [this](const sensor_msgs::MagneticField::ConstPtr& m) {
       Received r{m->header.stamp.toSec(), m->magnetic_field.x, m->magnetic_field.y, m->magnetic_field.z, m->header.frame_id};
       for (double c : m->magnetic_field_covariance) r.covariance_zero = r.covariance_zero && c == 0.0;
+      r.arrival_wall_s = ros::WallTime::now().toSec();
       std::lock_guard<std::mutex> lock(mutex_);
       received_.push_back(r);
     });
@@ -158,10 +161,11 @@ void append_text(const std::string& path, const std::string& text) {
   std::fclose(f);
 }
 
-/// The node's private parameters for following `dir` onto `topic`.
-std::vector<std::string> follower_arguments(const std::string& name, const std::string& dir, const std::string& topic) {
+/// The node's private parameters for following `dir` onto `topic`, its state in dir/state/`state`.yaml.
+std::vector<std::string> follower_arguments(const std::string& name, const std::string& dir, const std::string& topic,
+                                            const std::string& state = "follower") {
   return {"__name:=" + name,        "_path:=" + dir,         "_topic:=" + topic,
-          "_frame_id:=obs2",        "_state_file:=" + dir + "/state/follower.yaml",
+          "_frame_id:=obs2",        "_state_file:=" + dir + "/state/" + state + ".yaml",
           "_poll_period:=0.2",      "_rate:=0",              "_diagnostic_period:=0.2",
           "_max_lag:=0"};
 }
@@ -293,9 +297,22 @@ TEST(RecordFileFollower, ReplaysAnArchiveOnce) {
     records.push_back(k);
     stamps.push_back(mic::test::wic_time_s(k));
   }
-  std::lock_guard<std::mutex> lock(listener.mutex());
-  expect_received(listener.received(), records, stamps, "obs2");
-  EXPECT_EQ(listener.count("replay", "files read"), 3u);
+  {
+    std::lock_guard<std::mutex> lock(listener.mutex());
+    expect_received(listener.received(), records, stamps, "obs2");
+    EXPECT_EQ(listener.count("replay", "files read"), 3u);
+  }
+  // At ~rate 5000 the same 10 799 s of stamps take at least 10 799 / 5000 = 2.16 s to arrive.
+  Listener paced(topic + "_paced");
+  arguments = follower_arguments("replay_paced", dir, topic + "_paced", "paced");
+  arguments.insert(arguments.end(), {"_follow:=false", "_rate:=5000"});
+  mic::test::ChildProcess paced_node{mic::test::spawn_process(follower_path(), arguments)};
+  ASSERT_TRUE(paced.wait([&] { return paced.received().size() >= 10800; }));
+  std::lock_guard<std::mutex> lock(paced.mutex());
+  const double span_s = paced.received().back().arrival_wall_s - paced.received().front().arrival_wall_s;
+  std::printf("[ info ] the same at ~rate 5000: %.2f s from the first sample to the last\n", span_s);
+  EXPECT_GE(span_s, 10799.0 / 5000.0 - 0.05);
+  expect_received(paced.received(), records, stamps, "obs2");
 }
 
 TEST(RecordFileFollower, ImpossibleParametersAreFatal) {
