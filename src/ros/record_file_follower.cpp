@@ -205,6 +205,11 @@ bool RecordFileFollowerNode::publish(const VectorRecord& samples) {
   state_due_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(kStateWritePeriod_s));
   for (std::size_t k = 0; k < samples.size(); ++k) {
     const double t = samples.time_s[k];
+    if (!(t >= 0.0 && t < 4294967296.0)) {  // before 1970 or after 2106: no ros::Time holds it
+      ROS_WARN_THROTTLE(60.0, "%s: a sample stamped %s is not published: ros::Time cannot hold it", node_name_.c_str(),
+                        time_for_message(t).c_str());
+      continue;
+    }
     if (publisher_.getNumSubscribers() < static_cast<std::uint32_t>(settings_.wait_for_subscribers)) {
       if (!wait_for_subscribers()) return false;
       anchor_wall = Clock::now();  // the pace starts again from here

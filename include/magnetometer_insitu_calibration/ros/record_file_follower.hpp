@@ -17,7 +17,9 @@
 // Restart: ~state_file holds the newest stamp published (and the stream's station, sample period
 // and components), written atomically after each look's samples, every 10 s while publishing and
 // at shutdown; a restart publishes the samples after it. A crash between two writes publishes at
-// most those 10 s of publishing again; a clean stop (SIGINT, roslaunch) none.
+// most those 10 s of publishing again; a clean stop (SIGINT, roslaunch) none, and loses none when
+// it comes while the node waits for files (a stop while it publishes loses, for the subscribers,
+// the messages still queued when the connections close).
 //
 // Threads: a worker thread looks and publishes; the node handle's callback queue (ros::spin, or
 // the nodelet's) runs the diagnostics on a wall-clock timer. Shared figures are under a mutex.
