@@ -4,6 +4,7 @@
 //   print_settings --write DIR rewrite the blocks in DIR's files
 // DIR is the package's source folder (config/*.yaml, docs/nodes.md, docs/programs.md).
 #include "magnetometer_insitu_calibration/common/setting_documents.hpp"
+#include "magnetometer_insitu_calibration/formats/record_follower_settings.hpp"
 #include "magnetometer_insitu_calibration/instrument/lemi025_driver_settings.hpp"
 #include "magnetometer_insitu_calibration/pipeline/setting_declarations.hpp"
 
@@ -28,14 +29,17 @@ std::vector<Block> blocks() {
   const mic::SettingDeclarations& calibration = mic::calibration_setting_declarations();
   const mic::SettingDeclarations& correction = mic::correction_setting_declarations();
   const mic::SettingDeclarations& driver = mic::lemi025_driver_setting_declarations();
+  const mic::SettingDeclarations& follower = mic::record_file_follower_setting_declarations();
   using S = mic::BlockStyle;
   return {
       {"config/calibration.yaml", "calibration_node", S::kYaml, mic::settings_yaml(calibration)},
       {"config/correction.yaml", "correction_node", S::kYaml, mic::settings_yaml(correction)},
       {"config/lemi025_driver.yaml", "lemi025_driver", S::kYaml, mic::settings_yaml(driver)},
+      {"config/record_file_follower.yaml", "record_file_follower", S::kYaml, mic::settings_yaml(follower)},
       {"docs/nodes.md", "calibration_node", S::kMarkdown, mic::parameter_table(calibration)},
       {"docs/nodes.md", "correction_node", S::kMarkdown, mic::parameter_table(correction)},
       {"docs/nodes.md", "lemi025_driver", S::kMarkdown, mic::parameter_table(driver)},
+      {"docs/nodes.md", "record_file_follower", S::kMarkdown, mic::parameter_table(follower)},
       {"docs/programs.md", "calibrate_records", S::kMarkdown, mic::option_table(calibration)},
   };
 }
@@ -97,7 +101,7 @@ int main(int argc, char** argv) {
   }
   if (differing > 0) {
     std::cerr << "print_settings: " << differing << " block(s) differ; run print_settings --write on the package's folder "
-              << "after changing a declaration (pipeline/setting_declarations.hpp and the instruments')\n";
+              << "after changing a declaration (pipeline/setting_declarations.hpp, the instruments' and the follower's)\n";
     return 1;
   }
   return 0;

@@ -48,6 +48,8 @@ mic_add_node(calibration_node src/ros/calibration_node_settings.cpp src/ros/cali
 mic_add_node(correction_node)
 mic_add_node(lemi025_driver src/ros/lemi025_driver_port.cpp src/ros/lemi025_driver_timing.cpp
   src/ros/lemi025_driver_diagnostics.cpp)
+# A remote observatory's record files (daily IAGA-2002, ImagCDF, ...) as a MagneticField stream.
+mic_add_node(record_file_follower src/ros/record_file_follower_diagnostics.cpp)
 # A simulated scalar magnetometer for the simulated station (not a nodelet: it stands in for an
 # instrument, as lemi025_simulator does).
 mic_add_node(scalar_simulator)
@@ -56,7 +58,8 @@ mic_add_node(scalar_simulator)
 add_library(${PROJECT_NAME}_nodelets
   src/ros/calibration_node_nodelet.cpp
   src/ros/correction_node_nodelet.cpp
-  src/ros/lemi025_driver_nodelet.cpp)
+  src/ros/lemi025_driver_nodelet.cpp
+  src/ros/record_file_follower_nodelet.cpp)
 target_link_libraries(${PROJECT_NAME}_nodelets ${PROJECT_NAME}_nodes ${catkin_LIBRARIES})
 target_compile_options(${PROJECT_NAME}_nodelets PRIVATE -Wall -Wextra)
 

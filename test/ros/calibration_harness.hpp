@@ -11,6 +11,7 @@
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
+#include "wait_condition.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 #include <magnetometer_insitu_calibration/ScalarField.h>
@@ -242,16 +243,7 @@ class Harness {
   }
 
   bool wait(const std::function<bool()>& done, double timeout_s) {
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
-    while (ros::WallTime::now() < deadline) {
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (done()) return true;
-      }
-      ros::WallDuration(0.02).sleep();
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    return done();
+    return mic::test::wait_for_condition(mutex_, done, timeout_s);
   }
 
   /// wait(), advancing /clock by one second every 20 ms (timers and diagnostics run on it).

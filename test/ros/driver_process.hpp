@@ -3,6 +3,8 @@
 // temporary file names under $ROS_HOME.
 #pragma once
 
+#include "child_process.hpp"
+
 #include <sys/types.h>
 
 #include <string>
@@ -30,11 +32,6 @@ class DriverProcess {
 
 /// $ROS_HOME (or /tmp) / <stem>_<pid>.
 std::string temporary_path(const std::string& stem);
-
-struct RunResult {
-  int exit_code = -1;   ///< -1 when it did not exit normally
-  std::string output;   ///< stdout and stderr
-};
 
 /// Runs the driver as node `name` with command-line `arguments` to its exit (at most 30 s).
 RunResult run_driver(const std::string& name, const std::string& arguments);

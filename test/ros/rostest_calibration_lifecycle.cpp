@@ -14,6 +14,7 @@
 //                                  correction_node's file of a later window, another frame or
 //                                  test refused at the first sample; the day before adopted
 #include "calibration_harness.hpp"
+#include "child_process.hpp"
 #include "magnetometer_insitu_calibration/estimation/sampling_distributions.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_yaml.hpp"
 
@@ -103,47 +104,8 @@ TEST(Calibration, ChangeDetected) {
 
 namespace {
 
-/// Starts `program` with `arguments` (stdout/stderr shared with the test); returns its pid.
-pid_t spawn(const std::string& program, const std::vector<std::string>& arguments) {
-  std::vector<std::string> all{program};
-  all.insert(all.end(), arguments.begin(), arguments.end());
-  std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(&a[0]);
-  argv.push_back(nullptr);
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    ::execv(program.c_str(), argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-/// SIGINT (as roslaunch does), then waits up to timeout_s wall seconds; SIGKILL if it hangs.
-/// Returns true when it exited by itself.
-bool stop_process(pid_t pid, double timeout_s = 15.0) {
-  if (pid <= 0) return false;
-  ::kill(pid, SIGINT);
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  int status = 0;
-  while (ros::WallTime::now() < deadline) {
-    if (::waitpid(pid, &status, WNOHANG) == pid) return true;
-    ros::WallDuration(0.05).sleep();
-  }
-  ::kill(pid, SIGKILL);
-  ::waitpid(pid, &status, 0);
-  return false;
-}
-
-/// A spawned node, stopped when the test returns (also on a failed ASSERT).
-struct Child {
-  pid_t pid = -1;
-  ~Child() { stop(); }
-  bool stop() {
-    const bool clean = stop_process(pid);
-    pid = -1;
-    return clean;
-  }
-};
+using mic::test::spawn_process;
+using Child = mic::test::ChildProcess;
 
 /// An accepted calibration file's content: test `test_name` on `frame_id`, n = `n`, a window of
 /// 30 min of 1-s samples ending at `window_end_s`, estimated a minute after it.
@@ -192,7 +154,7 @@ TEST(Calibration, ResumeAfterRestart) {
         std::lock_guard<std::mutex> lock(h.mutex());
         tf_messages.push_back(*m);
       });
-  Child first{spawn(CALIBRATION_NODE_PATH, arguments)};
+  Child first{spawn_process(CALIBRATION_NODE_PATH, arguments)};
   ASSERT_GT(first.pid, 0);
   ASSERT_TRUE(h.wait_for_connections(1, 1)) << "first calibration_node did not connect";
   h.publish(0, h.pair().reference.size(), true, true);
@@ -229,7 +191,7 @@ TEST(Calibration, ResumeAfterRestart) {
     tf_before_restart = tf_messages.size();
   }
   const ros::WallTime restarted = ros::WallTime::now();
-  Child second{spawn(CALIBRATION_NODE_PATH, arguments)};
+  Child second{spawn_process(CALIBRATION_NODE_PATH, arguments)};
   ASSERT_GT(second.pid, 0);
   const bool resumed = h.wait([&] { return h.calibrations().size() > before_restart; }, kPatience_s);
   const double resume_wall_s = (ros::WallTime::now() - restarted).toSec();
@@ -292,7 +254,7 @@ TEST(Calibration, ResumeRefusesAFileOfAnotherStream) {
       "_calibration_topic:=" + param("calibration_topic"), "_calibration_file:=" + file, "_test_name:=resume",
       "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5"};
   Harness h(simulation(600.0, 31));
-  Child node{spawn(CALIBRATION_NODE_PATH, arguments)};
+  Child node{spawn_process(CALIBRATION_NODE_PATH, arguments)};
   ASSERT_GT(node.pid, 0);
   ASSERT_TRUE(h.wait_for_connections(1, 1)) << "calibration_node did not connect";
   const bool resumed = h.wait([&] { return !h.calibrations().empty(); }, kPatience_s);
@@ -332,7 +294,7 @@ TEST(Calibration, ResumeRetractsAFileRefusedAtTheFirstSample) {
       "__name:=resume_calibration_node", "_reference_topic:=" + param("reference_topic"), "_test_topic:=" + param("test_topic"),
       "_calibration_topic:=" + param("calibration_topic"), "_calibration_file:=" + file, "_test_name:=resume",
       "_window:=1800", "_step:=900", "_silent_timeout:=300", "_diagnostic_period:=5"};
-  Child node{spawn(CALIBRATION_NODE_PATH, arguments)};
+  Child node{spawn_process(CALIBRATION_NODE_PATH, arguments)};
   ASSERT_GT(node.pid, 0);
   ASSERT_TRUE(h.wait_for_connections(1, 1, 60.0)) << "calibration_node did not connect";
   const bool resumed = h.wait([&] { return !h.calibrations().empty(); }, 60.0);
@@ -401,7 +363,7 @@ TEST(Calibration, CorrectionRefusesACalibrationOfAnotherStream) {
     mic::write_file_atomically(
         file, mic::calibration_to_yaml(accepted_calibration(k.test_name, k.frame_id, first_s + k.end_after_first_s, n_true), "test"));
     const std::string name = "correction_stream_" + std::to_string(i);
-    Child node{spawn(CORRECTION_NODE_PATH, {"__name:=" + name, "_test_topic:=" + param("test_topic"),
+    Child node{spawn_process(CORRECTION_NODE_PATH, {"__name:=" + name, "_test_topic:=" + param("test_topic"),
                                             "_calibration_topic:=" + param("calibration_topic"),
                                             "_corrected_topic:=" + corrected, "_calibration_file:=" + file,
                                             "_test_name:=stream", "_diagnostic_period:=0.1"})};

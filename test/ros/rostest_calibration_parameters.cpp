@@ -3,6 +3,7 @@
 // naming the parameter; the nodes' console lines reach a pipe while they run, and --help answers
 // without a master.
 #include "calibration_harness.hpp"
+#include "child_process.hpp"
 
 #include <poll.h>
 #include <signal.h>
@@ -16,22 +17,9 @@ using namespace calibration_rostest;
 
 namespace {
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;
-};
+using mic::test::RunResult;
 
-RunResult run(const std::string& command) {
-  RunResult r;
-  FILE* pipe = ::popen(("timeout 30 " + command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return r;
-  char buffer[4096];
-  std::size_t got;
-  while ((got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) r.output.append(buffer, got);
-  const int status = ::pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+RunResult run(const std::string& command) { return mic::test::run_to_exit(command); }
 
 }  // namespace
 

@@ -10,6 +10,8 @@
   of idle nodes waiting for data;
 - calibration.launch passes remote_topic to calibration_node, and so does station.launch; one
   given in calibration_params is kept;
+- station.launch and network.launch remote_files:=GLOB start record_file_follower on the topic
+  that calibration_node's remote_topic names, and no follower without it;
 - replay.launch plays the test's temperature and gives it to both nodes;
 - each run of simulated_station.launch writes its own calibration file (a second run does not
   find the first one's, a calibration of later data);
@@ -99,6 +101,28 @@ class LaunchFiles(unittest.TestCase):
         self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/obs2/field")
         config = self.load("station.launch")  # not set: the node's default, none
         self.assertNotIn("/calibration_test/remote_topic", config.params)
+
+    def test_remote_files_start_a_follower_on_the_remote_topic(self):
+        # station.launch and network.launch remote_files:=GLOB: record_file_follower follows the
+        # files and publishes on the topic calibration_node takes as its remote_topic.
+        config = self.load("station.launch", "remote_files:=/data/obs2/*.sec")
+        follower = self.node(config, "record_file_follower")
+        prefix = follower.namespace + follower.name + "/"
+        self.assertEqual(config.params[prefix + "path"].value, "/data/obs2/*.sec")
+        self.assertEqual(config.params[prefix + "topic"].value, "/remote/magnetic_field")
+        self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/remote/magnetic_field")
+        config = self.load("station.launch", "remote_files:=/data/obs2", "remote_topic:=/obs2/field")
+        follower = self.node(config, "record_file_follower")
+        self.assertEqual(config.params[follower.namespace + follower.name + "/topic"].value, "/obs2/field")
+        self.assertEqual(config.params["/calibration_test/remote_topic"].value, "/obs2/field")
+        for name in ("station.launch", "network.launch"):
+            config = self.load(name)
+            self.assertEqual([n for n in config.nodes if n.type == "record_file_follower"], [], name)
+        config = self.load("network.launch", "station:=wic", "remote_files:=/data/obs2/*.sec")
+        follower = self.node(config, "record_file_follower")
+        self.assertEqual(follower.namespace, "/wic/")
+        self.assertEqual(config.params["/wic/remote_files/topic"].value, "remote/magnetic_field")
+        self.assertEqual(config.params["/wic/calibration/remote_topic"].value, "remote/magnetic_field")
 
     def test_each_simulated_station_run_has_its_own_calibration_file(self):
         # A second run of the simulated station must not find the first run's file (a

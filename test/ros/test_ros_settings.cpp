@@ -1,13 +1,15 @@
 // The nodes' parameters are their declarations (pipeline/setting_declarations.hpp,
-// instrument/lemi025_driver_settings.hpp): every declared parameter is read, each bound one's
+// instrument/lemi025_driver_settings.hpp, formats/record_follower_settings.hpp): every declared parameter is read, each bound one's
 // declared default is the settings struct's own, and the unknown-parameter warning knows exactly
 // the declared names.
+#include "magnetometer_insitu_calibration/formats/record_follower_settings.hpp"
 #include "magnetometer_insitu_calibration/instrument/lemi025_driver_settings.hpp"
 #include "magnetometer_insitu_calibration/pipeline/setting_declarations.hpp"
 #include "magnetometer_insitu_calibration/ros/calibration_node.hpp"
 #include "magnetometer_insitu_calibration/ros/correction_node.hpp"
 #include "magnetometer_insitu_calibration/ros/lemi025_driver.hpp"
 #include "magnetometer_insitu_calibration/ros/parameters.hpp"
+#include "magnetometer_insitu_calibration/ros/record_file_follower.hpp"
 
 #include <gtest/gtest.h>
 
@@ -48,9 +50,11 @@ TEST(NodeSettings, CalibrationNodeReadsEveryDeclaredParameter) {
   EXPECT_EQ(std::set<std::string>(known.begin(), known.end()).size(), known.size());
 }
 
-TEST(NodeSettings, CorrectionNodeAndDriverReadEveryDeclaredParameter) {
+TEST(NodeSettings, CorrectionNodeDriverAndFollowerReadEveryDeclaredParameter) {
   expect_declared_and_bound(mic::correction_setting_declarations(), mic::CorrectionNodeSettings::bindings(), {});
   expect_declared_and_bound(mic::lemi025_driver_setting_declarations(), mic::Lemi025DriverSettings::bindings(), {});
+  expect_declared_and_bound(mic::record_file_follower_setting_declarations(),
+                            mic::RecordFileFollowerSettings::bindings(), {});
 }
 
 // A core check's error, named by the key of its field, reaches the user under the parameter.

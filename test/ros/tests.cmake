@@ -80,6 +80,14 @@ target_link_libraries(test_faults_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME
 target_compile_options(test_faults_calibration PRIVATE -Wall -Wextra)
 add_dependencies(test_faults_calibration calibration_node)
 
+# record_file_follower: a remote observatory's files followed (faults, a restart), replayed, and as
+# a nodelet; the pieces of the WIC day come from the core tests' helpers (test_support).
+add_rostest_gtest(test_record_file_follower test/ros/record_file_follower.test test/ros/test_record_file_follower.cpp)
+target_link_libraries(test_record_file_follower ${PROJECT_NAME}_test_support ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+target_compile_options(test_record_file_follower PRIVATE -Wall -Wextra)
+add_dependencies(test_record_file_follower record_file_follower ${PROJECT_NAME}_nodelets)
+add_rostest(test/ros/record_file_follower_nodelet.test DEPENDENCIES test_record_file_follower)
+
 # Archived records: bags, records_to_bag, calibrate_records --bag, export_corrected, replay, plots.
 include(${CMAKE_CURRENT_SOURCE_DIR}/test/ros/archive_tests.cmake)
 
@@ -104,6 +112,10 @@ endforeach()
 roslaunch_add_file_check(launch/replay.launch bag:=/tmp/any.bag USE_TEST_DEPENDENCIES)
 # The station with its nodes as nodelets in one manager.
 roslaunch_add_file_check(launch/station.launch nodelet_manager:=station_manager USE_TEST_DEPENDENCIES)
+# A remote observatory's files followed, alone and in a station and a network station.
+roslaunch_add_file_check(launch/remote_files.launch path:=/tmp/any USE_TEST_DEPENDENCIES)
+roslaunch_add_file_check(launch/station.launch remote_files:=/tmp/any USE_TEST_DEPENDENCIES)
+roslaunch_add_file_check(launch/network.launch remote_files:=/tmp/any USE_TEST_DEPENDENCIES)
 
 # How ctest shares the 2 cores (run_tests.sh: ctest -j3 --resource-spec-file
 # test/ctest_resources.json, which declares two "cores").
@@ -127,7 +139,7 @@ roslaunch_add_file_check(launch/station.launch nodelet_manager:=station_manager 
 #    wall seconds on the 2-core VM), so that no long test is left running alone at the end.
 set(_mic_light_tests
   "lemi025_driver|faults_driver|nodelet_device_error|bad_parameters|correction_reload|correction_stream|roslaunch-check|core_layering")
-set(_mic_unlocked_rostests "${_mic_light_tests}|replay_agreement")
+set(_mic_unlocked_rostests "${_mic_light_tests}|replay_agreement|record_file_follower")
 set(_mic_test_costs  # regular expression, then seconds
   test_core_pipeline 40 test_core_programs 32 test_core_estimation 32 plot_calibration 30
   lemi025_driver.test 29 test_bag_records 18 replay_agreement 14 launch_files 12 test_ros_layer 12

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"  // TextReadOptions
 
 #include <string>
 
@@ -23,8 +24,9 @@ namespace magnetometer_insitu_calibration {
 /// - Values in nT; an empty field, "nan" (any case) or a value >= 88888 (IAGA sentinel) is NaN.
 /// Throws InputError(path, line, "column N (<name>): ...") for a bad field, a wrong number of
 /// columns or a time not after the previous one; InputError(path, ...) for a missing file or a
-/// file without data lines.
-VectorRecord read_csv_record(const std::string& path);
+/// file without data lines. `options`: a file still being written, a clock that steps
+/// (text_lines.hpp); with complete_lines_only a file without a data line yet is an empty record.
+VectorRecord read_csv_record(const std::string& path, const TextReadOptions& options = TextReadOptions());
 
 /// Writes "time,<c1>,<c2>,<c3>" then one line per sample, LF line ends, gzip when the path ends
 /// in ".gz"; first the lines of record.header["comments"] as "# " lines, if any. Auxiliary

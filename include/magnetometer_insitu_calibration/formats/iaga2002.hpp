@@ -5,6 +5,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"  // TextReadOptions
 
 #include <string>
 #include <vector>
@@ -26,7 +27,8 @@ constexpr double kIagaMissingFrom_nT = 88888.0;
 /// Throws InputError(path, line, problem) naming the field for: a malformed number or date,
 /// a DOY that does not match the date, too few or too many columns, a time not after the previous
 /// one; InputError(path, problem) for a missing file, a missing column header or no data line.
-VectorRecord read_iaga2002(const std::string& path);
+/// `options`: a file still being written, a clock that steps (text_lines.hpp).
+VectorRecord read_iaga2002(const std::string& path, const TextReadOptions& options = TextReadOptions());
 
 /// Header values for write_iaga2002. Each field left empty takes the record's header value of
 /// the same name (as read_iaga2002 stores them), and otherwise the default given here.

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "magnetometer_insitu_calibration/formats/lemi_archive.hpp"
+#include "magnetometer_insitu_calibration/formats/text_lines.hpp"  // TextReadOptions
 #include "magnetometer_insitu_calibration/common/vector_record.hpp"
 
 #include <string>
@@ -45,7 +46,9 @@ VectorRecord read_record(const std::string& path);
 /// readers' damaged records skipped, each with its byte offset; the text readers' last line
 /// dropped, cut short in a file still being written (text_lines.hpp, "<file>:<line>: last line
 /// dropped ..."). Any other bad text line throws InputError(path:line, ...).
+/// `text_options` go to the text readers (a file still being written, a clock that steps:
+/// text_lines.hpp); the binary formats' readers do not take them.
 VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_options,
-                         std::vector<std::string>* warnings);
+                         std::vector<std::string>* warnings, const TextReadOptions& text_options = TextReadOptions());
 
 }  // namespace magnetometer_insitu_calibration

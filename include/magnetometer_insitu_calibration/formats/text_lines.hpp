@@ -2,10 +2,28 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace magnetometer_insitu_calibration {
+
+/// How the text readers (IAGA-2002, CSV) read a file that may still be written and whose clock
+/// may step, as a follower of daily files reads them (record_follower.hpp). The defaults are the
+/// strict rules of every program (below: a cut last line dropped, any other bad line refuses the
+/// file).
+struct TextReadOptions {
+  /// A last line without a line end is not read at all, nor the rest of a gzip stream cut
+  /// short: it is still being written. The reader notes it under kHeldLastLineKey.
+  bool complete_lines_only = false;
+  /// A data line whose time is not after the last sample kept (a clock stepped back, a repeated
+  /// line) or is after `latest_time_s` (a clock stepped ahead) is skipped and counted under
+  /// kLinesBackwardsKey or kLinesAheadKey, the first such line described under
+  /// kFirstSkippedLineKey, instead of refusing the file.
+  bool skip_out_of_order = false;
+  double latest_time_s = std::numeric_limits<double>::infinity();  ///< UNIX s
+};
 
 /// Streams the lines of a plain or gzip text file (zlib detects which from the content).
 /// Lines are returned without the line end: "\n" and the "\r" of "\r\n" are removed.
@@ -14,7 +32,8 @@ namespace magnetometer_insitu_calibration {
 class TextLineReader {
  public:
   /// Throws InputError(path, "cannot open: <strerror>") when the file cannot be opened.
-  explicit TextLineReader(const std::string& path);
+  /// `options` are the reader's (complete_lines_only applies here; the helpers below read the rest).
+  explicit TextLineReader(const std::string& path, const TextReadOptions& options = TextReadOptions());
   ~TextLineReader();
   TextLineReader(const TextLineReader&) = delete;
   TextLineReader& operator=(const TextLineReader&) = delete;
@@ -27,10 +46,16 @@ class TextLineReader {
   /// True when the line last returned is the file's last and has no line end: a file still
   /// being written (today's daily file at a station) ends so, cut within a record.
   bool last_line_unterminated() const { return unterminated_; }
+  /// With complete_lines_only: true when next() stopped before a last line without a line end
+  /// (or a gzip stream cut short), which it did not return.
+  bool last_line_held() const { return held_; }
   const std::string& path() const { return path_; }
+  const TextReadOptions& options() const { return options_; }
 
  private:
   std::string path_;
+  TextReadOptions options_;
+  bool held_ = false;
   void* file_ = nullptr;  // gzFile, kept opaque so that users need not include zlib.h
   std::size_t line_number_ = 0;
   bool at_end_ = false;
@@ -63,6 +88,28 @@ bool drop_cut_last_line(const TextLineReader& reader, const std::string& line, c
 /// refuses the file).
 bool drop_partial_last_line(const TextLineReader& reader, const InputError& error, bool have_data,
                             std::map<std::string, std::string>& header);
+
+/// Header keys under which a text reader notes what TextReadOptions made it do: the last line
+/// held ("<file>:<line>: last line not read: it has no line end yet"), the counts of lines
+/// skipped (decimal text) and the first of them ("<file>:<line>: time ... is not after ...").
+inline constexpr const char* kHeldLastLineKey = "held_last_line";
+inline constexpr const char* kLinesBackwardsKey = "lines_skipped_backwards";
+inline constexpr const char* kLinesAheadKey = "lines_skipped_ahead";
+inline constexpr const char* kFirstSkippedLineKey = "first_line_skipped";
+
+/// Called by a text reader with a data line's time before it keeps the line, `times` the times
+/// kept so far: with skip_out_of_order, when the time is not after times.back() or is after
+/// latest_time_s, the line is counted and noted in `header` and true returned (the caller skips
+/// it); otherwise false (the caller applies its own rule: a time not after the one before
+/// refuses the file).
+bool skip_line_out_of_order(const TextLineReader& reader, double time_s, const std::vector<double>& times,
+                            std::map<std::string, std::string>& header);
+
+/// Called by a text reader at the end of the file: notes a held last line under kHeldLastLineKey.
+void note_held_last_line(const TextLineReader& reader, std::map<std::string, std::string>& header);
+
+/// The count a reader noted under `key` (kLinesBackwardsKey, kLinesAheadKey); 0 when none.
+std::size_t noted_count(const std::map<std::string, std::string>& header, const char* key);
 
 /// Writes text to a file, gzip-compressed when the path ends in ".gz", plain otherwise.
 /// The destructor closes the file but cannot report errors: call close().

@@ -100,8 +100,8 @@ bool looks_like_header(const std::vector<std::string>& fields) {
 
 }  // namespace
 
-VectorRecord read_csv_record(const std::string& path) {
-  TextLineReader reader(path);
+VectorRecord read_csv_record(const std::string& path, const TextReadOptions& options) {
+  TextLineReader reader(path, options);
   VectorRecord record;
   record.source = path;
   std::vector<std::string> names{"time", "X", "Y", "Z"};  // then the auxiliary columns, if a header names them
@@ -185,6 +185,11 @@ VectorRecord read_csv_record(const std::string& path) {
         }
         auxiliary[i - kColumns].push_back(value);
       }
+      if (skip_line_out_of_order(reader, time_s, times, record.header)) {  // TextReadOptions::skip_out_of_order
+        for (auto& channel : auxiliary) channel.resize(times.size());
+        previous_data_line = line;
+        continue;
+      }
       if (!times.empty() && !(time_s > times.back())) {
         throw InputError(path, n,
                          column(0) + ": " +
@@ -203,7 +208,9 @@ VectorRecord read_csv_record(const std::string& path) {
     }
   }
 
-  if (times.empty()) throw InputError(path, "no data lines");
+  note_held_last_line(reader, record.header);
+  // A file still being written may have no data line yet (complete_lines_only): an empty record.
+  if (times.empty() && !reader.options().complete_lines_only) throw InputError(path, "no data lines");
   if (have_comments) record.header["comments"] = comments;
   record.time_s = std::move(times);
   record.values_nT.resize(static_cast<Eigen::Index>(rows.size()), 3);

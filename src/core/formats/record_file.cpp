@@ -122,10 +122,10 @@ VectorRecord with_last_line_warning(VectorRecord record, std::vector<std::string
 }  // namespace
 
 VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_options,
-                         std::vector<std::string>* warnings) {
+                         std::vector<std::string>* warnings, const TextReadOptions& text_options) {
   switch (detect_record_format(path)) {
     case RecordFormat::kIaga2002:
-      return with_last_line_warning(read_iaga2002(path), warnings);
+      return with_last_line_warning(read_iaga2002(path, text_options), warnings);
     case RecordFormat::kCsv:
       break;
     case RecordFormat::kLemiBin:
@@ -137,7 +137,7 @@ VectorRecord read_record(const std::string& path, const LemiReadOptions& lemi_op
     case RecordFormat::kCdf:
       return read_cdf_record(path);
   }
-  return with_last_line_warning(read_csv_record(path), warnings);
+  return with_last_line_warning(read_csv_record(path, text_options), warnings);
 }
 
 }  // namespace magnetometer_insitu_calibration

@@ -2,6 +2,7 @@
 #include "magnetometer_insitu_calibration/formats/text_lines.hpp"
 
 #include "magnetometer_insitu_calibration/common/input_error.hpp"
+#include "magnetometer_insitu_calibration/common/time_format.hpp"
 
 #include <zlib.h>
 
@@ -51,7 +52,8 @@ bool parse_number(const std::string& text, double& value) {
   return result.ec == std::errc() && result.ptr == end;
 }
 
-TextLineReader::TextLineReader(const std::string& path) : path_(path) {
+TextLineReader::TextLineReader(const std::string& path, const TextReadOptions& options)
+    : path_(path), options_(options) {
   errno = 0;
   gzFile file = gzopen(path.c_str(), "rb");
   if (file == nullptr) {
@@ -91,6 +93,11 @@ bool TextLineReader::next(std::string& line) {
     int code = Z_OK;
     gzerror(as_gz(file_), &code);
     if (code == Z_BUF_ERROR) {
+      if (options_.complete_lines_only) {  // a gzip file still being written: its complete lines
+        held_ = true;
+        line.clear();
+        return false;
+      }
       throw InputError(path_, line_number_ + 1, "read error: truncated gzip file");
     }
     if (code != Z_OK) {
@@ -99,6 +106,11 @@ bool TextLineReader::next(std::string& line) {
   }
   if (!got_any) return false;
   unterminated_ = line.empty() || line.back() != '\n';
+  if (unterminated_ && options_.complete_lines_only) {  // still being written: not read
+    held_ = true;
+    line.clear();
+    return false;
+  }
   if (!line.empty() && line.back() == '\n') line.pop_back();
   if (!line.empty() && line.back() == '\r') line.pop_back();
   if (line_number_ == 0 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 BOM
@@ -148,6 +160,37 @@ bool drop_partial_last_line(const TextLineReader& reader, const InputError& erro
   if (!have_data || !reader.last_line_unterminated()) return false;
   note_dropped_last_line(reader, "does not parse: " + error.problem(), header);
   return true;
+}
+
+bool skip_line_out_of_order(const TextLineReader& reader, double time_s, const std::vector<double>& times,
+                            std::map<std::string, std::string>& header) {
+  const TextReadOptions& options = reader.options();
+  if (!options.skip_out_of_order) return false;
+  const bool backwards = !times.empty() && !(time_s > times.back());
+  const bool ahead = time_s > options.latest_time_s;
+  if (!backwards && !ahead) return false;
+  const char* key = backwards ? kLinesBackwardsKey : kLinesAheadKey;
+  header[key] = std::to_string(noted_count(header, key) + 1);
+  if (header.count(kFirstSkippedLineKey) == 0) {
+    header[kFirstSkippedLineKey] =
+        InputError(reader.path(), reader.line_number(),
+                   "line skipped: time " + time_for_message(time_s) +
+                       (backwards ? " is not after " + time_for_message(times.back())
+                                  : " is after " + time_for_message(options.latest_time_s) + " (ahead of the clock)"))
+            .what();
+  }
+  return true;
+}
+
+void note_held_last_line(const TextLineReader& reader, std::map<std::string, std::string>& header) {
+  if (!reader.last_line_held()) return;
+  header[kHeldLastLineKey] =
+      InputError(reader.path(), reader.line_number() + 1, "last line not read: it has no line end yet").what();
+}
+
+std::size_t noted_count(const std::map<std::string, std::string>& header, const char* key) {
+  const auto it = header.find(key);
+  return it == header.end() ? 0 : static_cast<std::size_t>(std::stoull(it->second));
 }
 
 TextFileWriter::TextFileWriter(const std::string& path) : path_(path) {

@@ -23,7 +23,7 @@ TEST(PrintSettings, AYamlDefaultOrATableRowThatDiffersIsNamed) {
   fs::create_directories(copy / "config");
   fs::create_directories(copy / "docs");
   for (const char* file : {"config/calibration.yaml", "config/correction.yaml", "config/lemi025_driver.yaml",
-                           "docs/nodes.md", "docs/programs.md"}) {
+                           "config/record_file_follower.yaml", "docs/nodes.md", "docs/programs.md"}) {
     fs::copy_file(file, copy / file);
   }
   std::ifstream in(copy / "config/calibration.yaml");
