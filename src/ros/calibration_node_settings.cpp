@@ -245,10 +245,8 @@ void check_rules(const ros::NodeHandle& p, CalibrationNodeSettings& s) {
   LiveStreamSettings& l = s.streams;
   WindowCalibrationSettings& w = s.window;
   if (w.field_direction && s.scalar_topic.empty()) throw ParameterError("field_direction", "is used with ~scalar_topic only");
-  for (const char* remote_only : {"remote_input_period", "remote_max_wait"}) {
-    if (p.hasParam(remote_only) && s.remote_topic.empty()) {
-      throw ParameterError(remote_only, "is used with ~remote_topic only");
-    }
+  if (p.hasParam("remote_input_period") && s.remote_topic.empty()) {
+    throw ParameterError("remote_input_period", "is used with ~remote_topic only");
   }
   const double period = l.estimation_period_s();
   if (!(l.pairing_tolerance_s < 0.5 * l.input_period_s)) {
