@@ -14,11 +14,14 @@
 // horizontals), its Z gain 0.7 plus 0.1 of x, one 10-minute gap a day.
 // Six parameters: the three scale ratios and the three non-orthogonalities; scale error the
 // largest |error| of the scale ratios (%), angle error the largest of the non-orthogonalities
-// (deg). "Flagged": the pair-only window's band halves differ or its local-event check saw
-// events (the summary's "not vouched for").
+// (deg). "Flagged": the summary's "not vouched for" (calibration_summary.hpp: local events seen,
+// or band halves that differ by more than the intervals carry).
+//
+// MC_PAIR_ONLY=1: the remote's estimate not made (its columns then repeat the pair's).
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary table follows.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/simulation/disturbance_classes.hpp"
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 
@@ -41,6 +44,9 @@ struct Tally {
   std::vector<double> scale_pct, angle_deg;
   int stations = 0, covered = 0, checked = 0, flagged = 0, unflagged_covered = 0, unflagged_checked = 0;
   int refused = 0, pair_biased = 0;
+  // Pair only: the coverage without the halves' spread, windows with local events seen, windows
+  // whose intervals the spread widened.
+  int narrow_stations = 0, narrow_covered = 0, events = 0, widened = 0;
 
   void add(const Tally& o) {
     scale_pct.insert(scale_pct.end(), o.scale_pct.begin(), o.scale_pct.end());
@@ -53,6 +59,10 @@ struct Tally {
     unflagged_checked += o.unflagged_checked;
     refused += o.refused;
     pair_biased += o.pair_biased;
+    narrow_stations += o.narrow_stations;
+    narrow_covered += o.narrow_covered;
+    events += o.events;
+    widened += o.widened;
   }
 };
 
@@ -81,9 +91,11 @@ std::string share(int part, int whole) {
 }
 
 void print_row(const std::string& name, const Tally& pair, const Tally& remote) {
-  std::printf("| %s | %d | %s | %s | %s | %.3f / %.3f %% | %.3f / %.3f deg | %s | %.3f / %.3f %% | %.3f / %.3f deg | %d |\n",
-              name.c_str(), pair.stations, share(pair.covered, pair.checked).c_str(),
+  std::printf("| %s | %d | %s | %s | %s | %s | %s | %s | %.3f / %.3f %% | %.3f / %.3f deg | %s | %.3f / %.3f %% | %.3f / %.3f deg | %d |\n",
+              name.c_str(), pair.stations, share(pair.narrow_covered, 6 * pair.narrow_stations).c_str(),
+              share(pair.covered, pair.checked).c_str(), share(pair.widened, pair.stations).c_str(),
               share(pair.unflagged_covered, pair.unflagged_checked).c_str(), share(pair.flagged, pair.stations).c_str(),
+              share(pair.events, pair.stations).c_str(),
               percentile(pair.scale_pct, 0.5), percentile(pair.scale_pct, 0.95), percentile(pair.angle_deg, 0.5),
               percentile(pair.angle_deg, 0.95), share(remote.covered, remote.checked).c_str(), percentile(remote.scale_pct, 0.5),
               percentile(remote.scale_pct, 0.95), percentile(remote.angle_deg, 0.5), percentile(remote.angle_deg, 0.95),
@@ -107,10 +119,19 @@ void run_station(const std::string& name, std::uint64_t seed, double days, Tally
   const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
   const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);
   const mic::CalibrationWindow alone = mic::calibrate_prepared(prepared, settings, nullptr).back();
-  const mic::CalibrationWindow with = mic::calibrate_prepared(prepared, settings, &sides).back();
+  const bool pair_only = std::getenv("MC_PAIR_ONLY") != nullptr && std::atoi(std::getenv("MC_PAIR_ONLY")) != 0;
+  const mic::CalibrationWindow with = mic::calibrate_prepared(prepared, settings, pair_only ? nullptr : &sides).back();
   double scale = 0.0, angle = 0.0;
   const int covered = score(alone.estimate, pair.n_true, scale, angle);
-  const bool flagged = alone.estimate.band_split.differs || alone.estimate.local_events.seen;
+  // The same window's intervals without the band halves' spread (BandSplitCheck::spread_covariance).
+  mic::WindowEstimate narrow = alone.estimate;
+  narrow.parameters = mic::decompose(narrow.n, narrow.n_covariance - narrow.band_split.spread_covariance, narrow.covariance_dof);
+  const int covered_narrow = score(narrow, pair.n_true, scale, angle);
+  ++pair_tally.narrow_stations;
+  pair_tally.narrow_covered += covered_narrow;
+  pair_tally.events += alone.estimate.local_events.seen;
+  pair_tally.widened += alone.estimate.band_split.intervals_widened;
+  const bool flagged = !mic::not_vouched_for(alone.estimate).empty();
   pair_tally.scale_pct.push_back(scale);
   pair_tally.angle_deg.push_back(angle);
   ++pair_tally.stations;
@@ -130,8 +151,8 @@ void run_station(const std::string& name, std::uint64_t seed, double days, Tally
   remote_tally.checked += 6;
   remote_tally.refused += !with.estimate.remote.used;
   remote_tally.pair_biased += with.estimate.remote.pair_biased;
-  std::printf("seed %s %llu pair %.4f %.4f %d split_p %.3g events_z %.2f flagged %d | remote %.4f %.4f %d F %.0f own %.2f/%.2f\n",
-              name.c_str(), static_cast<unsigned long long>(seed), scale, angle, covered,
+  std::printf("seed %s %llu pair %.4f %.4f %d (narrow %d) split_p %.3g events_z %.2f flagged %d | remote %.4f %.4f %d F %.0f own %.2f/%.2f\n",
+              name.c_str(), static_cast<unsigned long long>(seed), scale, angle, covered, covered_narrow,
               alone.estimate.band_split.p_value, alone.estimate.local_events.z, flagged ? 1 : 0, remote_scale,
               remote_angle, remote_covered, with.estimate.remote.strength, r.incoherent_fraction, r.z_incoherent_fraction);
   std::fflush(stdout);
@@ -167,9 +188,10 @@ int main(int argc, char** argv) {
     const std::uint64_t base = first + 50 * static_cast<std::uint64_t>(at - names.begin());
     for (int k = 0; k < seeds; ++k) run_station(classes[i], base + static_cast<std::uint64_t>(k), days, pair[i], remote[i]);
   }
-  std::printf("\n| class | stations | pair-only coverage | unflagged coverage | flagged | pair scale error | pair angle error "
+  std::printf("\n| class | stations | pair-only coverage, halves' spread not added | pair-only coverage | widened "
+              "| unflagged coverage | flagged (not vouched for) | events seen | pair scale error | pair angle error "
               "| remote coverage | remote scale error | remote angle error | remote refused |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   Tally all_pair, all_remote;
   for (std::size_t i = 0; i < classes.size(); ++i) {
     print_row(classes[i], pair[i], remote[i]);

@@ -9,6 +9,7 @@
 #include "../delay_spectra.hpp"
 #include "../failed_window_estimate.hpp"
 #include "../pair_averages.hpp"
+#include "halves_split.hpp"
 #include "remote_cells.hpp"
 #include "robust_covariance.hpp"
 #include "section_cells.hpp"
@@ -440,6 +441,7 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   } else {
     result.band_split = band_split_check(cells, fit, sections_.count, bins, fit.eiv_applied ? eiv_.noise : nullptr,
                                          as_solved);
+    widen_by_halves_spread(result);
     result.local_events = check_local_events(reference(), test(), period_s_, sections_.band_high_hz, result.delay_s);
   }
 }
