@@ -51,18 +51,12 @@ struct Tally {
   void add(const Tally& o) {
     scale_pct.insert(scale_pct.end(), o.scale_pct.begin(), o.scale_pct.end());
     angle_deg.insert(angle_deg.end(), o.angle_deg.begin(), o.angle_deg.end());
-    stations += o.stations;
-    covered += o.covered;
-    checked += o.checked;
-    flagged += o.flagged;
-    unflagged_covered += o.unflagged_covered;
-    unflagged_checked += o.unflagged_checked;
-    refused += o.refused;
-    pair_biased += o.pair_biased;
-    narrow_stations += o.narrow_stations;
-    narrow_covered += o.narrow_covered;
-    events += o.events;
-    widened += o.widened;
+    for (int Tally::*count : {&Tally::stations, &Tally::covered, &Tally::checked, &Tally::flagged,
+                              &Tally::unflagged_covered, &Tally::unflagged_checked, &Tally::refused,
+                              &Tally::pair_biased, &Tally::narrow_stations, &Tally::narrow_covered, &Tally::events,
+                              &Tally::widened}) {
+      this->*count += o.*count;
+    }
   }
 };
 
