@@ -1,7 +1,7 @@
 // Robust frequency-domain estimator, steps 1-6 in order (see robust_estimator.hpp); its pieces:
 // residual_screen.cpp (1), section_irls.cpp (3, 5), weighted_eiv_solve.cpp (5),
-// robust_covariance.cpp and section_jackknife.cpp (6), remote_cells.cpp (the remote). The
-// per-window dispatcher is in ../window_estimator.cpp.
+// robust_covariance.cpp and section_jackknife.cpp (6), remote_cells.cpp (the remote),
+// halves_split.cpp (without a remote). The per-window dispatcher is in ../window_estimator.cpp.
 #include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
