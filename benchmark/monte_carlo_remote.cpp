@@ -30,6 +30,7 @@
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary table follows.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/calibration_summary.hpp"
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 
 #include "unmodelled_scenario.hpp"
@@ -64,6 +65,8 @@ struct Tally {
   // Without a remote: windows where the local-event check saw events (not vouched for), the
   // coverage of the others, and windows missing a parameter that neither check flagged.
   int events_seen = 0, events_assessed = 0, unseen_covered = 0, unseen_checked = 0, missed_unseen = 0, missed_unflagged_either = 0;
+  // Without a remote: windows not vouched for (calibration_summary.hpp), the coverage of the others.
+  int doubted = 0, vouched_covered = 0, vouched_checked = 0;
   // The relative response against the true filter (kind "filter"): gain and phase values inside
   // their intervals, bands up to the estimation band's top and up to 0.05 Hz.
   int response_inside[2] = {0, 0}, response_checked[2] = {0, 0};
@@ -171,6 +174,12 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
           tally[m].missed_unseen += covered < 9;
         }
         tally[m].missed_unflagged_either += covered < 9 && !events.seen && !differs;
+        const bool doubted = !mic::not_vouched_for(w.estimate).empty();
+        tally[m].doubted += doubted;
+        if (!doubted) {
+          tally[m].vouched_covered += covered;
+          tally[m].vouched_checked += 9;
+        }
       }
       std::printf("seed %5llu %d %9.4f %9.4f %d %7.0f %d %d %6.2f %5.3f %5.3f %5.3f%s%s\n",
                   static_cast<unsigned long long>(seed), m, scale, angle, covered, rr.strength, rr.pair_biased ? 1 : 0,
@@ -226,6 +235,9 @@ int run(const std::string& kind, int seeds, double days, std::uint64_t first_see
                     "them miss a parameter; %d records miss a parameter with neither check flagging\n",
                     kMethodNames[m], t.events_seen, seeds, t.events_assessed, others, t.missed_unseen,
                     t.missed_unflagged_either);
+      split_lines += line;
+      std::snprintf(line, sizeof line, "# %s: not vouched for in %d of %d records; coverage of the others %.1f %%\n",
+                    kMethodNames[m], t.doubted, seeds, 100.0 * t.vouched_covered / std::max(1, t.vouched_checked));
       split_lines += line;
     }
   }

@@ -7,6 +7,7 @@
 #include "magnetometer_insitu_calibration/simulation/simulator.hpp"
 #include "magnetometer_insitu_calibration/simulation/station_disturbances.hpp"
 #include "magnetometer_insitu_calibration/simulation/hut_temperature.hpp"
+#include "magnetometer_insitu_calibration/simulation/disturbance_classes.hpp"
 #include "magnetometer_insitu_calibration/simulation/remote_observatory.hpp"
 #include "magnetometer_insitu_calibration/simulation/scalar_magnetometer.hpp"
 #include "magnetometer_insitu_calibration/simulation/unmodelled_disturbances.hpp"
@@ -101,6 +102,7 @@ struct Options {
   // What reaches the test instrument only and the estimators do not model (unmodelled_disturbances.hpp).
   mic::UnmodelledDisturbanceSettings unmodelled;
   std::string heater = "0,0,0";
+  std::string disturbance_class;  // --disturbance-class (disturbance_classes.hpp)
   // A field hut: the test sensor's temperature and its coefficients (hut_temperature.hpp).
   mic::HutTemperatureSettings hut;
   std::string temperature_offset = "0.2,-0.15,0.3", temperature_scale = "15,-10,25";
@@ -163,6 +165,8 @@ void add_disturbance_options(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_option("--heater-period-s", unmodelled.heater_period_s, "heater: mean on/off cycle, s (+-20 %, on 40 %)")
       ->capture_default_str();
+  app.add_option("--disturbance-class", o.disturbance_class,
+                 "a station of the disturbance family (disturbance_classes.hpp), set after the other options");
   app.add_option("--test-corner-hz", unmodelled.test_corner_hz,
                  "filter mismatch: one-pole low-pass of the test instrument, corner Hz (0: none)")->capture_default_str();
   app.add_option("--test-delay-s", unmodelled.test_delay_s,
@@ -247,6 +251,12 @@ void read_texts(Options& o) {
   o.remote_settings.z_incoherent_fraction = o.remote_z_incoherent.empty()
                                                 ? o.remote_settings.incoherent_fraction
                                                 : parse_number(o.remote_z_incoherent, "--remote-z-incoherent");
+  if (o.disturbance_class.empty()) return;
+  mic::DisturbanceClassSettings c{s, o.station, o.unmodelled};
+  mic::apply_disturbance_class(o.disturbance_class, s.seed, o.days, c);
+  s = c.simulation;
+  o.station = c.station;
+  o.unmodelled = c.unmodelled;
 }
 
 /// Validates the settings; the InputError names the option of the field at fault.
@@ -306,7 +316,7 @@ mic::SimulatedPair simulate(const Options& o, mic::VectorRecord* remote, mic::Sc
     *scalar = mic::simulate_scalar_magnetometer(pair, sm);
   }
   pair.reference.values_nT *= o.reference_scale;
-  if (o.station.vehicles_per_day > 0.0) mic::add_station_disturbances(pair, o.station);
+  if (o.station.vehicles_per_day > 0.0 || o.station.small_spikes_per_day > 0.0) mic::add_station_disturbances(pair, o.station);
   mic::add_unmodelled_disturbances(pair, o.unmodelled);
   if (o.with_hut()) mic::add_hut_temperature(pair, o.hut);
   pair.reference.station = "SIM";

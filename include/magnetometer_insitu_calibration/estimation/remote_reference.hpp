@@ -89,7 +89,22 @@ struct BandSplitCheck {
   double p_value = std::numeric_limits<double>::quiet_NaN();  ///< the smaller of a parameter's (x 9) and the joint
   bool differs = false;   ///< the halves' n differ beyond their uncertainty: the window is not vouched for
   std::string text;       ///< what was found, or why not assessed
+  /// The activity split: n of the weighted sections with less field than their median against
+  /// n of the others, by the same rule (p as p_value's); NaN when fewer than 8 sections carry weight.
+  double activity_p_value = std::numeric_limits<double>::quiet_NaN();
+  /// The two splits' spread beyond their noise, added to n's covariance (row-major vec(n), as
+  /// n_covariance): per split kHalvesSpreadScale (1 - q / s^2) d d^T with d = vec(n_1 - n_2), the
+  /// larger of the joint (s^2 = d^T (V_1 + V_2)^-1 d, q its chi2 95 % point for 9 degrees) and
+  /// the largest single entry's (s^2 = d_k^2 / V_kk, q the 95 % point of the largest of 9); zero
+  /// where neither exceeds its point, or not assessed.
+  Matrix9d spread_covariance = Matrix9d::Zero();
+  bool intervals_widened = false;  ///< spread_covariance is not zero
 };
+
+/// The share of the halves' outer product d d^T that a spread beyond the noise adds to n's
+/// covariance (BandSplitCheck::spread_covariance): the whole estimate may be as far off as the
+/// halves are apart.
+constexpr double kHalvesSpreadScale = 1.0;
 
 /// How strongly the remote's cells predict the local reference's (see above). m_xx = sum w g
 /// Re(x x^H), m_zz = sum w g Re(z z^H), m_zx = sum w g Re(z x^H) (3 x 3, any units);

@@ -19,7 +19,8 @@ namespace magnetometer_insitu_calibration {
 const CalibrationWindow* summary_window(const PairCalibration& calibration);
 
 /// Why the window's own checks do not vouch for its pair-only estimate (local events above the
-/// band, the band's halves differing; local_event_check.hpp, remote_reference.hpp), in words;
+/// band, the band's halves differing by more than the intervals carry; local_event_check.hpp,
+/// remote_reference.hpp), in words;
 /// empty when they do, or when n rests on a remote. The summary and calibration_node's
 /// tolerance status say it beside the verdicts.
 std::string not_vouched_for(const WindowEstimate& estimate);

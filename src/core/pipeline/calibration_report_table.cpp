@@ -236,6 +236,7 @@ std::string pair_alone(const WindowEstimate& e) {
   if (e.remote.used) return e.remote.pair_biased ? "biased (remote)" : "agrees (remote)";
   std::string text;
   if (e.band_split.assessed) text = e.band_split.differs ? "halves differ" : "halves agree";
+  if (e.band_split.intervals_widened) text += " (spread carried)";
   if (e.local_events.assessed) text += std::string(text.empty() ? "" : ", ") + (e.local_events.seen ? "events" : "no events");
   return text.empty() ? "-" : text;
 }
@@ -289,7 +290,7 @@ void write_window_notes(std::ostream& out, const PairCalibration& c) {
     if (w.response_model.fitted || !w.response_model.text.empty()) notes.add(w.label, w.response_model.text);
     if (!w.reference_noise.text.empty()) notes.add(w.label, w.reference_noise.text);
     if (w.estimate.remote.given) notes.add(w.label, w.estimate.remote.text);
-    if (w.estimate.band_split.differs) notes.add(w.label, "band split: " + w.estimate.band_split.text);
+    if (w.estimate.band_split.differs || w.estimate.band_split.intervals_widened) notes.add(w.label, "band split: " + w.estimate.band_split.text);
     if (w.estimate.local_events.seen) notes.add(w.label, "local events: " + w.estimate.local_events.text);
     if (!w.scalar.text.empty()) notes.add(w.label, "scalar: " + w.scalar.text);
   }

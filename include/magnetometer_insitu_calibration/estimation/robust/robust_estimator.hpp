@@ -87,7 +87,7 @@
 // robust_estimator.cpp (the steps in order; 2 and 4), section_cells.hpp and section_trend.hpp
 // (2), section_irls with the cell weights of cell_weights.hpp (3), weighted_eiv_solve (3 and 5),
 // robust_covariance and section_jackknife (6), remote_cells (the remote reference over the
-// cells).
+// cells), halves_split (without a remote: the halves compared, their spread in the covariance).
 // The plain estimator (FdWlseEstimator, fd_wlse.hpp: Eq. 2 on the whole window) is
 // EstimatorSettings::method = kPlain.
 #pragma once

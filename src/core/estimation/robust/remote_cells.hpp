@@ -1,6 +1,6 @@
 // The remote reference over the robust estimator's cells (remote_reference.hpp): the remote's
-// strength, the pair-only estimate against the remote's, and without a remote the band-split
-// check. Not installed: src/core only.
+// strength and the pair-only estimate against the remote's (without a remote, the pair's
+// halves: halves_split.hpp). Not installed: src/core only.
 #pragma once
 
 #include "section_cells.hpp"
@@ -17,9 +17,6 @@ namespace magnetometer_insitu_calibration::detail::robust {
 /// coherence, canonical coherence and first-stage F of the remote over the cells and weights.
 void assess_cells_remote_strength(RemoteReference& remote, const std::vector<Cell>& cells,
                                   const std::vector<double>& weight);
-/// The band-split check (remote_reference.hpp) over the cells with the fit's final weights.
-BandSplitCheck band_split_check(const std::vector<Cell>& cells, const IrlsResult& fit, std::size_t k_sections,
-                                std::size_t bins, const ReferenceNoiseModel* noise, const Regression& regression);
 /// The pair-only estimate (least squares with `pair`'s noise correction) with the remote fit's
 /// final weights, the covariance of its difference from the remote's n (per-cell influence
 /// difference, raised to the jackknife of the difference over the same groups, plus the

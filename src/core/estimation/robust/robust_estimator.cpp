@@ -1,7 +1,7 @@
 // Robust frequency-domain estimator, steps 1-6 in order (see robust_estimator.hpp); its pieces:
 // residual_screen.cpp (1), section_irls.cpp (3, 5), weighted_eiv_solve.cpp (5),
-// robust_covariance.cpp and section_jackknife.cpp (6), remote_cells.cpp (the remote). The
-// per-window dispatcher is in ../window_estimator.cpp.
+// robust_covariance.cpp and section_jackknife.cpp (6), remote_cells.cpp (the remote),
+// halves_split.cpp (without a remote). The per-window dispatcher is in ../window_estimator.cpp.
 #include "magnetometer_insitu_calibration/estimation/robust/robust_estimator.hpp"
 
 #include "magnetometer_insitu_calibration/estimation/delay_estimation.hpp"
@@ -9,6 +9,7 @@
 #include "../delay_spectra.hpp"
 #include "../failed_window_estimate.hpp"
 #include "../pair_averages.hpp"
+#include "halves_split.hpp"
 #include "remote_cells.hpp"
 #include "robust_covariance.hpp"
 #include "section_cells.hpp"
@@ -440,6 +441,7 @@ void RobustFdEstimator::Window::finish(const std::vector<Cell>& cells, const Irl
   } else {
     result.band_split = band_split_check(cells, fit, sections_.count, bins, fit.eiv_applied ? eiv_.noise : nullptr,
                                          as_solved);
+    widen_by_halves_spread(result);
     result.local_events = check_local_events(reference(), test(), period_s_, sections_.band_high_hz, result.delay_s);
   }
 }
