@@ -21,6 +21,10 @@
 //   Calibration.TemperatureTerms temperature.test  hut temperature on a Temperature topic: terms
 //                                                 fitted within their intervals, correction with
 //                                                 them closer to the field than without
+//   Calibration.LateRemoteFiles late_remote.test  a remote observatory's IAGA-2002 file, appended
+//                                                 2 h behind the pair, followed by
+//                                                 record_file_follower: windows wait for it up to
+//                                                 ~remote_max_wait, then go on without it
 //   Calibration.RotationOnTfStatic calibration_tf.test  ~publish_tf: the rotation part of n on
 //                                                 /tf_static; nothing from a node without it
 #include <gtest/gtest.h>

@@ -32,7 +32,8 @@ mic::VectorRecord record_of(const std::map<std::uint64_t, Eigen::Vector3d>& by_s
   return r;
 }
 
-/// The offline pre-processing with the node's stream settings (pairing, despiking, periods).
+}  // namespace
+
 mic::PreprocessSettings preprocess_of(const mic::LiveStreamSettings& streams) {
   mic::PreprocessSettings p;
   p.pairing_tolerance_s = streams.pairing_tolerance_s;
@@ -42,8 +43,6 @@ mic::PreprocessSettings preprocess_of(const mic::LiveStreamSettings& streams) {
   p.temperature_channel = "none";
   return p;
 }
-
-}  // namespace
 
 OfflineComparison compare_with_offline(const mic::MagnetometerCalibration& live, const std::string& node_name,
                                        const std::map<std::uint64_t, Eigen::Vector3d>& reference,

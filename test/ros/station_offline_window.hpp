@@ -1,8 +1,12 @@
-// Shared by the end-to-end station rostests (test_simulated_station.cpp): a live window of
+// Shared by the end-to-end station rostests (test_simulated_station.cpp) and the late remote's
+// rostest (rostest_calibration_late_remote.cpp, preprocess_of): a live window of
 // calibration_node against the offline path (prepare_pair, window_records, WindowCalibrator:
 // what calibrate_records runs) on the drivers' samples the test recorded, with the node's own
 // settings read from the parameter server. Units: nT, UNIX seconds.
 #pragma once
+
+#include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
+#include "magnetometer_insitu_calibration/pipeline/live_streams.hpp"
 
 #include <magnetometer_insitu_calibration/MagnetometerCalibration.h>
 
@@ -13,6 +17,11 @@
 #include <string>
 
 namespace station_rostest {
+
+/// The offline pre-processing (calibrate_records') with a node's stream settings: pairing,
+/// despiking, periods; no temperature channel.
+magnetometer_insitu_calibration::PreprocessSettings preprocess_of(
+    const magnetometer_insitu_calibration::LiveStreamSettings& streams);
 
 /// How a live window compared with the offline path.
 struct OfflineComparison {

@@ -26,8 +26,10 @@ add_rostest_gtest(rostest_calibration test/ros/nominal.test test/ros/rostest_cal
   test/ros/rostest_calibration_correction.cpp test/ros/rostest_calibration_parameters.cpp
   test/ros/rostest_calibration_lifecycle.cpp test/ros/rostest_calibration_tf.cpp
   test/ros/rostest_calibration_temperature.cpp test/ros/rostest_calibration_scalar.cpp
-  test/ros/rostest_calibration_local_events.cpp)
-target_link_libraries(rostest_calibration ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
+  test/ros/rostest_calibration_local_events.cpp test/ros/rostest_calibration_late_remote.cpp
+  test/ros/station_offline_window.cpp)
+# _nodes: calibration_node's settings loader (the late remote's offline path reads the node's parameters).
+target_link_libraries(rostest_calibration ${PROJECT_NAME}_nodes ${PROJECT_NAME}_ros ${PROJECT_NAME}_core ${catkin_LIBRARIES})
 target_include_directories(rostest_calibration PRIVATE include ${CATKIN_DEVEL_PREFIX}/include ${catkin_INCLUDE_DIRS} ${tf2_msgs_INCLUDE_DIRS})
 target_compile_options(rostest_calibration PRIVATE -Wall -Wextra)
 target_compile_definitions(rostest_calibration PRIVATE
@@ -41,6 +43,9 @@ foreach(rostest_file silent_topic time_jump decimation two_rates two_instruments
 endforeach()
 # ~publish_tf: the rotation part of n on /tf_static (and nothing from a node without it).
 add_rostest(test/ros/calibration_tf.test DEPENDENCIES rostest_calibration calibration_node)
+# A neighbouring observatory's files as a late live remote: record_file_follower onto ~remote_topic.
+add_dependencies(rostest_calibration record_file_follower)
+add_rostest(test/ros/late_remote.test DEPENDENCIES rostest_calibration calibration_node record_file_follower)
 # Calibration change WARN after a step of the scale ratio; resume from the file after a restart.
 add_rostest(test/ros/test_calibration_change.test DEPENDENCIES rostest_calibration calibration_node correction_node)
 add_rostest(test/ros/test_calibration_resume.test DEPENDENCIES rostest_calibration calibration_node correction_node)

@@ -29,6 +29,7 @@
 
 #include <cstddef>
 #include <deque>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -87,8 +88,9 @@ class SideStream {
   /// epoch it lies on; NaN in all three components where the side or the reference has a NaN in
   /// any (a gap, a spike taken out), as the pair's grid masks an incomplete epoch.
   VectorRecord on_epochs(double low_s, double high_s) const;
-  /// The latest epoch both the side and the reference have reached, UNIX s (-inf before any):
-  /// a window ending there has every side sample it will get.
+  /// The latest epoch both the side and the reference have reached, UNIX s (-inf before any),
+  /// also once drop_before() has forgotten their epochs: a window ending there has every side
+  /// sample it will get.
   double reached_s() const;
   /// The newest epoch either has reached, UNIX s (-inf before any).
   double newest_s() const;
@@ -119,6 +121,10 @@ class SideStream {
   std::unique_ptr<StreamingDecimator> reference_filter_, side_filter_;  ///< when filtered
   std::deque<Epoch> side_;                          ///< its samples on the epochs, time order
   std::deque<std::pair<double, bool>> reference_;   ///< the reference's epochs: time, finite
+  /// The newest epoch each has reached (-inf before any), kept when drop_before() has forgotten
+  /// every epoch: a remote that stopped before the windows still waiting has still reached it.
+  double side_reached_s_ = -std::numeric_limits<double>::infinity();
+  double reference_reached_s_ = -std::numeric_limits<double>::infinity();
   std::size_t received_ = 0;
   std::size_t rejected_at_stamps_ = 0;  ///< rejected before the filter would see them (at its stamps)
 };

@@ -268,9 +268,9 @@ void LiveCalibrationStreams::release_waiting(std::vector<Completed>& out) {
     const bool reached = remote_->reached_s() >= w.end_s() - 0.25 * w.period_s;
     if (!reached && !(newest_pair_s_ - w.end_s() > settings_.remote_max_wait_s)) return;
     Waiting waiting = std::move(waiting_remote_.front());
-    waiting_remote_.pop_front();
+    waiting_remote_.pop_front();  // w is gone with it: waiting.window from here
     if (!reached) {
-      const double behind_s = w.end_s() - remote_->reached_s();
+      const double behind_s = waiting.window.end_s() - remote_->reached_s();
       char text[200];
       if (std::isfinite(behind_s)) {
         std::snprintf(text, sizeof text, "the remote had reached %.0f s before the window's end when the pair was %g s past it",

@@ -64,16 +64,18 @@ SideStream::SideStream(const SideStreamSettings& settings)
 }
 
 void SideStream::add_side(double time_s, const Eigen::Vector3d& value_nT) {
-  if (!side_.empty() && !(time_s > side_.back().time_s)) {
+  if (!(time_s > side_reached_s_)) {
     ++rejected_at_stamps_;
     return;
   }
   side_.push_back(Epoch{time_s, value_nT});
+  side_reached_s_ = time_s;
 }
 
 void SideStream::add_reference(double time_s, bool finite) {
-  if (!reference_.empty() && !(time_s > reference_.back().first)) return;  // as align_by_time drops it
+  if (!(time_s > reference_reached_s_)) return;  // as align_by_time drops it
   reference_.emplace_back(time_s, finite);
+  reference_reached_s_ = time_s;
 }
 
 void SideStream::push_reference(double time_s, const Eigen::Vector3d& value_nT) {
@@ -140,17 +142,9 @@ VectorRecord SideStream::on_epochs(double low_s, double high_s) const {
   return out;
 }
 
-double SideStream::reached_s() const {
-  if (side_.empty() || reference_.empty()) return -std::numeric_limits<double>::infinity();
-  return std::min(side_.back().time_s, reference_.back().first);
-}
+double SideStream::reached_s() const { return std::min(side_reached_s_, reference_reached_s_); }
 
-double SideStream::newest_s() const {
-  double newest = -std::numeric_limits<double>::infinity();
-  if (!side_.empty()) newest = side_.back().time_s;
-  if (!reference_.empty()) newest = std::max(newest, reference_.back().first);
-  return newest;
-}
+double SideStream::newest_s() const { return std::max(side_reached_s_, reference_reached_s_); }
 
 void SideStream::drop_before(double time_s) {
   while (!side_.empty() && side_.front().time_s < time_s) side_.pop_front();
@@ -165,6 +159,7 @@ void SideStream::reset() {
   }
   side_.clear();
   reference_.clear();
+  side_reached_s_ = reference_reached_s_ = -std::numeric_limits<double>::infinity();
 }
 
 std::size_t SideStream::rejected() const {

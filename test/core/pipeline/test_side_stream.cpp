@@ -106,6 +106,30 @@ TEST(SideStream, AtItsStampsTakesTheReferencesEpochsAndItsGaps) {
   EXPECT_EQ(s.reached_s(), kT0 + 9);  // the reference's last; the side's is 4 ms later
 }
 
+TEST(SideStream, ReachedStaysWhereItWasWhenItsEpochsAreForgotten) {
+  // A remote that stopped: the windows still waiting start after its last sample, so its epochs
+  // are forgotten (drop_before); it has still reached that sample, and a stamp at or before it
+  // stays refused.
+  mic::SideStreamSettings settings;
+  settings.despike = false;
+  mic::SideStream s(settings);
+  for (int k = 0; k < 100; ++k) s.push_reference(kT0 + k, Eigen::Vector3d::Constant(1.0));
+  for (int k = 0; k < 40; ++k) s.push(kT0 + k, Eigen::Vector3d::Constant(2.0));
+  EXPECT_EQ(s.reached_s(), kT0 + 39);
+  s.drop_before(kT0 + 60);
+  EXPECT_EQ(s.on_epochs(-kInf, kInf).size(), 0u);
+  EXPECT_EQ(s.reached_s(), kT0 + 39);
+  EXPECT_EQ(s.newest_s(), kT0 + 99);
+  s.push(kT0 + 39, Eigen::Vector3d::Constant(2.0));
+  EXPECT_EQ(s.rejected(), 1u);
+  EXPECT_EQ(s.reached_s(), kT0 + 39);
+  s.push(kT0 + 70, Eigen::Vector3d::Constant(2.0));  // it returns: the epochs it reaches again
+  EXPECT_EQ(s.reached_s(), kT0 + 70);
+  EXPECT_EQ(s.on_epochs(kT0 + 60, kInf).size(), 1u);
+  s.reset();
+  EXPECT_EQ(s.reached_s(), -kInf);
+}
+
 // Faster than the estimation period (10 Hz, 1 s epochs): the side through its own Gaussian FIR,
 // exactly decimate() of its despiked record alone, missing where the reference's own filtered
 // value is; the pair's paired-then-decimated way is each filtered for a stream without partner.
