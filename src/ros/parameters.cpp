@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
 namespace magnetometer_insitu_calibration {
 
@@ -21,11 +20,7 @@ T read(const ros::NodeHandle& nh, const std::string& name, const T& fallback, co
 
 }  // namespace
 
-std::string number_text(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
+std::string number_text(double value) { return setting_value_text(value); }
 
 void require_topic_name(const std::string& name, const std::string& topic) {
   if (topic.empty()) throw ParameterError(name, "must not be empty");
@@ -56,21 +51,6 @@ std::string required_string(const ros::NodeHandle& nh, const std::string& name) 
   const std::string value = param_string(nh, name, "");
   if (value.empty()) throw ParameterError(name, "must not be empty");
   return value;
-}
-
-void require_positive(const std::string& name, double value, const std::string& unit) {
-  if (!(value > 0.0)) throw ParameterError(name, "must be > 0 " + unit + ", not " + number_text(value));
-}
-
-void require_non_negative(const std::string& name, double value, const std::string& unit) {
-  if (!(value >= 0.0)) throw ParameterError(name, "must be >= 0 " + unit + ", not " + number_text(value));
-}
-
-void require_in_range(const std::string& name, double value, double low, double high) {
-  if (!(value >= low && value <= high)) {
-    throw ParameterError(name, "must be in [" + number_text(low) + ", " + number_text(high) + "], not " +
-                                   number_text(value));
-  }
 }
 
 std::optional<SettingValue> read_declared(const ros::NodeHandle& nh, const SettingDeclaration& declared) {

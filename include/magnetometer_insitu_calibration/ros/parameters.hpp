@@ -43,10 +43,6 @@ void require_topic_name(const std::string& name, const std::string& topic);
 /// A number as text for messages, e.g. 0.25 or 1e-06.
 std::string number_text(double value);
 
-/// Range checks that throw ParameterError naming the parameter.
-void require_positive(const std::string& name, double value, const std::string& unit);
-void require_non_negative(const std::string& name, double value, const std::string& unit);
-void require_in_range(const std::string& name, double value, double low, double high);
 
 /// Private parameters set on the master under this node's name that are not in `known`
 /// (first path component after ~), e.g. a misspelt "~windwo". For a start-up warning.
