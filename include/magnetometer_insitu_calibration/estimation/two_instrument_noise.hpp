@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 
 #include <limits>
+#include <string>
 #include <vector>
 
 namespace magnetometer_insitu_calibration {
@@ -50,5 +51,41 @@ struct TwoInstrumentNoise {
 TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
                                         const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
                                         double high_hz, int bins);
+
+/// The test's roll-off above the band, from the phase of the pair's cross-spectrum alone.
+///
+/// A test whose gain falls across the bins (a one-pole low-pass of corner fc a few times above
+/// them: gain 1 / sqrt(1 + (f/fc)^2), 0.89 at fc / 2) gives N_r above a field P (1 - |H|) too
+/// large, P tens of times the noise there: the gain alone cannot tell a falling test gain from
+/// reference noise. The phase can: the reference's noise adds to |R n|^2, never to
+///   C_k = sum_j conj((R_j n)_k) T_jk e^{2 pi i f_j d0} = H_k(f) e^{2 pi i f d0} sum_j |(F_j n)_k|^2 + zero-mean terms,
+/// whose phase is that of H_k relative to the start delay d0. Per bin and test component k the
+/// phase of C_k, at the bin's |R n| |T|-weighted mean frequency, is fitted by weighted least
+/// squares (Gauss-Newton) as
+///   phi_k(f) = -2 pi f d - atan(f q_k)      d: delay less d0, s;  q_k = 1 / fc_k >= 0, s
+/// each bin weighted by its phase variance (1 - g^2) / (2 g^2 M_eff) (g^2 the bin's coherence,
+/// M_eff its harmonics over 35/18 for the Hann taper), the parameters' covariance scaled by
+/// chi^2 / dof when that exceeds 1 (a response the model does not describe widens them). A
+/// corner counts where q_k exceeds kPhaseCornerSignificance of its standard errors; the transfer
+/// then holds d0 + d and those corners, else d0 and none (the phase's lag of a corner that does
+/// not count stays in the delay, as in the response model).
+struct PhaseTransferFit {
+  bool fitted = false;                    ///< false: no bin with signal, or the fit diverged
+  RelativeTransfer transfer;              ///< start delay, or the fitted delay with the corners that count
+  Eigen::Vector3d inverse_corner_s = Eigen::Vector3d::Zero();     ///< fitted q_k = 1 / fc_k, s
+  Eigen::Vector3d inverse_corner_se_s = Eigen::Vector3d::Zero();  ///< their standard errors, s
+  double chi2_per_dof = 0.0;
+  bool any_corner() const;
+  std::string text;  ///< "" when no corner counts, else the corners (x/y/z) and the delay
+};
+
+/// Standard errors q_k must exceed for a corner to count in PhaseTransferFit.
+constexpr double kPhaseCornerSignificance = 3.0;
+
+/// The fit above on the bins of two_instrument_noise (same arguments; start_delay_s d0 the
+/// response model's delay, test late). Throws as two_instrument_noise does.
+PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readings& test, double dt,
+                                         const Eigen::Matrix3d& n, double start_delay_s, double low_hz,
+                                         double high_hz, int bins);
 
 }  // namespace magnetometer_insitu_calibration

@@ -7,27 +7,29 @@
 
 #include <Eigen/LU>
 
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <complex>
+#include <cstdio>
+#include <limits>
 
 namespace magnetometer_insitu_calibration {
 
 namespace {
 constexpr double kHannSumInflation = 35.0 / 18.0;
-}  // namespace
 
-TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
-                                        const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
-                                        double high_hz, int bins) {
+void check_arguments(const Readings& reference, const Readings& test, double dt, const Eigen::Matrix3d& n,
+                     double low_hz, double high_hz, int bins) {
   if (reference.rows() != test.rows()) throw InputError("two_instrument_noise", "records of unequal length");
   if (!(dt > 0.0)) throw InputError("two_instrument_noise", "sample period must be > 0 s");
   if (!(low_hz > 0.0) || !(high_hz > low_hz) || !(high_hz <= 0.5 / dt) || bins < 1)
     throw InputError("two_instrument_noise", "needs 0 < low < high <= Nyquist and bins >= 1");
   if (!n.allFinite() || std::abs(n.determinant()) < 1e-6) throw InputError("two_instrument_noise", "n is singular");
+}
+
+/// The six columns' DFTs (reference x, y, z, then the test's), each detrended and Hann-tapered.
+std::array<Eigen::VectorXcd, 6> tapered_spectra(const Readings& reference, const Readings& test) {
   const std::size_t length = static_cast<std::size_t>(reference.rows());
-  const double duration = static_cast<double>(length) * dt;
-  // Hann taper after the detrend: mean(w^2) = 3/8 enters the PSD's scale.
   std::vector<double> taper(length), column(length);
   for (std::size_t i = 0; i < length; ++i) taper[i] = 0.5 - 0.5 * std::cos(2.0 * M_PI * (static_cast<double>(i) + 0.5) / static_cast<double>(length));
   std::array<Eigen::VectorXcd, 6> spectra;
@@ -39,6 +41,18 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
     for (std::size_t i = 0; i < length; ++i) column[i] *= taper[i];
     dft.transform(column.data(), length, spectra[static_cast<std::size_t>(c)]);
   }
+  return spectra;
+}
+}  // namespace
+
+TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
+                                        const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
+                                        double high_hz, int bins) {
+  check_arguments(reference, test, dt, n, low_hz, high_hz, bins);
+  const std::size_t length = static_cast<std::size_t>(reference.rows());
+  const double duration = static_cast<double>(length) * dt;
+  // Hann taper after the detrend: mean(w^2) = 3/8 enters the PSD's scale.
+  const std::array<Eigen::VectorXcd, 6> spectra = tapered_spectra(reference, test);
   const Eigen::Matrix3d n_inverse = n.inverse();
   TwoInstrumentNoise out;
   const std::vector<double> edges = log_spaced_bin_edges(low_hz, high_hz, bins);
@@ -83,6 +97,153 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
     const Eigen::Vector3d deviations = (z2_sum - z_sum.cwiseAbs2() / count).cwiseMax(0.0);
     out.reference_psd_sd.push_back((kHannSumInflation * deviations).cwiseSqrt() * scale);
   }
+  return out;
+}
+
+bool PhaseTransferFit::any_corner() const {
+  return transfer.corner_hz.array().isFinite().any();
+}
+
+namespace {
+
+/// One bin's phase of C_k per test component: at its weighted mean frequency (Hz), with its
+/// variance (rad^2; infinite where the bin has no coherent signal).
+struct BinPhase {
+  Eigen::Vector3d frequency_hz, phase_rad, variance;
+};
+
+BinPhase bin_phase(const std::array<Eigen::VectorXcd, 6>& spectra, const Eigen::Matrix3d& n, double duration_s,
+                   double start_delay_s, double lo, double hi) {
+  Eigen::Vector3cd cross = Eigen::Vector3cd::Zero();
+  Eigen::Vector3d qq = Eigen::Vector3d::Zero(), tt = Eigen::Vector3d::Zero(), weight = Eigen::Vector3d::Zero(),
+                  weighted_f = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (Eigen::Index j = 1; j < spectra[0].size() - 1; ++j) {
+    const double f = static_cast<double>(j) / duration_s;
+    if (f < lo || f >= hi) continue;
+    ++count;
+    Eigen::RowVector3cd r;
+    for (int c = 0; c < 3; ++c) r(c) = spectra[static_cast<std::size_t>(c)](j);
+    const Eigen::RowVector3cd q = r * n;  // the test predicted from the reference
+    const std::complex<double> derotate = std::exp(std::complex<double>(0.0, 2.0 * M_PI * f * start_delay_s));
+    for (int k = 0; k < 3; ++k) {
+      const std::complex<double> t = spectra[static_cast<std::size_t>(k + 3)](j);
+      cross(k) += std::conj(q(k)) * t * derotate;
+      qq(k) += std::norm(q(k));
+      tt(k) += std::norm(t);
+      const double w = std::abs(q(k)) * std::abs(t);
+      weight(k) += w;
+      weighted_f(k) += w * f;
+    }
+  }
+  BinPhase out;
+  const double independent = static_cast<double>(count) / kHannSumInflation;
+  for (int k = 0; k < 3; ++k) {
+    const double coherence = qq(k) > 0.0 && tt(k) > 0.0 ? std::norm(cross(k)) / (qq(k) * tt(k)) : 0.0;
+    out.frequency_hz(k) = weight(k) > 0.0 ? weighted_f(k) / weight(k) : 0.5 * (lo + hi);
+    out.phase_rad(k) = std::arg(cross(k));
+    out.variance(k) = count >= 8 && coherence > 0.0 ? std::max(1.0 - coherence, 1e-12) / (2.0 * coherence * independent)
+                                                    : std::numeric_limits<double>::infinity();
+  }
+  return out;
+}
+
+}  // namespace
+
+PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readings& test, double dt,
+                                         const Eigen::Matrix3d& n, double start_delay_s, double low_hz,
+                                         double high_hz, int bins) {
+  check_arguments(reference, test, dt, n, low_hz, high_hz, bins);
+  PhaseTransferFit out;
+  out.transfer.delay_s = start_delay_s;
+  const double duration = static_cast<double>(reference.rows()) * dt;
+  const std::array<Eigen::VectorXcd, 6> spectra = tapered_spectra(reference, test);
+  const std::vector<double> edges = log_spaced_bin_edges(low_hz, high_hz, bins);
+  std::vector<BinPhase> phases;
+  for (int b = 0; b < bins; ++b) {
+    phases.push_back(bin_phase(spectra, n, duration, start_delay_s, edges[static_cast<std::size_t>(b)],
+                               edges[static_cast<std::size_t>(b) + 1]));
+  }
+  // Levenberg-Marquardt on p = (d, q_x, q_y, q_z), q_k >= 0. At q = 0 the columns of d and q_k
+  // are proportional (atan(f q) ~ f q): the curvature of atan tells them apart, so the start is
+  // a corner at the bins' top, d holding the rest of its lag, and the steps are damped.
+  struct Normal {
+    Eigen::Matrix4d matrix = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
+    double chi2 = 0.0;
+    int used = 0;
+  };
+  const auto normal_at = [&](const Eigen::Vector4d& p) {
+    Normal out;
+    for (const BinPhase& b : phases) {
+      for (int k = 0; k < 3; ++k) {
+        if (!std::isfinite(b.variance(k))) continue;
+        const double f = b.frequency_hz(k), w = 1.0 / b.variance(k);
+        const double model = -2.0 * M_PI * f * p(0) - std::atan(f * p(1 + k));
+        // The measured phase taken to within pi of the model (a wrapped phase of a long delay).
+        const double residual = std::remainder(b.phase_rad(k) - model, 2.0 * M_PI);
+        Eigen::Vector4d jacobian = Eigen::Vector4d::Zero();
+        jacobian(0) = -2.0 * M_PI * f;
+        jacobian(1 + k) = -f / (1.0 + f * f * p(1 + k) * p(1 + k));
+        out.matrix += w * jacobian * jacobian.transpose();
+        out.gradient += w * jacobian * residual;
+        out.chi2 += w * residual * residual;
+        ++out.used;
+      }
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (out.matrix(1 + k, 1 + k) <= 0.0) out.matrix(1 + k, 1 + k) = 1.0;  // no bin of that component: q stays
+    }
+    return out;
+  };
+  const double start_q = 1.0 / high_hz;
+  Eigen::Vector4d p(-start_q / (2.0 * M_PI), start_q, start_q, start_q);
+  Normal at = normal_at(p);
+  if (at.used < 5) return out;
+  double damping = 1e-3;
+  for (int iteration = 0; iteration < 100 && damping < 1e12; ++iteration) {
+    Eigen::Matrix4d damped = at.matrix;
+    damped.diagonal() *= 1.0 + damping;
+    const Eigen::Vector4d step = damped.ldlt().solve(at.gradient);
+    if (!step.allFinite()) return out;
+    Eigen::Vector4d next = p + step;
+    for (int k = 0; k < 3; ++k) next(1 + k) = std::max(next(1 + k), 0.0);
+    const Normal there = normal_at(next);
+    if (there.chi2 <= at.chi2) {
+      const bool converged = (next - p).cwiseAbs().maxCoeff() < 1e-7 || at.chi2 - there.chi2 < 1e-9 * at.chi2;
+      p = next;
+      at = there;
+      damping = std::max(damping / 10.0, 1e-9);
+      if (converged) break;
+    } else {
+      damping *= 10.0;
+    }
+  }
+  const Eigen::Matrix4d& normal = at.matrix;
+  const double chi2 = at.chi2;
+  const int used = at.used;
+  const double dof = static_cast<double>(used - 4);
+  out.chi2_per_dof = dof > 0.0 ? chi2 / dof : 0.0;
+  const Eigen::Matrix4d covariance = normal.inverse() * std::max(1.0, out.chi2_per_dof);
+  if (!covariance.allFinite()) return out;
+  out.fitted = true;
+  char corners[3][24];
+  for (int k = 0; k < 3; ++k) {
+    out.inverse_corner_s(k) = p(1 + k);
+    out.inverse_corner_se_s(k) = std::sqrt(covariance(1 + k, 1 + k));
+    const bool counts = p(1 + k) > kPhaseCornerSignificance * out.inverse_corner_se_s(k);
+    std::snprintf(corners[k], sizeof corners[k], "none");
+    if (counts) {
+      out.transfer.corner_hz(k) = 1.0 / p(1 + k);
+      std::snprintf(corners[k], sizeof corners[k], "%.3g", out.transfer.corner_hz(k));
+    }
+  }
+  if (!out.any_corner()) return out;
+  out.transfer.delay_s = start_delay_s + p(0);
+  char text[200];
+  std::snprintf(text, sizeof text, "the test's roll-off from the phase above the band: corner x/y/z %s/%s/%s Hz, delay %.3g s",
+                corners[0], corners[1], corners[2], out.transfer.delay_s);
+  out.text = text;
   return out;
 }
 

@@ -360,7 +360,13 @@ IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readin
   const auto first = static_cast<Eigen::Index>(best_first), count = static_cast<Eigen::Index>(best_count);
   RelativeTransfer transfer;
   if (model.fitted) transfer.delay_s = model.delay_s;
+  PhaseTransferFit roll_off;
   try {
+    // A test whose gain falls across the bins would pass for reference noise: its corner from
+    // the phase, which the reference's noise does not touch.
+    roll_off = fit_transfer_from_phase(reference_nT.middleRows(first, count), test_nT.middleRows(first, count),
+                                       sample_period_s, estimate.n, transfer.delay_s, low, top, kPairNoiseBins);
+    if (roll_off.any_corner()) transfer = roll_off.transfer;
     out.pair = two_instrument_noise(reference_nT.middleRows(first, count), test_nT.middleRows(first, count),
                                     sample_period_s, estimate.n, transfer, low, top, kPairNoiseBins);
   } catch (const InputError& e) {
@@ -378,6 +384,7 @@ IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readin
                 low, top, out.samples, 1e3 * out.white_nT(0), 1e3 * out.white_nT(1), 1e3 * out.white_nT(2),
                 1e3 * out.pink_nT_per_sqrt_hz(0), 1e3 * out.pink_nT_per_sqrt_hz(1), 1e3 * out.pink_nT_per_sqrt_hz(2));
   out.text = text;
+  if (!roll_off.text.empty()) out.text += "; " + roll_off.text;
   return out;
 }
 
