@@ -17,7 +17,14 @@
 // (deg). "Flagged": the summary's "not vouched for" (calibration_summary.hpp: local events seen,
 // or band halves that differ by more than the intervals carry).
 //
-// MC_PAIR_ONLY=1: the remote's estimate not made (its columns then repeat the pair's).
+// Switches for finding what costs a class its coverage (environment):
+//   MC_PAIR_ONLY=1          the remote's estimate not made (its columns then repeat the pair's);
+//   MC_EIV=truth|none       the reference's true noise given as its figure, or no pair noise
+//                           identified (default: identified from the pair, as calibrate_records);
+//   MC_OFF=tilt,heater,filter,spikes,gaps   parts of the base station left out;
+//   MC_Z=1                  a line "zs" per estimate scored (pair, pair without the halves'
+//                           spread, remote): each parameter's error over its standard error
+//                           (sx sy sz nxy nxz nyz) and the covariance's degrees of freedom.
 //
 // Per-seed lines go to stdout prefixed "seed"; the summary table follows.
 #include "magnetometer_insitu_calibration/pipeline/calibration_pipeline.hpp"
@@ -70,6 +77,12 @@ int score(const mic::WindowEstimate& e, const Eigen::Matrix3d& truth, double& sc
   scale = ds.cwiseAbs().maxCoeff();
   angle = dn.cwiseAbs().maxCoeff();
   int covered = 0;
+  if (std::getenv("MC_Z")) {
+    std::printf("zs");
+    for (int l = 0; l < 3; ++l) std::printf(" %.2f", 1.96 * ds(l) / (100.0 * q.scale_ratio_ci95(l)));
+    for (int l = 0; l < 3; ++l) std::printf(" %.2f", 1.96 * dn(l) / q.nonorthogonality_ci95_deg(l));
+    std::printf(" dof %.0f\n", e.covariance_dof);
+  }
   for (int l = 0; l < 3; ++l) {
     covered += std::abs(ds(l)) <= 100.0 * q.scale_ratio_ci95(l);
     covered += std::abs(dn(l)) <= q.nonorthogonality_ci95_deg(l);
@@ -99,6 +112,14 @@ void print_row(const std::string& name, const Tally& pair, const Tally& remote) 
 /// One station: the pair-only and the remote-reference default on its record.
 void run_station(const std::string& name, std::uint64_t seed, double days, Tally& pair_tally, Tally& remote_tally) {
   mic::DisturbanceClassSettings c = mic::disturbance_class(name, seed, days);
+  if (const char* off = std::getenv("MC_OFF")) {
+    const std::string o(off);
+    if (o.find("tilt") != std::string::npos) c.unmodelled.tilt_walk_nT_per_sqrt_day = 0.0;
+    if (o.find("heater") != std::string::npos) c.unmodelled.heater_nT.setZero();
+    if (o.find("filter") != std::string::npos) { c.unmodelled.test_corner_hz = 0.0; c.unmodelled.test_delay_s = 0.0; }
+    if (o.find("spikes") != std::string::npos) { c.simulation.spikes_per_day = 0; c.station.small_spikes_per_day = 0; }
+    if (o.find("gaps") != std::string::npos) c.simulation.gap_count = 0;
+  }
   c.simulation.keep_clean_field = true;  // the remote's field
   const mic::SimulatedPair pair = mic::simulate_disturbance_class(c);
   std::mt19937_64 rng(seed * 31337 + 5);
@@ -110,6 +131,14 @@ void run_station(const std::string& name, std::uint64_t seed, double days, Tally
   r.gap_count = static_cast<int>(days);
   const mic::VectorRecord remote = mic::simulate_remote_observatory(c.simulation, pair, r);
   mic::CalibrationSettings settings;
+  if (const char* eiv = std::getenv("MC_EIV")) {
+    if (std::string(eiv) == "truth") {
+      settings.window.reference_noise_figure.white_nT = Eigen::Vector3d::Constant(c.simulation.reference_white_nT);
+      settings.window.reference_noise_figure.pink_nT_per_sqrt_hz = Eigen::Vector3d::Constant(c.simulation.reference_pink_nT_per_sqrt_hz);
+    } else if (std::string(eiv) == "none") {
+      settings.window.pair_noise = false;
+    }
+  }
   const mic::PreparedPair prepared = mic::prepare_pair(pair.reference, pair.test, settings.preprocess);
   const mic::PreparedSides sides = mic::prepare_sides(pair.reference, prepared, {nullptr, &remote}, settings);
   const mic::CalibrationWindow alone = mic::calibrate_prepared(prepared, settings, nullptr).back();
