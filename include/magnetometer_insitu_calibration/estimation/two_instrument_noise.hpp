@@ -61,26 +61,31 @@ TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Reading
 ///   C_k = sum_j conj((R_j n)_k) T_jk e^{2 pi i f_j d0} = H_k(f) e^{2 pi i f d0} sum_j |(F_j n)_k|^2 + zero-mean terms,
 /// whose phase is that of H_k relative to the start delay d0. Per bin and test component k the
 /// phase of C_k, at the bin's |R n| |T|-weighted mean frequency, is fitted by weighted least
-/// squares (Gauss-Newton) as
-///   phi_k(f) = -2 pi f d - atan(f q_k)      d: delay less d0, s;  q_k = 1 / fc_k >= 0, s
-/// each bin weighted by its phase variance (1 - g^2) / (2 g^2 M_eff) (g^2 the bin's coherence,
-/// M_eff its harmonics over 35/18 for the Hann taper), the parameters' covariance scaled by
-/// chi^2 / dof when that exceeds 1 (a response the model does not describe widens them). A
-/// corner counts where q_k exceeds kPhaseCornerSignificance of its standard errors; the transfer
-/// then holds d0 + d and those corners, else d0 and none (the phase's lag of a corner that does
-/// not count stays in the delay, as in the response model).
+/// squares (Levenberg-Marquardt) as
+///   phi_k(f) = -2 pi f d - atan(f q)      d: delay less d0, s;  q = 1 / fc >= 0, s
+/// one corner for the three components (the test's electronics filter each alike), each value
+/// weighted by its phase variance (1 - g^2) / (2 g^2 M_eff) (g^2 the bin's coherence, M_eff its
+/// harmonics over 35/18 for the Hann taper), the covariance scaled by chi^2 / dof when that
+/// exceeds 1. The phase tells a corner from a delay only by atan's curvature, weak in bins well
+/// below the corner: a corner counts where chi^2 of the delay alone less the fit's (over the
+/// fit's chi^2 / dof when above 1) is at least kPhaseCornerChi2 (a 1-pole at 0.5 Hz: about 11
+/// on 2 days at 1 Hz, test_two_instrument_noise). The transfer then holds d0 + d and the corner
+/// on every component, else d0 and none (the lag of a corner that does not count stays in the
+/// delay, as in the response model).
 struct PhaseTransferFit {
-  bool fitted = false;                    ///< false: no bin with signal, or the fit diverged
-  RelativeTransfer transfer;              ///< start delay, or the fitted delay with the corners that count
-  Eigen::Vector3d inverse_corner_s = Eigen::Vector3d::Zero();     ///< fitted q_k = 1 / fc_k, s
-  Eigen::Vector3d inverse_corner_se_s = Eigen::Vector3d::Zero();  ///< their standard errors, s
+  bool fitted = false;              ///< false: fewer than 4 values with signal, or a step not finite
+  RelativeTransfer transfer;        ///< start delay, or the fitted delay and the corner that counts
+  double inverse_corner_s = 0.0;    ///< fitted q = 1 / fc, s
+  double inverse_corner_se_s = 0.0; ///< its standard error, s (infinite at q = 0)
   double chi2_per_dof = 0.0;
+  double curvature_chi2 = 0.0;      ///< chi^2 of the delay alone less the fit's (scaled as above)
   bool any_corner() const;
-  std::string text;  ///< "" when no corner counts, else the corners (x/y/z) and the delay
+  std::string text;  ///< "" when no corner counts, else the corner, its chi^2 drop and the delay
 };
 
-/// Standard errors q_k must exceed for a corner to count in PhaseTransferFit.
-constexpr double kPhaseCornerSignificance = 3.0;
+/// The drop in chi^2 from the delay alone to the fit that counts as curvature: the 99.73 % point
+/// (three sigma) of chi^2 with one degree of freedom.
+constexpr double kPhaseCornerChi2 = 9.0;
 
 /// The fit above on the bins of two_instrument_noise (same arguments; start_delay_s d0 the
 /// response model's delay, test late). Throws as two_instrument_noise does.

@@ -164,50 +164,44 @@ PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readin
     phases.push_back(bin_phase(spectra, n, duration, start_delay_s, edges[static_cast<std::size_t>(b)],
                                edges[static_cast<std::size_t>(b) + 1]));
   }
-  // Levenberg-Marquardt on p = (d, q_x, q_y, q_z), q_k >= 0. At q = 0 the columns of d and q_k
-  // are proportional (atan(f q) ~ f q): the curvature of atan tells them apart, so the start is
-  // a corner at the bins' top, d holding the rest of its lag, and the steps are damped.
+  // Levenberg-Marquardt on p = (d, q), q >= 0. At q = 0 the columns of d and q are proportional
+  // (atan(f q) ~ f q): only the curvature of atan tells them apart, so the start is a corner at
+  // the bins' top, d holding the rest of its lag, and the steps are damped.
   struct Normal {
-    Eigen::Matrix4d matrix = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d gradient = Eigen::Vector4d::Zero();
+    Eigen::Matrix2d matrix = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d gradient = Eigen::Vector2d::Zero();
     double chi2 = 0.0;
     int used = 0;
   };
-  const auto normal_at = [&](const Eigen::Vector4d& p) {
+  const auto normal_at = [&](const Eigen::Vector2d& p) {
     Normal out;
     for (const BinPhase& b : phases) {
       for (int k = 0; k < 3; ++k) {
         if (!std::isfinite(b.variance(k))) continue;
         const double f = b.frequency_hz(k), w = 1.0 / b.variance(k);
-        const double model = -2.0 * M_PI * f * p(0) - std::atan(f * p(1 + k));
+        const double model = -2.0 * M_PI * f * p(0) - std::atan(f * p(1));
         // The measured phase taken to within pi of the model (a wrapped phase of a long delay).
         const double residual = std::remainder(b.phase_rad(k) - model, 2.0 * M_PI);
-        Eigen::Vector4d jacobian = Eigen::Vector4d::Zero();
-        jacobian(0) = -2.0 * M_PI * f;
-        jacobian(1 + k) = -f / (1.0 + f * f * p(1 + k) * p(1 + k));
+        const Eigen::Vector2d jacobian(-2.0 * M_PI * f, -f / (1.0 + f * f * p(1) * p(1)));
         out.matrix += w * jacobian * jacobian.transpose();
         out.gradient += w * jacobian * residual;
         out.chi2 += w * residual * residual;
         ++out.used;
       }
     }
-    for (int k = 0; k < 3; ++k) {
-      if (out.matrix(1 + k, 1 + k) <= 0.0) out.matrix(1 + k, 1 + k) = 1.0;  // no bin of that component: q stays
-    }
     return out;
   };
   const double start_q = 1.0 / high_hz;
-  Eigen::Vector4d p(-start_q / (2.0 * M_PI), start_q, start_q, start_q);
+  Eigen::Vector2d p(-start_q / (2.0 * M_PI), start_q);
   Normal at = normal_at(p);
-  if (at.used < 5) return out;
+  if (at.used < 4) return out;
   double damping = 1e-3;
   for (int iteration = 0; iteration < 100 && damping < 1e12; ++iteration) {
-    Eigen::Matrix4d damped = at.matrix;
+    Eigen::Matrix2d damped = at.matrix;
     damped.diagonal() *= 1.0 + damping;
-    const Eigen::Vector4d step = damped.ldlt().solve(at.gradient);
+    const Eigen::Vector2d step = damped.ldlt().solve(at.gradient);
     if (!step.allFinite()) return out;
-    Eigen::Vector4d next = p + step;
-    for (int k = 0; k < 3; ++k) next(1 + k) = std::max(next(1 + k), 0.0);
+    const Eigen::Vector2d next(p(0) + step(0), std::max(p(1) + step(1), 0.0));
     const Normal there = normal_at(next);
     if (there.chi2 <= at.chi2) {
       const bool converged = (next - p).cwiseAbs().maxCoeff() < 1e-7 || at.chi2 - there.chi2 < 1e-9 * at.chi2;
@@ -219,30 +213,31 @@ PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readin
       damping *= 10.0;
     }
   }
-  const Eigen::Matrix4d& normal = at.matrix;
-  const double chi2 = at.chi2;
-  const int used = at.used;
-  const double dof = static_cast<double>(used - 4);
-  out.chi2_per_dof = dof > 0.0 ? chi2 / dof : 0.0;
-  const Eigen::Matrix4d covariance = normal.inverse() * std::max(1.0, out.chi2_per_dof);
-  if (!covariance.allFinite()) return out;
+  const double dof = static_cast<double>(at.used - 2);
+  out.chi2_per_dof = dof > 0.0 ? at.chi2 / dof : 0.0;
   out.fitted = true;
-  char corners[3][24];
-  for (int k = 0; k < 3; ++k) {
-    out.inverse_corner_s(k) = p(1 + k);
-    out.inverse_corner_se_s(k) = std::sqrt(covariance(1 + k, 1 + k));
-    const bool counts = p(1 + k) > kPhaseCornerSignificance * out.inverse_corner_se_s(k);
-    std::snprintf(corners[k], sizeof corners[k], "none");
-    if (counts) {
-      out.transfer.corner_hz(k) = 1.0 / p(1 + k);
-      std::snprintf(corners[k], sizeof corners[k], "%.3g", out.transfer.corner_hz(k));
-    }
+  out.inverse_corner_s = p(1);
+  // At q = 0 the columns are proportional and the matrix singular: no standard error.
+  const Eigen::Matrix2d covariance = at.matrix.inverse() * std::max(1.0, out.chi2_per_dof);
+  out.inverse_corner_se_s = covariance.allFinite() && covariance(1, 1) >= 0.0 ? std::sqrt(covariance(1, 1))
+                                                                             : std::numeric_limits<double>::infinity();
+  // The delay alone (q = 0; linear in d, two steps for the wrapping) against the fit. Near q = 0
+  // the corner's standard error says little (its column is the delay's there); the drop in chi^2
+  // says how much curvature the phases show.
+  Eigen::Vector2d delay_only = Eigen::Vector2d::Zero();
+  for (int step = 0; step < 2; ++step) {
+    const Normal at_delay = normal_at(delay_only);
+    delay_only(0) += at_delay.gradient(0) / at_delay.matrix(0, 0);
   }
-  if (!out.any_corner()) return out;
+  out.curvature_chi2 = (normal_at(delay_only).chi2 - at.chi2) / std::max(1.0, out.chi2_per_dof);
+  if (!(out.curvature_chi2 >= kPhaseCornerChi2) || !(p(1) > 0.0)) return out;
+  out.transfer.corner_hz = Eigen::Vector3d::Constant(1.0 / p(1));
   out.transfer.delay_s = start_delay_s + p(0);
   char text[200];
-  std::snprintf(text, sizeof text, "the test's roll-off from the phase above the band: corner x/y/z %s/%s/%s Hz, delay %.3g s",
-                corners[0], corners[1], corners[2], out.transfer.delay_s);
+  std::snprintf(text, sizeof text,
+                "the test's roll-off from the phase above the band: corner %.3g Hz (1/fc %.3g +- %.2g s, chi2 drop %.1f), "
+                "delay %.3g s",
+                out.transfer.corner_hz(0), p(1), out.inverse_corner_se_s, out.curvature_chi2, out.transfer.delay_s);
   out.text = text;
   return out;
 }

@@ -153,11 +153,11 @@ TEST(TwoInstrumentNoise, ATestRollingOffAboveTheBandIsToldFromReferenceNoiseByIt
   const mic::PhaseTransferFit fit = mic::fit_transfer_from_phase(pair.reference.values_nT, pair.test.values_nT, 1.0,
                                                                  pair.n_true, start_delay, 0.03, 0.25, 6);
   ASSERT_TRUE(fit.fitted);
-  ASSERT_TRUE(fit.any_corner()) << fit.text;
-  for (int c = 0; c < 3; ++c) {
-    // 1 / fc = 2 s, within 4 of its standard errors and 10 %.
-    EXPECT_NEAR(fit.inverse_corner_s(c), 2.0, std::min(0.2, 4.0 * fit.inverse_corner_se_s(c))) << c << ": " << fit.text;
-  }
+  ASSERT_TRUE(fit.any_corner()) << "curvature chi2 " << fit.curvature_chi2;
+  std::printf("%s\n", fit.text.c_str());
+  // 1 / fc = 2 s, within 3 of its standard errors and 15 %.
+  EXPECT_NEAR(fit.inverse_corner_s, 2.0, std::min(0.3, 3.0 * fit.inverse_corner_se_s)) << fit.text;
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(fit.transfer.corner_hz(c), 1.0 / fit.inverse_corner_s);
   EXPECT_NEAR(fit.transfer.delay_s, 0.2, 0.05) << fit.text;
   EXPECT_LT(fit.chi2_per_dof, 3.0);
   mic::RelativeTransfer delay_only;
@@ -196,8 +196,9 @@ TEST(TwoInstrumentNoise, AnUnfilteredTestShowsNoRollOff) {
       mic::fit_transfer_from_phase(pair.reference.values_nT, pair.test.values_nT, 1.0, pair.n_true, 2.0, 0.03, 0.25, 6);
   ASSERT_TRUE(fit.fitted);
   EXPECT_FALSE(fit.any_corner()) << fit.text;
+  EXPECT_LT(fit.curvature_chi2, mic::kPhaseCornerChi2);
   EXPECT_EQ(fit.transfer.delay_s, 2.0);
+  EXPECT_TRUE(fit.transfer.corner_hz.array().isInf().all());
   EXPECT_TRUE(fit.text.empty());
-  for (int c = 0; c < 3; ++c) EXPECT_LT(fit.inverse_corner_s(c), 4.0 * fit.inverse_corner_se_s(c) + 1e-12) << c;
   EXPECT_LT(fit.chi2_per_dof, 3.0);
 }
