@@ -7,11 +7,16 @@ are pooled as "pair covers < 90 %" (the pair biased) and ">= 90 %" (not), by the
 coverage of the same stations.
 
     /usr/bin/python3 scripts/family_remote_cost.py RUN.txt [RUN.txt ...]
+    /usr/bin/python3 scripts/family_remote_cost.py --by-own-share RUN.txt [RUN.txt ...]
+
+--by-own-share: instead, over the classes the pair covers >= 90 %, the geometric mean of the
+per-station ratio by the remote vertical's own share of its variance (the per-seed "own X/Z").
 
 Reads the per-seed lines ("seed CLASS SEED pair SCALE ANGLE COVERED ... | remote SCALE ANGLE
 COVERED ..."). Prints a Markdown table.
 """
 import argparse
+import math
 import random
 
 
@@ -33,8 +38,9 @@ def stations(paths):
                     continue
                 words = line.split()
                 pair_at, remote_at = words.index("pair"), words.index("remote")
+                own_z = float(words[words.index("own") + 1].split("/")[1])
                 out.setdefault(words[1], []).append(
-                    (float(words[pair_at + 1]), float(words[remote_at + 1]), int(words[pair_at + 3])))
+                    (float(words[pair_at + 1]), float(words[remote_at + 1]), int(words[pair_at + 3]), own_z))
     return out
 
 
@@ -63,11 +69,29 @@ def row(name, rows, rng):
             f"| {t:.2f} ({t_lo:.2f}-{t_hi:.2f}) |")
 
 
+def by_own_share(by_class):
+    """Geometric mean of remote / pair scale error by the remote vertical's own share, unbiased classes."""
+    rows = [r for rows in by_class.values() if sum(x[2] for x in rows) / (6 * len(rows)) >= 0.9 for r in rows]
+    print("| remote vertical's own share | stations | remote / pair scale error, geometric mean | 1 / sqrt(1 - share) at the middle |")
+    print("|---|---|---|---|")
+    for low, high in ((0.0, 0.25), (0.25, 0.4), (0.4, 0.5001)):
+        part = [r for r in rows if low <= r[3] < high and r[0] > 0.0 and r[1] > 0.0]
+        if not part:
+            continue
+        mean = math.exp(sum(math.log(r[1] / r[0]) for r in part) / len(part))
+        middle = 0.5 * (low + min(high, 0.5))
+        print(f"| {low:.2f}-{min(high, 0.5):.2f} | {len(part)} | {mean:.2f} | {1.0 / math.sqrt(1.0 - middle):.2f} |")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="+", help="monte_carlo_family outputs")
+    parser.add_argument("--by-own-share", action="store_true", help="ratio by the remote vertical's own share")
     args = parser.parse_args()
     by_class = stations(args.runs)
+    if args.by_own_share:
+        by_own_share(by_class)
+        return
     rng = random.Random(57)
     print("| class | stations | pair-only coverage | remote / pair scale error, median (90 % interval) "
           "| remote / pair, 95th percentile (90 % interval) |")
