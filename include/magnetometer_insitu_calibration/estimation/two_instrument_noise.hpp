@@ -17,6 +17,8 @@
 
 #include <Eigen/Core>
 
+#include <array>
+#include <cstddef>
 #include <limits>
 #include <string>
 #include <vector>
@@ -51,6 +53,21 @@ struct TwoInstrumentNoise {
 TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
                                         const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
                                         double high_hz, int bins);
+
+/// The six columns' DFTs of a pair (reference x, y, z, then the test's; N x 3 each, nT, regular
+/// period dt s, no NaN), each detrended and Hann-tapered: what two_instrument_noise and
+/// fit_transfer_from_phase read, computed once for both. Throws InputError("two_instrument_noise",
+/// ...) for unequal lengths or dt <= 0.
+struct PairSpectra {
+  std::array<Eigen::VectorXcd, 6> columns;
+  std::size_t length = 0;  ///< samples
+  double dt = 0.0;         ///< s
+};
+PairSpectra pair_spectra(const Readings& reference, const Readings& test, double dt);
+
+/// The same on spectra already taken.
+TwoInstrumentNoise two_instrument_noise(const PairSpectra& pair, const Eigen::Matrix3d& n,
+                                        const RelativeTransfer& transfer, double low_hz, double high_hz, int bins);
 
 /// The test's roll-off above the band, from the phase of the pair's cross-spectrum alone.
 ///
@@ -92,5 +109,7 @@ constexpr double kPhaseCornerChi2 = 9.0;
 PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readings& test, double dt,
                                          const Eigen::Matrix3d& n, double start_delay_s, double low_hz,
                                          double high_hz, int bins);
+PhaseTransferFit fit_transfer_from_phase(const PairSpectra& pair, const Eigen::Matrix3d& n, double start_delay_s,
+                                         double low_hz, double high_hz, int bins);
 
 }  // namespace magnetometer_insitu_calibration

@@ -18,41 +18,46 @@ namespace magnetometer_insitu_calibration {
 namespace {
 constexpr double kHannSumInflation = 35.0 / 18.0;
 
-void check_arguments(const Readings& reference, const Readings& test, double dt, const Eigen::Matrix3d& n,
-                     double low_hz, double high_hz, int bins) {
-  if (reference.rows() != test.rows()) throw InputError("two_instrument_noise", "records of unequal length");
-  if (!(dt > 0.0)) throw InputError("two_instrument_noise", "sample period must be > 0 s");
-  if (!(low_hz > 0.0) || !(high_hz > low_hz) || !(high_hz <= 0.5 / dt) || bins < 1)
+void check_band(const PairSpectra& spectra, const Eigen::Matrix3d& n, double low_hz, double high_hz, int bins) {
+  if (!(low_hz > 0.0) || !(high_hz > low_hz) || !(high_hz <= 0.5 / spectra.dt) || bins < 1)
     throw InputError("two_instrument_noise", "needs 0 < low < high <= Nyquist and bins >= 1");
   if (!n.allFinite() || std::abs(n.determinant()) < 1e-6) throw InputError("two_instrument_noise", "n is singular");
 }
+}  // namespace
 
-/// The six columns' DFTs (reference x, y, z, then the test's), each detrended and Hann-tapered.
-std::array<Eigen::VectorXcd, 6> tapered_spectra(const Readings& reference, const Readings& test) {
-  const std::size_t length = static_cast<std::size_t>(reference.rows());
-  std::vector<double> taper(length), column(length);
-  for (std::size_t i = 0; i < length; ++i) taper[i] = 0.5 - 0.5 * std::cos(2.0 * M_PI * (static_cast<double>(i) + 0.5) / static_cast<double>(length));
-  std::array<Eigen::VectorXcd, 6> spectra;
+PairSpectra pair_spectra(const Readings& reference, const Readings& test, double dt) {
+  if (reference.rows() != test.rows()) throw InputError("two_instrument_noise", "records of unequal length");
+  if (!(dt > 0.0)) throw InputError("two_instrument_noise", "sample period must be > 0 s");
+  PairSpectra out;
+  out.length = static_cast<std::size_t>(reference.rows());
+  out.dt = dt;
+  std::vector<double> taper(out.length), column(out.length);
+  for (std::size_t i = 0; i < out.length; ++i)
+    taper[i] = 0.5 - 0.5 * std::cos(2.0 * M_PI * (static_cast<double>(i) + 0.5) / static_cast<double>(out.length));
   detail::RealDft& dft = detail::thread_real_dft();
   for (int c = 0; c < 6; ++c) {
     const Readings& from = c < 3 ? reference : test;
-    for (std::size_t i = 0; i < length; ++i) column[i] = from(static_cast<Eigen::Index>(i), c % 3);
-    detail::detrend(column.data(), length);
-    for (std::size_t i = 0; i < length; ++i) column[i] *= taper[i];
-    dft.transform(column.data(), length, spectra[static_cast<std::size_t>(c)]);
+    for (std::size_t i = 0; i < out.length; ++i) column[i] = from(static_cast<Eigen::Index>(i), c % 3);
+    detail::detrend(column.data(), out.length);
+    for (std::size_t i = 0; i < out.length; ++i) column[i] *= taper[i];
+    dft.transform(column.data(), out.length, out.columns[static_cast<std::size_t>(c)]);
   }
-  return spectra;
+  return out;
 }
-}  // namespace
 
 TwoInstrumentNoise two_instrument_noise(const Readings& reference, const Readings& test, double dt,
                                         const Eigen::Matrix3d& n, const RelativeTransfer& transfer, double low_hz,
                                         double high_hz, int bins) {
-  check_arguments(reference, test, dt, n, low_hz, high_hz, bins);
-  const std::size_t length = static_cast<std::size_t>(reference.rows());
-  const double duration = static_cast<double>(length) * dt;
+  return two_instrument_noise(pair_spectra(reference, test, dt), n, transfer, low_hz, high_hz, bins);
+}
+
+TwoInstrumentNoise two_instrument_noise(const PairSpectra& pair, const Eigen::Matrix3d& n,
+                                        const RelativeTransfer& transfer, double low_hz, double high_hz, int bins) {
+  check_band(pair, n, low_hz, high_hz, bins);
+  const std::size_t length = pair.length;
+  const double dt = pair.dt, duration = static_cast<double>(length) * dt;
   // Hann taper after the detrend: mean(w^2) = 3/8 enters the PSD's scale.
-  const std::array<Eigen::VectorXcd, 6> spectra = tapered_spectra(reference, test);
+  const std::array<Eigen::VectorXcd, 6>& spectra = pair.columns;
   const Eigen::Matrix3d n_inverse = n.inverse();
   TwoInstrumentNoise out;
   const std::vector<double> edges = log_spaced_bin_edges(low_hz, high_hz, bins);
@@ -148,61 +153,46 @@ BinPhase bin_phase(const std::array<Eigen::VectorXcd, 6>& spectra, const Eigen::
   return out;
 }
 
-}  // namespace
+/// Weighted least squares of the bins' phases against -2 pi f d - atan(f q) at p = (d, q).
+struct PhaseNormal {
+  Eigen::Matrix2d matrix = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d gradient = Eigen::Vector2d::Zero();
+  double chi2 = 0.0;
+  int used = 0;
+};
 
-PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readings& test, double dt,
-                                         const Eigen::Matrix3d& n, double start_delay_s, double low_hz,
-                                         double high_hz, int bins) {
-  check_arguments(reference, test, dt, n, low_hz, high_hz, bins);
-  PhaseTransferFit out;
-  out.transfer.delay_s = start_delay_s;
-  const double duration = static_cast<double>(reference.rows()) * dt;
-  const std::array<Eigen::VectorXcd, 6> spectra = tapered_spectra(reference, test);
-  const std::vector<double> edges = log_spaced_bin_edges(low_hz, high_hz, bins);
-  std::vector<BinPhase> phases;
-  for (int b = 0; b < bins; ++b) {
-    phases.push_back(bin_phase(spectra, n, duration, start_delay_s, edges[static_cast<std::size_t>(b)],
-                               edges[static_cast<std::size_t>(b) + 1]));
-  }
-  // Levenberg-Marquardt on p = (d, q), q >= 0. At q = 0 the columns of d and q are proportional
-  // (atan(f q) ~ f q): only the curvature of atan tells them apart, so the start is a corner at
-  // the bins' top, d holding the rest of its lag, and the steps are damped.
-  struct Normal {
-    Eigen::Matrix2d matrix = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d gradient = Eigen::Vector2d::Zero();
-    double chi2 = 0.0;
-    int used = 0;
-  };
-  const auto normal_at = [&](const Eigen::Vector2d& p) {
-    Normal out;
-    for (const BinPhase& b : phases) {
-      for (int k = 0; k < 3; ++k) {
-        if (!std::isfinite(b.variance(k))) continue;
-        const double f = b.frequency_hz(k), w = 1.0 / b.variance(k);
-        const double model = -2.0 * M_PI * f * p(0) - std::atan(f * p(1));
-        // The measured phase taken to within pi of the model (a wrapped phase of a long delay).
-        const double residual = std::remainder(b.phase_rad(k) - model, 2.0 * M_PI);
-        const Eigen::Vector2d jacobian(-2.0 * M_PI * f, -f / (1.0 + f * f * p(1) * p(1)));
-        out.matrix += w * jacobian * jacobian.transpose();
-        out.gradient += w * jacobian * residual;
-        out.chi2 += w * residual * residual;
-        ++out.used;
-      }
+PhaseNormal phase_normal(const std::vector<BinPhase>& phases, const Eigen::Vector2d& p) {
+  PhaseNormal out;
+  for (const BinPhase& b : phases) {
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(b.variance(k))) continue;
+      const double f = b.frequency_hz(k), w = 1.0 / b.variance(k);
+      const double model = -2.0 * M_PI * f * p(0) - std::atan(f * p(1));
+      // The measured phase taken to within pi of the model (a wrapped phase of a long delay).
+      const double residual = std::remainder(b.phase_rad(k) - model, 2.0 * M_PI);
+      const Eigen::Vector2d jacobian(-2.0 * M_PI * f, -f / (1.0 + f * f * p(1) * p(1)));
+      out.matrix += w * jacobian * jacobian.transpose();
+      out.gradient += w * jacobian * residual;
+      out.chi2 += w * residual * residual;
+      ++out.used;
     }
-    return out;
-  };
-  const double start_q = 1.0 / high_hz;
-  Eigen::Vector2d p(-start_q / (2.0 * M_PI), start_q);
-  Normal at = normal_at(p);
-  if (at.used < 4) return out;
+  }
+  return out;
+}
+
+/// Levenberg-Marquardt on p = (d, q), q >= 0, from `p`. At q = 0 the columns of d and q are
+/// proportional (atan(f q) ~ f q): only the curvature of atan tells them apart, so the caller
+/// starts off q = 0 and the steps are damped. False when a step is not finite.
+bool fit_delay_and_corner(const std::vector<BinPhase>& phases, Eigen::Vector2d& p, PhaseNormal& at) {
+  at = phase_normal(phases, p);
   double damping = 1e-3;
   for (int iteration = 0; iteration < 100 && damping < 1e12; ++iteration) {
     Eigen::Matrix2d damped = at.matrix;
     damped.diagonal() *= 1.0 + damping;
     const Eigen::Vector2d step = damped.ldlt().solve(at.gradient);
-    if (!step.allFinite()) return out;
+    if (!step.allFinite()) return false;
     const Eigen::Vector2d next(p(0) + step(0), std::max(p(1) + step(1), 0.0));
-    const Normal there = normal_at(next);
+    const PhaseNormal there = phase_normal(phases, next);
     if (there.chi2 <= at.chi2) {
       const bool converged = (next - p).cwiseAbs().maxCoeff() < 1e-7 || at.chi2 - there.chi2 < 1e-9 * at.chi2;
       p = next;
@@ -213,6 +203,34 @@ PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readin
       damping *= 10.0;
     }
   }
+  return true;
+}
+
+}  // namespace
+
+PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readings& test, double dt,
+                                         const Eigen::Matrix3d& n, double start_delay_s, double low_hz,
+                                         double high_hz, int bins) {
+  return fit_transfer_from_phase(pair_spectra(reference, test, dt), n, start_delay_s, low_hz, high_hz, bins);
+}
+
+PhaseTransferFit fit_transfer_from_phase(const PairSpectra& pair, const Eigen::Matrix3d& n, double start_delay_s,
+                                         double low_hz, double high_hz, int bins) {
+  check_band(pair, n, low_hz, high_hz, bins);
+  PhaseTransferFit out;
+  out.transfer.delay_s = start_delay_s;
+  const double duration = static_cast<double>(pair.length) * pair.dt;
+  const std::vector<double> edges = log_spaced_bin_edges(low_hz, high_hz, bins);
+  std::vector<BinPhase> phases;
+  for (int b = 0; b < bins; ++b) {
+    phases.push_back(bin_phase(pair.columns, n, duration, start_delay_s, edges[static_cast<std::size_t>(b)],
+                               edges[static_cast<std::size_t>(b) + 1]));
+  }
+  // From a corner at the bins' top, d holding the rest of its lag.
+  const double start_q = 1.0 / high_hz;
+  Eigen::Vector2d p(-start_q / (2.0 * M_PI), start_q);
+  PhaseNormal at;
+  if (phase_normal(phases, p).used < 4 || !fit_delay_and_corner(phases, p, at)) return out;
   const double dof = static_cast<double>(at.used - 2);
   out.chi2_per_dof = dof > 0.0 ? at.chi2 / dof : 0.0;
   out.fitted = true;
@@ -226,10 +244,10 @@ PhaseTransferFit fit_transfer_from_phase(const Readings& reference, const Readin
   // says how much curvature the phases show.
   Eigen::Vector2d delay_only = Eigen::Vector2d::Zero();
   for (int step = 0; step < 2; ++step) {
-    const Normal at_delay = normal_at(delay_only);
+    const PhaseNormal at_delay = phase_normal(phases, delay_only);
     delay_only(0) += at_delay.gradient(0) / at_delay.matrix(0, 0);
   }
-  out.curvature_chi2 = (normal_at(delay_only).chi2 - at.chi2) / std::max(1.0, out.chi2_per_dof);
+  out.curvature_chi2 = (phase_normal(phases, delay_only).chi2 - at.chi2) / std::max(1.0, out.chi2_per_dof);
   if (!(out.curvature_chi2 >= kPhaseCornerChi2) || !(p(1) > 0.0)) return out;
   out.transfer.corner_hz = Eigen::Vector3d::Constant(1.0 / p(1));
   out.transfer.delay_s = start_delay_s + p(0);

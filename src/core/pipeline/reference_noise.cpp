@@ -364,11 +364,11 @@ IdentifiedNoise identify_reference_noise_from_pair(const Eigen::Ref<const Readin
   try {
     // A test whose gain falls across the bins would pass for reference noise: its corner from
     // the phase, which the reference's noise does not touch.
-    roll_off = fit_transfer_from_phase(reference_nT.middleRows(first, count), test_nT.middleRows(first, count),
-                                       sample_period_s, estimate.n, transfer.delay_s, low, top, kPairNoiseBins);
+    const PairSpectra spectra =
+        pair_spectra(reference_nT.middleRows(first, count), test_nT.middleRows(first, count), sample_period_s);
+    roll_off = fit_transfer_from_phase(spectra, estimate.n, transfer.delay_s, low, top, kPairNoiseBins);
     if (roll_off.any_corner()) transfer = roll_off.transfer;
-    out.pair = two_instrument_noise(reference_nT.middleRows(first, count), test_nT.middleRows(first, count),
-                                    sample_period_s, estimate.n, transfer, low, top, kPairNoiseBins);
+    out.pair = two_instrument_noise(spectra, estimate.n, transfer, low, top, kPairNoiseBins);
   } catch (const InputError& e) {
     return refuse(e.problem());
   }
