@@ -110,6 +110,8 @@ class SideStream {
     double time_s;
     Eigen::Vector3d value_nT;
   };
+  /// A despiked side sample onto the epochs: as it is, or through the side's filter.
+  void filter_side(double time_s, const Eigen::Vector3d& value_nT);
   void add_side(double time_s, const Eigen::Vector3d& value_nT);
   void add_reference(double time_s, bool finite);
 

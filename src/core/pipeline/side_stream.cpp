@@ -95,22 +95,20 @@ void SideStream::push(double time_s, const Eigen::Vector3d& value_nT) {
     ++rejected_at_stamps_;
     return;
   }
+  filter_side(s.time_s, s.value_nT);
+}
+
+void SideStream::filter_side(double time_s, const Eigen::Vector3d& value_nT) {
   if (!side_filter_) {
-    add_side(s.time_s, s.value_nT);
+    add_side(time_s, value_nT);
     return;
   }
-  for (const auto& [epoch, filtered] : side_filter_->push(s.time_s, s.value_nT)) add_side(epoch, filtered);
+  for (const auto& [epoch, filtered] : side_filter_->push(time_s, value_nT)) add_side(epoch, filtered);
 }
 
 void SideStream::finish() {
   if (!settings_.despike) return;
-  for (const StreamingDespiker::Sample& s : despiker_.flush()) {
-    if (!side_filter_) {
-      add_side(s.time_s, s.value_nT);
-      continue;
-    }
-    for (const auto& [epoch, filtered] : side_filter_->push(s.time_s, s.value_nT)) add_side(epoch, filtered);
-  }
+  for (const StreamingDespiker::Sample& s : despiker_.flush()) filter_side(s.time_s, s.value_nT);
 }
 
 VectorRecord SideStream::on_epochs(double low_s, double high_s) const {
